@@ -1,0 +1,318 @@
+"""Case files: TOML text -> a validated, frozen :class:`Case`.
+
+Two equivalent forms, exactly one per file (physics.md, "Scales and dimensionless groups"):
+
+``[case]`` dimensionless groups in units R = E0 = tau = 1:
+    maugis (lambda0), modulus_ratio (k = E0/Einf, in (0, 1]), velocity (V_z),
+    depth (h0/R), cell (L/R), adhesion (alpha = dgamma0 / (E0 R)).
+``[physical]`` SI values:
+    radius, modulus_relaxed, modulus_instantaneous (plane-strain moduli E*), relaxation_time,
+    work_of_adhesion, interaction_range, velocity, depth, cell_length.
+
+``[numerics]`` (optional): nx, dt, tolerance, max_iterations.
+``[output]`` (optional): snapshot_times, snapshot_contact_widths, snapshot_zero_load,
+progress_interval. Times and lengths there are in the case's units (tau and R with ``[case]``,
+seconds and metres with ``[physical]``).
+
+Every problem is reported as a :class:`CaseError` naming the key, the value and what is
+accepted; the command line turns it into one line and exit status 2.
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+
+from . import theory
+
+# Cohesive-zone resolution w/dx (w: relaxed zone width pi E0 dmax / (4 sigma_a)).
+MIN_ZONE_POINTS = 0.25     # below this nx is rejected
+TARGET_ZONE_POINTS = 4.0   # the automatic nx is the smallest power of two reaching this
+# The geometric contact width sqrt(2 R h0) bounds a_c; with L >= 6 sqrt(2 R h0) the periodic
+# image correction pi^2 a^2 / (6 L^2) to the load stays below 5 %.
+MIN_CELL_PER_CONTACT = 6.0
+DEFAULT_STEP_PER_RANGE = 0.25  # default dt: the indenter moves this fraction of dmax per step
+DEFAULT_TOLERANCE = 1e-7
+DEFAULT_MAX_ITERATIONS = 5000
+
+
+class CaseError(ValueError):
+    """A rejected case file: ``str(error)`` is the one-line message."""
+
+
+@dataclass(frozen=True)
+class Units:
+    """The case's units expressed in the internal units R = E0 = tau = 1.
+
+    Attributes
+    ----------
+    length, stress, time : float
+        R, E0 and tau in the case's units (metre, pascal, second; or 1 with ``[case]``).
+    """
+
+    length: float = 1.0
+    stress: float = 1.0
+    time: float = 1.0
+
+    @property
+    def load(self) -> float:
+        """Load per unit length: E0 R."""
+        return self.stress * self.length
+
+
+@dataclass(frozen=True)
+class Numerics:
+    """Discretisation: grid points, time step (internal units of tau), solver tolerance."""
+
+    nx: int
+    nx_automatic: bool
+    dt: float
+    tolerance: float
+    max_iterations: int
+
+
+@dataclass(frozen=True)
+class Output:
+    """What is written besides the series (internal units R, tau)."""
+
+    snapshot_times: tuple = ()
+    snapshot_contact_widths: tuple = ()
+    snapshot_zero_load: bool = False
+    progress_interval: float = 10.0
+
+
+@dataclass(frozen=True)
+class Case:
+    """One retraction case in internal units R = E0 = tau = 1.
+
+    Attributes
+    ----------
+    lambda0, k, Vz, depth, cell, alpha : float
+        Maugis parameter, E0/Einf, V_z, h0/R, L/R, dgamma0/(E0 R) (all dimensionless).
+    numerics, output : Numerics, Output
+    units : Units
+        Scales back to the case's own units for the output file.
+    text : str
+        The case file as given (stored in the output).
+    """
+
+    lambda0: float
+    k: float
+    Vz: float
+    depth: float
+    cell: float
+    alpha: float
+    numerics: Numerics
+    output: Output = field(default_factory=Output)
+    units: Units = field(default_factory=Units)
+    text: str = ""
+
+    # Derived quantities (physics.md, Appendix C corrected), internal units.
+    @property
+    def beta(self) -> float:
+        """Length scale (R^2 dgamma0 / E0)^(1/3) = alpha^(1/3)."""
+        return self.alpha ** (1.0 / 3.0)
+
+    @property
+    def load_scale(self) -> float:
+        """Load scale (R dgamma0^2 E0)^(1/3) = alpha^(2/3)."""
+        return self.alpha ** (2.0 / 3.0)
+
+    @property
+    def sigma_a(self) -> float:
+        """Adhesive traction sigma_a = lambda0 (E0^2 dgamma0 / R)^(1/3)."""
+        return self.lambda0 * self.alpha ** (1.0 / 3.0)
+
+    @property
+    def dmax(self) -> float:
+        """Interaction range dgamma0 / sigma_a."""
+        return self.alpha / self.sigma_a
+
+    @property
+    def velocity(self) -> float:
+        """Retraction velocity v_z = V_z beta^2 / (R tau)."""
+        return self.Vz * self.beta**2
+
+    @property
+    def lambda_inf(self) -> float:
+        """Instantaneous Maugis parameter lambda0 k^(2/3)."""
+        return self.lambda0 * self.k ** (2.0 / 3.0)
+
+    @property
+    def chi_ve(self) -> float:
+        """chi_ve = V_z lambda0^2 (paper Eq. 22)."""
+        return theory.chi_ve(self.Vz, self.lambda0)
+
+    @property
+    def zone_width(self) -> float:
+        """Relaxed cohesive-zone width w = pi E0 dmax / (4 sigma_a) = beta pi / (4 lambda0^2)."""
+        return self.beta * theory.cohesive_width(self.lambda0)
+
+    @property
+    def dx(self) -> float:
+        return self.cell / self.numerics.nx
+
+    def groups(self) -> dict:
+        """Every derived dimensionless group, as printed at start and stored in the output."""
+        return {"lambda0": self.lambda0, "lambda_inf": self.lambda_inf, "k": self.k,
+                "Vz": self.Vz, "chi_ve": self.chi_ve, "alpha": self.alpha,
+                "depth": self.depth, "cell": self.cell,
+                "zone_points": self.zone_width / self.dx}
+
+
+CASE_KEYS = ("maugis", "modulus_ratio", "velocity", "depth", "cell", "adhesion")
+PHYSICAL_KEYS = ("radius", "modulus_relaxed", "modulus_instantaneous", "relaxation_time",
+                 "work_of_adhesion", "interaction_range", "velocity", "depth", "cell_length")
+NUMERICS_KEYS = ("nx", "dt", "tolerance", "max_iterations")
+OUTPUT_KEYS = ("snapshot_times", "snapshot_contact_widths", "snapshot_zero_load",
+               "progress_interval")
+
+
+def _fmt(value) -> str:
+    return repr(value) if isinstance(value, str) else str(value).lower() if isinstance(
+        value, bool) else str(value)
+
+
+def _number(table, section, key, *, positive=True):
+    if key not in table:
+        raise CaseError(f"[{section}] {key} is missing: a number > 0 is required")
+    value = table[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected a number")
+    value = float(value)
+    if not math.isfinite(value) or (positive and value <= 0.0):
+        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected a finite number > 0")
+    return value
+
+
+def _unknown(table, section, allowed):
+    for key in table:
+        if key not in allowed:
+            raise CaseError(f"[{section}] {key}: unknown key; accepted: {', '.join(allowed)}")
+
+
+def _groups_from_physical(t):
+    radius = _number(t, "physical", "radius")
+    e0 = _number(t, "physical", "modulus_relaxed")
+    einf = _number(t, "physical", "modulus_instantaneous")
+    tau = _number(t, "physical", "relaxation_time")
+    work = _number(t, "physical", "work_of_adhesion")
+    dmax = _number(t, "physical", "interaction_range")
+    velocity = _number(t, "physical", "velocity")
+    depth = _number(t, "physical", "depth")
+    cell = _number(t, "physical", "cell_length")
+    if einf < e0:
+        raise CaseError(f"[physical] modulus_instantaneous = {einf}: must be >= modulus_relaxed"
+                        f" = {e0} (k = E0/Einf in (0, 1])")
+    beta = (radius**2 * work / e0) ** (1.0 / 3.0)
+    groups = {"lambda0": (work**2 * radius / (e0**2 * dmax**3)) ** (1.0 / 3.0),
+              "k": e0 / einf, "Vz": velocity * tau * radius / beta**2,
+              "depth": depth / radius, "cell": cell / radius,
+              "alpha": work / (e0 * radius)}
+    return groups, Units(length=radius, stress=e0, time=tau)
+
+
+def _groups_from_case(t):
+    k = _number(t, "case", "modulus_ratio")
+    if k > 1.0:
+        raise CaseError(f"[case] modulus_ratio = {k}: expected k = E0/Einf in (0, 1]"
+                        " (1 is the elastic solid)")
+    return {"lambda0": _number(t, "case", "maugis"), "k": k,
+            "Vz": _number(t, "case", "velocity"), "depth": _number(t, "case", "depth"),
+            "cell": _number(t, "case", "cell"), "alpha": _number(t, "case", "adhesion")}, Units()
+
+
+def _numbers_list(table, section, key, units_scale):
+    value = table.get(key, [])
+    if not isinstance(value, list) or any(isinstance(v, bool) or not isinstance(v, (int, float))
+                                          or not math.isfinite(v) or v < 0 for v in value):
+        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected a list of numbers >= 0")
+    return tuple(sorted(float(v) / units_scale for v in value))
+
+
+def parse_case(text: str) -> Case:
+    """Validate a case file's text and build the :class:`Case` (raises :class:`CaseError`)."""
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise CaseError(f"not valid TOML: {err}") from None
+    sections = ("case", "physical", "numerics", "output")
+    for name, value in doc.items():
+        if name not in sections or not isinstance(value, dict):
+            raise CaseError(f"[{name}]: unknown section; accepted: [case] or [physical],"
+                            " [numerics], [output]")
+    if ("case" in doc) == ("physical" in doc):
+        raise CaseError("exactly one of [case] (dimensionless groups) or [physical] (SI values)"
+                        " is required")
+    if "case" in doc:
+        _unknown(doc["case"], "case", CASE_KEYS)
+        groups, units = _groups_from_case(doc["case"])
+        form = "case"
+    else:
+        _unknown(doc["physical"], "physical", PHYSICAL_KEYS)
+        groups, units = _groups_from_physical(doc["physical"])
+        form = "physical"
+    cell_key = "cell" if form == "case" else "cell_length"
+    min_cell = MIN_CELL_PER_CONTACT * math.sqrt(2.0 * groups["depth"])
+    if groups["cell"] < min_cell:
+        raise CaseError(f"[{form}] {cell_key} = {doc[form][cell_key]}: too small for the contact;"
+                        f" need L >= {MIN_CELL_PER_CONTACT:g} sqrt(2 R h0) ="
+                        f" {min_cell * units.length:.4g}")
+
+    num = doc.get("numerics", {})
+    _unknown(num, "numerics", NUMERICS_KEYS)
+    zone = groups["alpha"] ** (1.0 / 3.0) * theory.cohesive_width(groups["lambda0"])
+    if "nx" in num:
+        nx = num["nx"]
+        if isinstance(nx, bool) or not isinstance(nx, int) or nx < 64 or nx % 2:
+            raise CaseError(f"[numerics] nx = {_fmt(nx)}: expected an even integer >= 64")
+        points = zone / (groups["cell"] / nx)
+        if points < MIN_ZONE_POINTS:
+            need = 2 ** math.ceil(math.log2(MIN_ZONE_POINTS * groups["cell"] / zone))
+            raise CaseError(f"[numerics] nx = {nx}: resolves the cohesive zone with w/dx ="
+                            f" {points:.3g} points; at least {MIN_ZONE_POINTS:g} is needed"
+                            f" (nx >= {need})")
+        automatic = False
+    else:
+        nx = 2 ** max(6, math.ceil(math.log2(TARGET_ZONE_POINTS * groups["cell"] / zone)))
+        automatic = True
+    velocity = groups["Vz"] * groups["alpha"] ** (2.0 / 3.0)
+    dmax = groups["alpha"] ** (2.0 / 3.0) / groups["lambda0"]
+    dt = (_number(num, "numerics", "dt") / units.time if "dt" in num
+          else DEFAULT_STEP_PER_RANGE * dmax / velocity)
+    tolerance = _number(num, "numerics", "tolerance") if "tolerance" in num else DEFAULT_TOLERANCE
+    if tolerance >= 1e-2:
+        raise CaseError(f"[numerics] tolerance = {tolerance}: expected a number in (0, 0.01)")
+    max_it = num.get("max_iterations", DEFAULT_MAX_ITERATIONS)
+    if isinstance(max_it, bool) or not isinstance(max_it, int) or max_it < 1:
+        raise CaseError(f"[numerics] max_iterations = {_fmt(max_it)}: expected an integer >= 1")
+
+    out = doc.get("output", {})
+    _unknown(out, "output", OUTPUT_KEYS)
+    zero_load = out.get("snapshot_zero_load", False)
+    if not isinstance(zero_load, bool):
+        raise CaseError(f"[output] snapshot_zero_load = {_fmt(zero_load)}: expected true or false")
+    output = Output(
+        snapshot_times=_numbers_list(out, "output", "snapshot_times", units.time),
+        snapshot_contact_widths=tuple(reversed(_numbers_list(
+            out, "output", "snapshot_contact_widths", units.length))),
+        snapshot_zero_load=zero_load,
+        progress_interval=(_number(out, "output", "progress_interval")
+                           if "progress_interval" in out else 10.0))
+    return Case(numerics=Numerics(nx=nx, nx_automatic=automatic, dt=dt, tolerance=tolerance,
+                                  max_iterations=max_it),
+                output=output, units=units, text=text, **groups)
+
+
+def load_case(path) -> Case:
+    """Read and validate a case file (raises :class:`CaseError`, also for unreadable files)."""
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read()
+    except OSError as err:
+        raise CaseError(f"cannot read case file: {err.strerror}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise CaseError("case file is not UTF-8 text") from None
+    return parse_case(text)

@@ -1,0 +1,77 @@
+"""Standard linear solid (Zener) half-space, one Fourier mode at a time.
+
+Per mode q != 0 (physics.md, "Substrate"; paper Eq. 14 with the corrected factor |q|/2):
+
+    p + tau dp/dt = (|q|/2) (E0 u + tau Einf du/dt)
+
+integrated exactly over a step dt for u linear in time within the step. With
+a = exp(-dt/tau), phi = tau (1 - a) / dt and Eeff = E0 + (Einf - E0) phi:
+
+    p_{n+1} = (|q|/2) Eeff u_{n+1} + [a p_n + (|q|/2) (E0 (1 - a) - Eeff) u_n]
+
+so each time step is an elastic problem of stiffness (|q|/2) Eeff plus a known history
+traction. All moduli are plane-strain effective moduli E* = E / (1 - nu^2).
+Pure numpy, no MPI: it acts on whatever block of modes the caller owns.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class StepFactors:
+    """Coefficients of one exact SLS step of length dt.
+
+    Attributes
+    ----------
+    decay : float
+        a = exp(-dt/tau), dimensionless.
+    e_eff : float
+        Effective modulus of the step, Eeff = E0 + (Einf - E0) phi (stress units).
+    e_history : float
+        Coefficient of u_n in the history term, E0 (1 - a) - Eeff (stress units).
+    """
+
+    decay: float
+    e_eff: float
+    e_history: float
+
+
+@dataclass(frozen=True)
+class StandardLinearSolid:
+    """SLS with relaxation modulus E*(t) = E0 + (Einf - E0) exp(-t/tau) (paper Eq. 3).
+
+    Parameters
+    ----------
+    e_relaxed : float
+        E0, relaxed plane-strain modulus (t -> infinity), stress units.
+    e_instantaneous : float
+        Einf >= E0, instantaneous plane-strain modulus (t -> 0), stress units.
+        Einf == E0 is the purely elastic solid.
+    relaxation_time : float
+        tau, time units.
+    """
+
+    e_relaxed: float
+    e_instantaneous: float
+    relaxation_time: float
+
+    def step_factors(self, dt: float) -> StepFactors:
+        """Factors of the exact step over dt (physics.md, "Substrate").
+
+        ``dt = math.inf`` gives the relaxed (elastic E0) problem used for the preload.
+        """
+        e0, einf, tau = self.e_relaxed, self.e_instantaneous, self.relaxation_time
+        x = dt / tau  # dt = inf gives decay = phi = 0: Eeff = E0, no history
+        decay = math.exp(-x)
+        phi = -math.expm1(-x) / x  # tau (1 - a) / dt without cancellation at small dt
+        e_eff = e0 + (einf - e0) * phi
+        return StepFactors(decay=decay, e_eff=e_eff, e_history=e0 * (1.0 - decay) - e_eff)
+
+    def creep_compliance(self, t):
+        """J(t) = 1/E0 - (1/E0 - 1/Einf) exp(-t E0 / (Einf tau)) (physics.md, analytic check)."""
+        e0, einf, tau = self.e_relaxed, self.e_instantaneous, self.relaxation_time
+        return 1.0 / e0 - (1.0 / e0 - 1.0 / einf) * np.exp(-np.asarray(t) * e0 / (einf * tau))

@@ -1,0 +1,81 @@
+"""One case from a validated :class:`~hpcgfmd.config.Case` to a finished HDF5 file."""
+from __future__ import annotations
+
+import time
+
+from .config import Case
+from .driver import Progress, Retraction
+from .output import CaseFile
+
+# The indenter must have left the surface long before it is one radius above it.
+MAX_INDENTER_HEIGHT = 1.0
+
+
+class SnapshotSchedule:
+    """Decides at which steps full profiles are written (``[output]`` of the case)."""
+
+    def __init__(self, output):
+        self.times = list(output.snapshot_times)
+        self.widths = list(output.snapshot_contact_widths)  # descending
+        self.zero_load = output.snapshot_zero_load
+
+    def due(self, record) -> bool:
+        """True (once per trigger) when a requested time, width or zero load is reached."""
+        hit = False
+        while self.times and record.time >= self.times[0]:
+            self.times.pop(0)
+            hit = True
+        while self.widths and record.contact_half_width <= self.widths[0]:
+            self.widths.pop(0)
+            hit = True
+        if self.zero_load and record.time > 0 and record.load <= 0.0:
+            self.zero_load = False
+            hit = True
+        return hit
+
+
+def describe(case: Case) -> str:
+    """The derived groups and numerics, printed at start."""
+    g = case.groups()
+    u = case.units
+    lines = [f"lambda0 = {g['lambda0']:.6g}   lambda_inf = {g['lambda_inf']:.6g}   k = {g['k']:.6g}"
+             f"   V_z = {g['Vz']:.6g}   chi_ve = {g['chi_ve']:.6g}   alpha = {g['alpha']:.6g}",
+             f"h0/R = {g['depth']:.6g}   L/R = {g['cell']:.6g}   beta = {case.beta * u.length:.6g}"
+             f"   load scale = {case.load_scale * u.load:.6g}   w/dx = {g['zone_points']:.3g}",
+             f"nx = {case.numerics.nx}{' (chosen automatically)' if case.numerics.nx_automatic else ''}"
+             f"   dt = {case.numerics.dt * u.time:.6g}   tolerance = {case.numerics.tolerance:g}"]
+    return "\n".join(lines)
+
+
+def run_case(case: Case, path, printer=print) -> dict:
+    """Run the whole retraction of ``case`` into a new HDF5 file at ``path``.
+
+    Returns the summary stored in the file (steps, iterations, wall time, detachment).
+    """
+    start = time.monotonic()
+    sim = Retraction(case)
+    out = CaseFile(path, case, sim.x)
+    try:
+        schedule = SnapshotSchedule(case.output)
+        progress = Progress(case.output.progress_interval, printer)
+        record = sim.preload()
+        out.append_step(record.as_dict())
+        out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
+        schedule.due(record)
+        while not sim.detached():
+            record = sim.step()
+            out.append_step(record.as_dict())
+            if schedule.due(record):
+                out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
+            progress.update(sim.step_index, record, case.units)
+            if sim.indenter > MAX_INDENTER_HEIGHT:
+                raise RuntimeError(f"no complete detachment by u_z = {MAX_INDENTER_HEIGHT} R")
+        out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
+        summary = {"steps": sim.step_index, "iterations": sim.total_iterations,
+                   "fft_pairs": sim.fft.pairs, "wall_time": time.monotonic() - start,
+                   "detachment_indenter": sim.indenter * case.units.length,
+                   "detachment_time": sim.time * case.units.time}
+        out.finish(summary)
+    finally:
+        out.close()
+    return summary

@@ -1,0 +1,179 @@
+"""Closed-form references for the adhesive cylinder (pure functions, no state).
+
+All quantities are in the paper's dgamma0 scaling (physics.md, "Scales and dimensionless
+groups"): abar = a / beta, Lbar = L_n / (R dgamma0^2 E0)^(1/3), beta = (R^2 dgamma0 / E0)^(1/3),
+with E0 the relaxed plane-strain modulus. Equation numbers refer to the paper in
+``shared/paper`` as corrected in ``shared/physics.md``.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import integrate, optimize
+
+
+def jkr_load(abar, work_ratio=1.0):
+    """2D JKR load per unit length of a cylinder (paper Eq. 10, corrected).
+
+    Parameters
+    ----------
+    abar : float or array
+        Contact half-width a_c / beta (dimensionless).
+    work_ratio : float
+        dgamma / dgamma0; 1 for the relaxed limit, 1/k for the instantaneous limit.
+
+    Returns
+    -------
+    Lbar : float or array
+        Lbar = (pi/4) abar^2 - sqrt(2 pi abar work_ratio), compressive positive.
+    """
+    abar = np.asarray(abar, dtype=float)
+    return np.pi / 4.0 * abar**2 - np.sqrt(2.0 * np.pi * abar * work_ratio)
+
+
+def _md_closure(m, abar, lam):
+    """Left side minus right side of the Baney-Hui closure (physics.md, Eq. 13 corrected)."""
+    s = np.sqrt(m * m - 1.0)
+    ach = np.arccosh(m)
+    return (lam * abar**2 / 2.0 * (m * s - ach)
+            + 4.0 * lam**2 * abar / np.pi * (s * ach - m * np.log(m)) - 1.0)
+
+
+def maugis_dugdale(abar, lam):
+    """2D Maugis-Dugdale (Baney and Hui) load and zone ratio (paper Eqs. 12-13, corrected).
+
+    Parameters
+    ----------
+    abar : float or array
+        Contact half-width a_c / beta (dimensionless), positive.
+    lam : float
+        Maugis parameter (dimensionless).
+
+    Returns
+    -------
+    Lbar : ndarray
+        (pi/4) abar^2 - 2 lam abar sqrt(m^2 - 1).
+    m : ndarray
+        a_a / a_c, the cohesive-zone to contact half-width ratio (> 1).
+    """
+    abar_arr = np.atleast_1d(np.asarray(abar, dtype=float))
+    m = np.empty_like(abar_arr)
+    for i, ab in enumerate(abar_arr):
+        if not ab > 0:
+            raise ValueError(f"abar must be positive, got {ab}")
+        hi = 2.0
+        while _md_closure(hi, ab, lam) < 0.0:  # the closure grows monotonically in m
+            hi = 1.0 + 2.0 * (hi - 1.0)
+        m[i] = optimize.brentq(_md_closure, 1.0, hi, args=(ab, lam), xtol=1e-15, rtol=1e-14)
+    lbar = np.pi / 4.0 * abar_arr**2 - 2.0 * lam * abar_arr * np.sqrt(m * m - 1.0)
+    if np.ndim(abar) == 0:
+        return float(lbar[0]), float(m[0])
+    return lbar, m
+
+
+def periodic_load_factor(a, cell):
+    """Factor by which the periodic cell raises the load at contact half-width a.
+
+    physics.md, numerical notes: with zero mean displacement and period L the images add a
+    curvature 2 pi L_n / (3 E* L^2), so L_n(a) = L_isolated(a) / (1 - pi^2 a^2 / (6 L^2)) to
+    O((a/L)^4), for Hertz, JKR and Maugis-Dugdale alike.
+
+    Parameters
+    ----------
+    a : float or array
+        Contact half-width (same length unit as ``cell``).
+    cell : float
+        Period L.
+    """
+    a = np.asarray(a, dtype=float)
+    return 1.0 / (1.0 - np.pi**2 * a**2 / (6.0 * cell**2))
+
+
+def chi_ve(Vz, lambda0):
+    """Viscoelastic parameter chi_ve = v_z tau lambda0 / dmax = V_z lambda0^2 (paper Eq. 22)."""
+    return Vz * lambda0**2
+
+
+def cohesive_width(lam):
+    """Cohesive-zone width w / beta = pi / (4 lam^2) (paper Eq. D.6 with Eq. 20 scaled)."""
+    return np.pi / (4.0 * lam**2)
+
+
+def persson_brener(vbar, k):
+    """Effective work of adhesion dgamma_eff / dgamma0 for the SLS (paper Eqs. 8-9).
+
+    Solves cbar = [1 - (1 - k) (sqrt(1 + (cbar/vbar)^2) - cbar/vbar)]^(-1) for cbar in [1, 1/k].
+
+    Convention (physics.md): this closed form equals the quadrature of Eq. 6 when
+    vbar = 2 pi rhodot tau_r / c0 with the RETARDATION time tau_r = tau / k of the SLS whose
+    relaxation time is tau; see :func:`peel_velocity` and :func:`persson_brener_quadrature`.
+
+    Parameters
+    ----------
+    vbar : float or array
+        Dimensionless peeling-edge velocity (retardation-time convention), >= 0.
+    k : float
+        E0 / Einf in (0, 1].
+    """
+    vb = np.atleast_1d(np.asarray(vbar, dtype=float))
+    out = np.empty_like(vb)
+    for i, v in enumerate(vb):
+        if v <= 0.0:
+            out[i] = 1.0
+            continue
+
+        def f(c):
+            s = c / v
+            return c * (1.0 - (1.0 - k) * (np.sqrt(1.0 + s * s) - s)) - 1.0
+
+        # f(1) <= 0 and f(1/k) >= 0 (the bracket bounds of Eq. 8); f is monotone between them.
+        out[i] = 1.0 if k == 1.0 else optimize.brentq(f, 1.0, 1.0 / k, xtol=1e-14, rtol=1e-13)
+    return float(out[0]) if np.ndim(vbar) == 0 else out
+
+
+def persson_brener_quadrature(vbar, k):
+    """dgamma_eff / dgamma0 from a direct quadrature of the paper's Eq. 6 with Eq. 7 (SLS).
+
+    Independent of the closed form: the SLS relaxation modulus E(t) = E0 + (Einf - E0) e^(-t/tau)
+    has the complex modulus E(w) = E0 + (Einf - E0) i w tau / (1 + i w tau); Eq. 6 is integrated
+    numerically with the crack-tip radius c = cbar c0 found by fixed point (Eq. 7). Time is in
+    units of the retardation time tau_r = tau / k (see :func:`persson_brener`).
+    """
+    tau = k  # relaxation time in units of tau_r = tau / k
+
+    def inverse_modulus_im(omega):
+        e = 1.0 + (1.0 / k - 1.0) * 1j * omega * tau / (1.0 + 1j * omega * tau)  # E / E0
+        return (1.0 / e).imag
+
+    def enhancement(cbar):
+        omega_c = vbar / cbar  # 2 pi rhodot / c in units of 1/tau_r (c = cbar c0)
+        integrand = lambda w: np.sqrt(1.0 - w * w) / w * inverse_modulus_im(omega_c * w)
+        val, _ = integrate.quad(integrand, 0.0, 1.0, limit=200, epsabs=1e-13, epsrel=1e-12)
+        return 1.0 / (1.0 + 2.0 / np.pi * val)  # Im(1/E) < 0 here: dissipation raises cbar
+
+    cbar = 1.0
+    for _ in range(500):
+        new = enhancement(cbar)
+        if abs(new - cbar) < 1e-12:
+            break
+        cbar = new
+    return new
+
+
+def peel_velocity(rhodot, tau, k, lambda0, beta):
+    """Dimensionless peeling velocity vbar = 2 pi rhodot tau / (k c0) (retardation convention).
+
+    c0 = dgamma0 E0 / (pi sigma_a^2) = beta / (pi lambda0^2) (paper Eq. 7 with sigma_a from
+    lambda0). Inputs in any consistent units (rhodot in length/time, beta in length).
+    """
+    c0 = beta / (np.pi * lambda0**2)
+    return 2.0 * np.pi * np.asarray(rhodot, dtype=float) * tau / (k * c0)
+
+
+def effective_work_ratio(x, y):
+    """dgamma_eff / dgamma0 of a point (x, y) = (Lbar/sqrt(abar), (pi/4) abar^(3/2)).
+
+    physics.md, Observables: the slope-1 line through the point has intercept y - x =
+    sqrt(2 pi dgamma_eff / dgamma0).
+    """
+    d = np.asarray(y, dtype=float) - np.asarray(x, dtype=float)
+    return np.sign(d) * d**2 / (2.0 * np.pi)
