@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from . import theory
 
 # Cohesive-zone resolution w/dx (w: relaxed zone width pi E0 dmax / (4 sigma_a)).
-MIN_ZONE_POINTS = 0.25     # below this nx is rejected
+MIN_ZONE_POINTS = 1.0      # below this nx is rejected
 TARGET_ZONE_POINTS = 4.0   # the automatic nx is the smallest power of two reaching this
 # The geometric contact width sqrt(2 R h0) bounds a_c; with L >= 6 sqrt(2 R h0) the periodic
 # image correction pi^2 a^2 / (6 L^2) to the load stays below 5 %.

@@ -22,8 +22,8 @@ import numpy as np
 from .config import Case
 from .fft import RealFFT
 from .interface import DugdaleMaugis, edge_positions
-from .material import StandardLinearSolid
-from .solver import ConstrainedCG, StepOperators
+from .material import StandardLinearSolid, ViscoelasticHalfSpace
+from .solver import ConstrainedCG
 
 logger = logging.getLogger(__name__)
 
@@ -66,12 +66,14 @@ class Retraction:
         self.x = (np.arange(n) - n // 2) * self.dx  # indenter axis on node n/2
         self.profile = self.x**2 / 2.0  # h(x) = x^2 / (2R), paper Eq. 1, R = 1
         self.half_q = np.pi * np.arange(n // 2 + 1) / case.cell  # |q|/2 per rfft mode
-        self.material = StandardLinearSolid(1.0, 1.0 / case.k, 1.0)
+        self.substrate = ViscoelasticHalfSpace(StandardLinearSolid(1.0, 1.0 / case.k, 1.0),
+                                               self.half_q, n)
         self.law = DugdaleMaugis(case.sigma_a, case.dmax)
         self.fft = RealFFT(n)
         self.solver = ConstrainedCG(self.fft, self.law, case.numerics.tolerance,
                                     case.numerics.max_iterations, case.sigma_a)
         self.u = np.zeros(n)  # surface displacement, upward positive
+        self.u_previous = None  # displacement of the step before, for the predictor
         self.substrate_traction = np.zeros(n)  # p_n (q != 0 part) of the SLS history
         self.history = np.zeros(n)
         self.wall = np.empty(n)
@@ -80,9 +82,6 @@ class Retraction:
         self.indenter = -case.depth
         self.step_index = 0
         self.total_iterations = 0
-        self._mean_traction = 0.0
-        self._history_diag = None
-        self._ops = None
 
     # --- one equilibrium -------------------------------------------------------------
     def _equilibrate(self, ops, dt):
@@ -95,11 +94,10 @@ class Retraction:
                 f"step {self.step_index} (t = {self.time:.6g}): residual {result.residual:.3g}"
                 f" above tolerance {self.case.numerics.tolerance:g} after"
                 f" {result.iterations} iterations; raise [numerics] max_iterations or reduce dt")
-        self._mean_traction = result.mean_traction
         self.solver.interface_traction(self.u, self.wall, self.history, result.mean_traction,
                                        self.traction)
         # Substrate traction of the new state, p_{n+1} = K u + H (zero mean).
-        np.add(self.solver._k_u, self.history, out=self.substrate_traction)
+        np.add(self.solver.elastic_traction(), self.history, out=self.substrate_traction)
         self.total_iterations += result.iterations
         return self._record(result, dt)
 
@@ -116,26 +114,35 @@ class Retraction:
     # --- protocol ----------------------------------------------------------------------
     def preload(self) -> StepRecord:
         """Relaxed adhesive indentation to u_z = -h0 (the t = 0 state)."""
-        factors = self.material.step_factors(math.inf)
-        ops = StepOperators.from_modulus(self.half_q, factors.e_eff, self.n)
         self.history[:] = 0.0
-        return self._equilibrate(ops, 0.0)
+        return self._equilibrate(self.substrate.operators(math.inf), 0.0)
 
     def step(self) -> StepRecord:
         """Advance one retraction time step of length [numerics] dt."""
         dt = self.case.numerics.dt
-        if self._ops is None:
-            factors = self.material.step_factors(dt)
-            self._ops = StepOperators.from_modulus(self.half_q, factors.e_eff, self.n)
-            self._decay = factors.decay
-            self._history_diag = self.half_q * (factors.e_history / self.n)
-        # History traction H = a p_n + (|q|/2)(E0 (1 - a) - Eeff) u_n (physics.md).
-        self.fft.apply_diagonal(self.u, self._history_diag, self.history)
-        self.history += self._decay * self.substrate_traction
+        self.substrate.history(self.fft, self.u, self.substrate_traction, dt, self.history)
+        contact = self.wall - self.u <= 0.0
         self.step_index += 1
         self.time = self.step_index * dt
         self.indenter = -self.case.depth + self.case.velocity * self.time
-        return self._equilibrate(self._ops, dt)
+        self._predict(self.case.velocity * dt, contact)
+        return self._equilibrate(self.substrate.operators(dt), dt)
+
+    def _predict(self, rise, contact):
+        """Start the step from u_n + (u_n - u_{n-1}) (linear extrapolation in time).
+
+        The wall moves rigidly, so the contact nodes of step n are put exactly on the new
+        wall (extrapolation alone lands there only to round-off, and a gap of 1e-18 would
+        free the whole patch, which the first CG step then pushes deep into the wall).
+        After the preload, u_{n-1} is taken as u_n with the contact lowered by the rise.
+        """
+        if self.u_previous is None:
+            self.u_previous = self.u - rise * contact
+        increment = self.u - self.u_previous
+        self.u_previous[:] = self.u
+        self.u += increment
+        np.add(self.profile, self.indenter, out=self.wall)
+        np.copyto(self.u, self.wall, where=contact)
 
     def detached(self) -> bool:
         """True when no node is within the interaction range (complete detachment)."""

@@ -75,3 +75,70 @@ class StandardLinearSolid:
         """J(t) = 1/E0 - (1/E0 - 1/Einf) exp(-t E0 / (Einf tau)) (physics.md, analytic check)."""
         e0, einf, tau = self.e_relaxed, self.e_instantaneous, self.relaxation_time
         return 1.0 / e0 - (1.0 / e0 - 1.0 / einf) * np.exp(-np.asarray(t) * e0 / (einf * tau))
+
+
+@dataclass
+class StepOperators:
+    """Mode-diagonal data of one time step (already divided by n for the unnormalised irfft).
+
+    Attributes
+    ----------
+    stiffness : ndarray, shape (n//2+1,)
+        k_q / n = (|q|/2) Eeff / n, zero at q = 0 (stress/length units).
+    compliance : ndarray, shape (n//2+1,)
+        1 / (k_q n), zero at q = 0: the preconditioner (length/stress units).
+    """
+
+    stiffness: np.ndarray
+    compliance: np.ndarray
+
+    @classmethod
+    def from_modulus(cls, half_q, modulus, n):
+        """Operators for stiffness (|q|/2) * modulus; ``half_q`` is |q|/2 per rfft mode."""
+        stiffness = half_q * (modulus / n)
+        compliance = np.zeros_like(half_q)
+        compliance[1:] = 1.0 / (half_q[1:] * modulus * n)
+        return cls(stiffness, compliance)
+
+
+class ViscoelasticHalfSpace:
+    """Per-mode SLS time stepping of the periodic half-space (physics.md, "Substrate").
+
+    Holds the operators of a step length (recomputed only when dt changes) and forms the
+    history traction H = a p_n + (|q|/2)(E0 (1 - a) - Eeff) u_n from the previous state.
+    After the step's equilibrium u_{n+1}, the substrate traction is p_{n+1} = K u_{n+1} + H.
+
+    Parameters
+    ----------
+    material : StandardLinearSolid
+    half_q : ndarray, shape (n//2+1,)
+        |q|/2 of each rfft mode (1/length).
+    n : int
+        Grid points.
+    """
+
+    def __init__(self, material: StandardLinearSolid, half_q, n: int):
+        self.material = material
+        self.half_q = half_q
+        self.n = n
+        self._dt = None
+
+    def operators(self, dt: float) -> StepOperators:
+        """Stiffness (|q|/2) Eeff(dt) and its preconditioner; dt = inf is the relaxed solid."""
+        self._prepare(dt)
+        return self._ops
+
+    def history(self, fft, u, substrate_traction, dt, out):
+        """History traction H of a step of length dt from u_n and p_n (stress units)."""
+        self._prepare(dt)
+        fft.apply_diagonal(u, self._history_diag, out)
+        out += self._decay * substrate_traction
+        return out
+
+    def _prepare(self, dt):
+        if dt != self._dt:
+            f = self.material.step_factors(dt)
+            self._ops = StepOperators.from_modulus(self.half_q, f.e_eff, self.n)
+            self._decay = f.decay
+            self._history_diag = self.half_q * (f.e_history / self.n)
+            self._dt = dt

@@ -31,30 +31,7 @@ import numpy as np
 
 from .fft import RealFFT
 from .interface import DugdaleMaugis
-
-
-@dataclass
-class StepOperators:
-    """Mode-diagonal data of one time step (already divided by n for the unnormalised irfft).
-
-    Attributes
-    ----------
-    stiffness : ndarray, shape (n//2+1,)
-        k_q / n = (|q|/2) Eeff / n, zero at q = 0 (stress/length units).
-    compliance : ndarray, shape (n//2+1,)
-        1 / (k_q n), zero at q = 0: the preconditioner (length/stress units).
-    """
-
-    stiffness: np.ndarray
-    compliance: np.ndarray
-
-    @classmethod
-    def from_modulus(cls, half_q, modulus, n):
-        """Operators for stiffness (|q|/2) * modulus; ``half_q`` is |q|/2 per rfft mode."""
-        stiffness = half_q * (modulus / n)
-        compliance = np.zeros_like(half_q)
-        compliance[1:] = 1.0 / (half_q[1:] * modulus * n)
-        return cls(stiffness, compliance)
+from .material import StepOperators
 
 
 @dataclass
@@ -137,6 +114,7 @@ class ConstrainedCG:
         self._d = np.zeros(n)
         self._trial = np.empty(n)
         self._work = np.empty((4, n))
+        self.projections = 0  # steps that reached the wall (CG restarts), for statistics
 
     def solve(self, u, wall, ops: StepOperators, history, applied=None) -> SolveResult:
         """Relax ``u`` in place to the equilibrium of the step (see module docstring).
@@ -190,7 +168,11 @@ class ConstrainedCG:
             residual = float(np.abs(r).max()) / self.traction_scale
             if residual <= self.tolerance or iteration >= self.max_iterations:
                 break
-            if previous_free is None or not np.array_equal(free, previous_free):
+            # Restart CG when nodes join the active set (the search space shrinks). Nodes that
+            # leave it only enlarge the space: the old direction stays admissible (zero on
+            # the released nodes), so conjugacy is kept, which matters when the contact edge
+            # recedes by several nodes per step.
+            if previous_free is None or np.any(previous_free & ~free):
                 restart = True
             previous_free = free
             # Preconditioned residual, projected on the free nodes with zero mean.
@@ -209,14 +191,19 @@ class ConstrainedCG:
                 d[:] = z
                 rd = rz
             fft.apply_diagonal(d, ops.stiffness, k_d)
-            alpha = rd / float(d @ k_d)
+            alpha = rd / float(d @ k_d)  # minimiser of the quadratic upper bound
             np.multiply(d, alpha, out=self._trial)
             self._trial += u
+            if law.sigma_a > 0.0 and not np.any(self._trial > wall):
+                alpha = self._secant_step(u, wall, d, k_d, history, applied, alpha, rd)
+                np.multiply(d, alpha, out=self._trial)
+                self._trial += u
             if np.any(self._trial > wall):
                 # The step reaches the wall: project (zero mean, gap >= 0) and restart CG.
                 project_feasible(self._trial, wall, u)
                 fft.apply_diagonal(u, ops.stiffness, k_u)
                 restart = True
+                self.projections += 1
             else:
                 u[:] = self._trial
                 k_d *= alpha
@@ -228,6 +215,30 @@ class ConstrainedCG:
             iteration += 1
         return SolveResult(iterations=iteration, residual=residual,
                            converged=residual <= self.tolerance, mean_traction=mu)
+
+    def _secant_step(self, u, wall, d, k_d, history, applied, alpha, rd):
+        """Step length along d from the slope of the true energy at the bound's minimiser.
+
+        phi(a) = E(u + a d) has phi'(0) = -rd and, the adhesion being concave, curvature at
+        most d.K d; so phi'(alpha) <= 0 at the bound's minimiser alpha and every step in
+        (0, 2 alpha) lowers E. The secant through phi'(0) and phi'(alpha) accounts for the
+        cohesive edge's negative stiffness; it is capped at 1.9 alpha to keep the descent.
+        """
+        gap, traction = self._gap, self._traction
+        np.subtract(wall, self._trial, out=gap)
+        self.law.traction(gap, out=traction, work=self._work)
+        # phi'(alpha) = -(t - K(u + alpha d) - H + applied) . d; uniform parts drop (mean d = 0)
+        slope = -(float(traction @ d) - float(self._k_u @ d) - alpha * float(k_d @ d)
+                  - float(history @ d) + (float(applied @ d) if applied is not None else 0.0))
+        if slope >= -1e-300:
+            return alpha
+        if slope <= -rd:  # no positive curvature along d: go as far as the bound allows
+            return 1.9 * alpha
+        return min(alpha * rd / (rd + slope), 1.9 * alpha)
+
+    def elastic_traction(self):
+        """K u of the last solve's displacement (stress units; a view, valid until the next solve)."""
+        return self._k_u
 
     def interface_traction(self, u, wall, history, mean_traction, out, applied=None):
         """Traction the indenter exerts on the surface at equilibrium (stress, upward positive).

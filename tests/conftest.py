@@ -1,0 +1,27 @@
+"""Shared helpers: a small periodic grid with the solver's pieces built on it."""
+import numpy as np
+import pytest
+
+from hpcgfmd.fft import RealFFT
+from hpcgfmd.interface import DugdaleMaugis
+from hpcgfmd.solver import ConstrainedCG
+
+
+class Grid:
+    """Periodic grid of n points on [-L/2, L/2) with |q|/2 per rfft mode."""
+
+    def __init__(self, n, cell):
+        self.n, self.cell = n, cell
+        self.dx = cell / n
+        self.x = (np.arange(n) - n // 2) * self.dx
+        self.half_q = np.pi * np.arange(n // 2 + 1) / cell
+        self.fft = RealFFT(n, planner_effort="FFTW_ESTIMATE")
+
+    def solver(self, sigma_a=0.0, dmax=1.0, tolerance=1e-10, scale=1.0, max_iterations=5000):
+        return ConstrainedCG(self.fft, DugdaleMaugis(sigma_a, dmax), tolerance, max_iterations,
+                             scale)
+
+
+@pytest.fixture
+def grid_factory():
+    return Grid

@@ -1,0 +1,166 @@
+"""The command line as a user meets it: subprocesses of `python -m hpcgfmd`."""
+import os
+import signal
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+from hpcgfmd.config import TARGET_ZONE_POINTS, parse_case
+
+GOOD = {"maugis": "1.0", "modulus_ratio": "1.0", "velocity": "1.0", "depth": "0.03",
+        "cell": "2.0", "adhesion": "1e-4"}
+
+
+def case_text(numerics="nx = 1024", output="", **changes):
+    keys = {**GOOD, **changes}
+    body = "".join(f"{k} = {v}\n" for k, v in keys.items() if v is not None)
+    return f"[case]\n{body}[numerics]\n{numerics}\n" + (f"[output]\n{output}\n" if output else "")
+
+
+def hpcgfmd(*args, cwd, timeout=300):
+    return subprocess.run([sys.executable, "-m", "hpcgfmd", *map(str, args)], cwd=cwd,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+BAD = [
+    ("unknown key", case_text(colour="1"), ["colour", "unknown key"]),
+    ("missing key", case_text(adhesion=None), ["adhesion", "missing"]),
+    ("wrong type", case_text(maugis='"seven"'), ["maugis", "'seven'", "number"]),
+    ("zero", case_text(velocity="0"), ["velocity", "0.0", "> 0"]),
+    ("negative", case_text(depth="-0.1"), ["depth", "-0.1", "> 0"]),
+    ("k above one", case_text(modulus_ratio="1.5"), ["modulus_ratio", "1.5", "(0, 1]"]),
+    ("cell too small", case_text(cell="0.5"), ["cell", "0.5", "too small"]),
+    ("nx unresolved", case_text(maugis="7.0", numerics="nx = 64"),
+     ["nx", "64", "w/dx", "at least", "nx >= "]),
+    ("nx odd", case_text(numerics="nx = 1001"), ["nx", "1001", "even integer"]),
+    ("tolerance", case_text(numerics="nx = 1024\ntolerance = 0.5"), ["tolerance", "0.5"]),
+    ("both forms", case_text() + "[physical]\nradius = 1.0\n", ["exactly one of"]),
+    ("unknown section", case_text() + "[solver]\nx = 1\n", ["[solver]", "unknown section"]),
+    ("not toml", "[case\nmaugis = ", ["not valid TOML"]),
+    ("physical moduli", "[physical]\nradius = 1e-3\nmodulus_relaxed = 2e6\n"
+     "modulus_instantaneous = 1e6\nrelaxation_time = 1.0\nwork_of_adhesion = 0.05\n"
+     "interaction_range = 1e-8\nvelocity = 1e-6\ndepth = 1e-4\ncell_length = 1e-2\n",
+     ["modulus_instantaneous", "1000000.0", "modulus_relaxed"]),
+    ("snapshot list", case_text(output="snapshot_times = [1, -2]"), ["snapshot_times", "list"]),
+]
+
+
+@pytest.mark.parametrize("name, text, words", BAD, ids=[b[0] for b in BAD])
+def test_bad_input_one_line_status_2_nothing_touched(tmp_path, name, text, words):
+    (tmp_path / "case.toml").write_text(text)
+    existing = tmp_path / "out.h5"
+    existing.write_bytes(b"previous results")
+    before = existing.stat().st_mtime_ns
+    res = hpcgfmd("run", "case.toml", "-o", "out.h5", "--overwrite", cwd=tmp_path)
+    assert res.returncode == 2
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
+    for word in words:
+        assert word in lines[0], (word, lines[0])
+    assert existing.read_bytes() == b"previous results"
+    assert existing.stat().st_mtime_ns == before
+
+
+def test_existing_output_is_refused(tmp_path):
+    (tmp_path / "case.toml").write_text(case_text())
+    (tmp_path / "case.h5").write_bytes(b"keep me")
+    res = hpcgfmd("run", "case.toml", cwd=tmp_path)
+    assert res.returncode == 2 and "exists" in res.stderr
+    assert (tmp_path / "case.h5").read_bytes() == b"keep me"
+
+
+def test_automatic_nx_is_smallest_power_of_two_resolving_the_zone():
+    case = parse_case(case_text(maugis="7.0", numerics=""))
+    assert case.numerics.nx_automatic
+    points = case.zone_width / case.dx
+    assert TARGET_ZONE_POINTS <= points < 2 * TARGET_ZONE_POINTS
+    assert case.numerics.nx & (case.numerics.nx - 1) == 0
+
+
+def test_run_info_plot_end_to_end(tmp_path):
+    (tmp_path / "case.toml").write_text(case_text(
+        output="snapshot_contact_widths = [0.1]\nsnapshot_zero_load = true"))
+    res = hpcgfmd("run", "case.toml", "-o", "out.h5", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert "chi_ve = 1" in res.stdout and "w/dx" in res.stdout and "finished" in res.stdout
+    with h5py.File(tmp_path / "out.h5", "r") as f:
+        a = f.attrs
+        assert a["finished"] and a["config"] == (tmp_path / "case.toml").read_text()
+        for key in ("hpcgfmd_version", "lambda0", "lambda_inf", "k", "Vz", "chi_ve", "alpha",
+                    "beta", "load_scale", "zone_points"):
+            assert key in a
+        assert a["beta"] == pytest.approx(1e-4 ** (1 / 3))
+        assert a["load_scale"] == pytest.approx(1e-4 ** (2 / 3))
+        series = f["series"]
+        n = series["time"].shape[0]
+        assert n == a["steps"] + 1
+        for name in ("indenter", "load", "contact_half_width", "cohesive_half_width",
+                     "iterations", "residual"):
+            assert series[name].shape == (n,)
+        assert series["time"][0] == 0 and series["indenter"][0] == pytest.approx(-0.03)
+        assert series["load"][0] > 0 and series["load"][:].min() < 0
+        assert np.all(series["cohesive_half_width"][:] >= series["contact_half_width"][:])
+        snaps = f["snapshots"]
+        assert snaps["surface"].shape == (4, 1024)  # t = 0, a_c = 0.1, zero load, final
+        assert snaps["x"].shape == (1024,)
+        gap = snaps["gap"][0]
+        assert gap.min() == 0.0
+    res = hpcgfmd("info", "out.h5", cwd=tmp_path)
+    assert res.returncode == 0 and "pull-off" in res.stdout and "detachment" in res.stdout
+    res = hpcgfmd("plot", "out.h5", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    png = (tmp_path / "out.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20000
+
+
+def test_physical_form_equals_case_form_in_si_units(tmp_path):
+    # R = 2 mm, E0 = 1.5 MPa, k = 0.1, tau = 0.3 s; groups as the [case] file below.
+    R, E0, tau, lam, alpha, Vz = 2e-3, 1.5e6, 0.3, 3.5, 1e-4, 1.0
+    work = alpha * E0 * R
+    beta = (R**2 * work / E0) ** (1 / 3)
+    dmax = (work**2 * R / (E0**2 * lam**3)) ** (1 / 3)
+    phys = (f"[physical]\nradius = {R}\nmodulus_relaxed = {E0}\nmodulus_instantaneous = {E0 / 0.1}"
+            f"\nrelaxation_time = {tau}\nwork_of_adhesion = {work}\ninteraction_range = {dmax}"
+            f"\nvelocity = {Vz * beta**2 / (R * tau)}\ndepth = {0.03 * R}\ncell_length = {2 * R}"
+            "\n[numerics]\nnx = 1024\n")
+    (tmp_path / "p.toml").write_text(phys)
+    (tmp_path / "c.toml").write_text(case_text(maugis="3.5", modulus_ratio="0.1"))
+    for name in ("p", "c"):
+        assert hpcgfmd("run", f"{name}.toml", cwd=tmp_path).returncode == 0
+    with h5py.File(tmp_path / "p.h5") as p, h5py.File(tmp_path / "c.h5") as c:
+        for key in ("lambda0", "k", "Vz", "alpha", "chi_ve"):
+            assert p.attrs[key] == pytest.approx(c.attrs[key], rel=1e-12)
+        assert p.attrs["beta"] == pytest.approx(beta, rel=1e-12)
+        np.testing.assert_allclose(p["series/load"][:], c["series/load"][:] * E0 * R,
+                                   rtol=1e-6, atol=1e-9 * E0 * R)
+        np.testing.assert_allclose(p["series/time"][:], c["series/time"][:] * tau, rtol=1e-12)
+        np.testing.assert_allclose(p["series/contact_half_width"][:],
+                                   c["series/contact_half_width"][:] * R, rtol=1e-6, atol=1e-12)
+
+
+def test_killed_run_leaves_a_readable_file(tmp_path):
+    # Progress lines (one per step at this interval) tell when steps have been written.
+    (tmp_path / "case.toml").write_text(case_text(maugis="3.5", numerics="nx = 4096",
+                                                  output="progress_interval = 1e-6"))
+    proc = subprocess.Popen([sys.executable, "-m", "hpcgfmd", "run", "case.toml"],
+                            cwd=tmp_path, stdout=subprocess.PIPE, text=True)
+    try:
+        steps = 0
+        while steps < 10:
+            line = proc.stdout.readline()
+            assert line, "the run ended before it could be killed"
+            steps += line.startswith("step")
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=30)
+    finally:
+        proc.kill()
+    with h5py.File(tmp_path / "case.h5", "r") as f:
+        assert not f.attrs["finished"]
+        n = f["series/time"].shape[0]
+        assert n >= 10
+        for name in ("load", "indenter", "contact_half_width", "iterations"):
+            assert f["series"][name].shape[0] in (n, n - 1)  # killed between two appends
+        assert np.all(np.diff(f["series/time"][: n - 1]) > 0)

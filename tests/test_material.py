@@ -1,0 +1,64 @@
+"""Standard linear solid: exact step, creep against J(t), one elastic mode."""
+import math
+
+import numpy as np
+import pytest
+
+from hpcgfmd.material import StandardLinearSolid, ViscoelasticHalfSpace
+
+SLS = StandardLinearSolid(e_relaxed=1.0, e_instantaneous=10.0, relaxation_time=1.0)
+
+
+def test_step_limits():
+    assert SLS.step_factors(1e-9).e_eff == pytest.approx(10.0, rel=1e-8)
+    relaxed = SLS.step_factors(math.inf)
+    assert (relaxed.e_eff, relaxed.decay, relaxed.e_history) == (1.0, 0.0, 0.0)
+
+
+def creep_error(grid, dt, t_end, mode=3, amplitude=1e-3):
+    """Max error of u(t) of one mode under a step traction, against (2p/|q|) J(t).
+
+    Runs the real solver path: ViscoelasticHalfSpace history + ConstrainedCG with an applied
+    traction and the wall far away. The state starts just after the step (t = 0+): the
+    instantaneous response u = p/(s Einf), history consistent with a relaxed past.
+    """
+    half_space = ViscoelasticHalfSpace(SLS, grid.half_q, grid.n)
+    solver = grid.solver(tolerance=1e-13, scale=amplitude)
+    s = grid.half_q[mode]
+    applied = amplitude * np.cos(2 * math.pi * mode * grid.x / grid.cell)
+    u = applied / (s * SLS.e_instantaneous)
+    p_sub = applied.copy()
+    wall = np.full(grid.n, 1.0)
+    history = np.empty(grid.n)
+    err = 0.0
+    for i in range(1, int(round(t_end / dt)) + 1):
+        half_space.history(grid.fft, u, p_sub, dt, history)
+        res = solver.solve(u, wall, half_space.operators(dt), history, applied=applied)
+        assert res.converged
+        p_sub = solver.elastic_traction() + history
+        exact = applied / s * SLS.creep_compliance(i * dt)
+        err = max(err, np.abs(u - exact).max() / (amplitude / s))
+    return err
+
+
+def test_creep_of_one_mode_second_order_in_dt(grid_factory):
+    grid = grid_factory(64, 1.0)
+    errors = [creep_error(grid, dt, 8.0) for dt in (0.4, 0.2, 0.1)]
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    # u linear within a step is exact to O(dt^2) for the smooth creep curve.
+    assert np.all(np.abs(orders - 2.0) < 0.15), (errors, orders)
+    assert errors[-1] < 1e-3
+
+
+def test_one_mode_elastic_amplitude_to_roundoff(grid_factory):
+    grid = grid_factory(256, 2.0)
+    half_space = ViscoelasticHalfSpace(StandardLinearSolid(2.5, 2.5, 1.0), grid.half_q, grid.n)
+    solver = grid.solver(tolerance=1e-14)
+    for mode in (1, 17, 128):
+        q = 2 * math.pi * mode / grid.cell
+        p = 0.3 * np.cos(q * grid.x + 0.4 * (mode < 128))
+        u = np.zeros(grid.n)
+        res = solver.solve(u, np.full(grid.n, 10.0), half_space.operators(math.inf),
+                           np.zeros(grid.n), applied=p)
+        assert res.converged
+        np.testing.assert_allclose(u, 2 * p / (q * 2.5), rtol=0, atol=1e-13 * np.abs(u).max())

@@ -1,0 +1,60 @@
+"""Equilibrium solver: feasibility projection, Hertz, iteration growth with n_x."""
+import math
+
+import numpy as np
+import pytest
+
+from hpcgfmd import theory
+from hpcgfmd.interface import edge_positions
+from hpcgfmd.material import StepOperators
+from hpcgfmd.solver import project_feasible
+
+
+def test_project_feasible_zero_mean_and_wall():
+    rng = np.random.default_rng(0)
+    u = rng.normal(size=1000)
+    wall = np.full(1000, 0.5) + 0.1 * rng.normal(size=1000)
+    out = project_feasible(u, wall, np.empty(1000))
+    assert abs(out.mean()) < 1e-14
+    assert np.all(out <= wall)
+    c = np.median(u - out)  # the common shift of the nodes not on the wall
+    free = out < wall
+    np.testing.assert_allclose(out[free], u[free] - c, atol=1e-12)
+
+
+def hertz(grid, depth):
+    solver = grid.solver(tolerance=1e-10, scale=math.sqrt(depth))
+    ops = StepOperators.from_modulus(grid.half_q, 1.0, grid.n)
+    u = np.zeros(grid.n)
+    wall = grid.x**2 / 2 - depth
+    res = solver.solve(u, wall, ops, np.zeros(grid.n))
+    assert res.converged
+    p = np.empty(grid.n)
+    solver.interface_traction(u, wall, np.zeros(grid.n), res.mean_traction, p)
+    left, right = edge_positions(grid.x, wall - u, 0.0, 1.5)
+    return -p.sum() * grid.dx, 0.5 * (right - left), res.iterations
+
+
+def test_hertz_load_against_contact_half_width(grid_factory):
+    # 2D Hertz with the periodic-image factor (physics.md numerical notes, O((a/L)^4) left);
+    # a from the (x - a)^(3/2) edge model. Asked: within 1 %; measured 0.04 % at n = 4096,
+    # so 0.3 % leaves room for the O(dx^2) discretisation and the O((a/L)^4) remainder.
+    grid = grid_factory(4096, 4.0)
+    for depth in (0.02, 0.04):
+        load, a, _ = hertz(grid, depth)
+        reference = math.pi * a**2 / 4 * theory.periodic_load_factor(a, grid.cell)
+        assert load == pytest.approx(reference, rel=0.003)
+
+
+def test_hertz_depth_matches_periodic_green_function(grid_factory):
+    # Zero-mean periodic Green's function -(2/(pi E)) ln|2 sin(pi x / L)| integrated over the
+    # Hertz pressure: h0 = (a^2 / 2R) (1/2 - ln(pi a / L)) to O((a/L)^2).
+    grid = grid_factory(8192, 10.0)
+    _, a, _ = hertz(grid, 0.1)
+    assert 0.1 == pytest.approx(a**2 / 2 * (0.5 - math.log(math.pi * a / grid.cell)), rel=5e-3)
+
+
+def test_iterations_do_not_grow_like_sqrt_n(grid_factory):
+    its = [hertz(grid_factory(n, 4.0), 0.04)[2] for n in (1024, 16384)]
+    # sqrt(n) growth would be a factor 4 here; the preconditioned CG stays within 2.
+    assert its[1] < 2 * its[0], its
