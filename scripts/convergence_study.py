@@ -15,9 +15,12 @@ import os
 import tempfile
 import time
 
-from hpcgfmd.analysis import read_series
-from hpcgfmd.config import DEFAULT_STEP_PER_RANGE, parse_case
-from hpcgfmd.runner import run_case
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):  # one BLAS thread, as the CLI
+    os.environ.setdefault(_var, "1")
+
+from hpcgfmd.analysis import read_series  # noqa: E402
+from hpcgfmd.config import DEFAULT_STEP_PER_RANGE, parse_case  # noqa: E402
+from hpcgfmd.runner import run_case  # noqa: E402
 
 
 def case_text(lam, vz, nx, dt_factor, depth=0.1):

@@ -1,10 +1,15 @@
 """Shared helpers: a small periodic grid with the solver's pieces built on it."""
-import numpy as np
-import pytest
+import os
 
-from hpcgfmd.fft import RealFFT
-from hpcgfmd.interface import DugdaleMaugis
-from hpcgfmd.solver import ConstrainedCG
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):  # as python -m hpcgfmd does
+    os.environ.setdefault(_var, "1")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from hpcgfmd.fft import RealFFT  # noqa: E402
+from hpcgfmd.interface import DugdaleMaugis  # noqa: E402
+from hpcgfmd.solver import ConstrainedCG  # noqa: E402
 
 
 class Grid:
