@@ -1,6 +1,8 @@
 """Whole retractions against the analytic limits (elastic Baney-Hui / JKR, relaxed, fast).
 
 Small cell (L/R = 2, h0/R = 0.03, alpha = 1e-4: abar_c(0) ~ 4.7) so that the grids are small.
+Grids resolve the relaxed cohesive zone with w/dx = 4 to 6 (lambda = 3.5: worst error 5.2 %,
+1.1 %, 0.6 %, 0.5 % at w/dx = 1.5, 3, 6, 12, measured), lambda = 7 with w/dx = 6.
 The periodic cell's image curvature is corrected with theory.periodic_load_factor (about 1 %
 here). Errors are measured relative to max(|Lbar|, |Lbar at pull-off|): near zero load a
 relative error in Lbar alone means nothing.
@@ -40,7 +42,7 @@ def worst_error(s, m, ref):
     return np.max(np.abs(s.lbar[m] - ref) / scale)
 
 
-@pytest.mark.parametrize("lam, nx", [(1.0, 1024), (3.5, 2048)])
+@pytest.mark.parametrize("lam, nx", [(1.0, 1024), (3.5, 4096)])
 def test_elastic_retraction_follows_baney_hui(tmp_path, lam, nx):
     s = retraction(tmp_path, lam, 1.0, 1.0, nx)
     m = middle(s)
@@ -48,16 +50,39 @@ def test_elastic_retraction_follows_baney_hui(tmp_path, lam, nx):
     assert worst_error(s, m, md_reference(s, lam, m)) < 0.01
 
 
-def test_elastic_retraction_follows_jkr_for_large_maugis(tmp_path):
-    s = retraction(tmp_path, 7.0, 1.0, 1.0, 4096, name="jkr")
+@pytest.fixture(scope="module")
+def elastic_lambda7(tmp_path_factory):
+    # w/dx = 6 (0.67 % measured; 1.75 % at w/dx = 3). Elastic: the result does not depend on
+    # dt, so the indenter moves dmax per step (dt = dmax / v_z = 1/7 here) to save steps.
+    return retraction(tmp_path_factory.mktemp("lam7"), 7.0, 1.0, 1.0, 16384, dt=1.0 / 7.0)
+
+
+def test_elastic_retraction_lambda7_follows_baney_hui(elastic_lambda7):
+    s = elastic_lambda7
     m = middle(s)
-    ref = theory.jkr_load(s.abar[m]) * theory.periodic_load_factor(s.contact_half_width[m], 2.0)
-    assert worst_error(s, m, ref) < 0.01
+    assert m.sum() > 20
+    assert worst_error(s, m, md_reference(s, 7.0, m)) < 0.01
+
+
+def test_elastic_retraction_lambda7_is_jkr_up_to_the_maugis_correction(elastic_lambda7):
+    # The exact Maugis-Dugdale curve at lambda = 7 is itself 2.1 % from JKR in this measure
+    # (O(1/lambda^2), see test_theory); the simulation must be JKR to 1 % beyond that gap.
+    s = elastic_lambda7
+    m = middle(s)
+    cell = theory.periodic_load_factor(s.contact_half_width[m], s.attrs["cell"])
+    jkr = theory.jkr_load(s.abar[m]) * cell
+    gap = worst_error(s, m, jkr)
+    intrinsic = np.max(np.abs(md_reference(s, 7.0, m) - jkr)
+                       / np.maximum(np.abs(jkr), abs(s.lbar.min())))
+    assert intrinsic > 0.015  # lambda = 7 is not yet the JKR limit
+    assert gap < intrinsic + 0.01
 
 
 def test_slow_viscoelastic_retraction_follows_relaxed_curve(tmp_path):
-    # chi_ve = V_z lambda0^2 = 1.2e-3: the material relaxes fully within each step.
-    s = retraction(tmp_path, 3.5, 0.1, 1e-4, 2048)
+    # V_z = 1e-6 (chi_ve = 1.2e-5): dt = 7e4 tau, the overstress (Einf - E0) tau / dt of the
+    # moving edge is 1e-4 of E0. (At V_z = 1e-4 it was 1.2 % and the curve lay 1.15 % off:
+    # small chi_ve alone does not make the edge relaxed, as physics.md warns.)
+    s = retraction(tmp_path, 3.5, 0.1, 1e-6, 4096)
     m = middle(s)
     assert worst_error(s, m, md_reference(s, 3.5, m)) < 0.01
 
