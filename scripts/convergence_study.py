@@ -5,7 +5,7 @@ default time step and at half the default time step on the default grid; the cha
 the finest run is printed and appended to a CSV file.
 
     python scripts/convergence_study.py --out convergence.csv \
-        --case 7:0.45 --case 7:4.5 --nx 32768 65536 131072 --dt-factors 1 0.5
+        --case 7:0.45 --case 7:4.5 --nx 32768 65536 131072 --dt-factors 0.5 --dt-nx 65536
 
 Each --case is lambda0:V_z (k = 0.1, h0/R = 0.1, L/R = 10, alpha = 5e-5, as in physics.md).
 """
@@ -35,7 +35,9 @@ def main():
     parser.add_argument("--case", action="append", required=True, help="lambda0:V_z")
     parser.add_argument("--nx", type=int, nargs="+", required=True)
     parser.add_argument("--dt-factors", type=float, nargs="+", default=[1.0],
-                        help="multiples of the default dt (run on the largest nx)")
+                        help="multiples of the default dt")
+    parser.add_argument("--dt-nx", type=int, default=None,
+                        help="grid of the dt runs (default: the largest --nx)")
     parser.add_argument("--out", default="convergence.csv")
     args = parser.parse_args()
     fields = ["lambda0", "Vz", "nx", "dt_factor", "zone_points", "steps", "iterations",
@@ -48,7 +50,7 @@ def main():
         for spec in args.case:
             lam, vz = map(float, spec.split(":"))
             runs = [(nx, 1.0) for nx in args.nx]
-            runs += [(max(args.nx), f) for f in args.dt_factors if f != 1.0]
+            runs += [(args.dt_nx or max(args.nx), f) for f in args.dt_factors if f != 1.0]
             for nx, factor in runs:
                 case = parse_case(case_text(lam, vz, nx, factor))
                 path = os.path.join(tmp, f"{lam}_{vz}_{nx}_{factor}.h5")
