@@ -23,7 +23,7 @@ from .config import Case
 from .fft import RealFFT
 from .interface import DugdaleMaugis, edge_positions
 from .material import StandardLinearSolid, ViscoelasticHalfSpace
-from .solver import ConstrainedCG
+from .solver import ConstrainedCG, project_feasible
 
 logger = logging.getLogger(__name__)
 
@@ -82,6 +82,7 @@ class Retraction:
         self.indenter = -case.depth
         self.step_index = 0
         self.total_iterations = 0
+        self.rejected_predictions = 0
 
     # --- one equilibrium -------------------------------------------------------------
     def _equilibrate(self, ops, dt):
@@ -125,24 +126,33 @@ class Retraction:
         self.step_index += 1
         self.time = self.step_index * dt
         self.indenter = -self.case.depth + self.case.velocity * self.time
-        self._predict(self.case.velocity * dt, contact)
-        return self._equilibrate(self.substrate.operators(dt), dt)
+        ops = self.substrate.operators(dt)
+        self._predict(self.case.velocity * dt, contact, ops)
+        return self._equilibrate(ops, dt)
 
-    def _predict(self, rise, contact):
-        """Start the step from u_n + (u_n - u_{n-1}) (linear extrapolation in time).
+    def _predict(self, rise, contact, ops):
+        """Start the step from u_n + (u_n - u_{n-1}) when that is not uphill of u_n.
 
-        The wall moves rigidly, so the contact nodes of step n are put exactly on the new
-        wall (extrapolation alone lands there only to round-off, and a gap of 1e-18 would
-        free the whole patch, which the first CG step then pushes deep into the wall).
-        After the preload, u_{n-1} is taken as u_n with the contact lowered by the rise.
+        Linear extrapolation in time; the wall moves rigidly, so the contact nodes of step n
+        are put exactly on the new wall (extrapolation lands there only to round-off, and a
+        gap of 1e-18 would free the whole patch). The path is defined by descent from the
+        previous equilibrium u_n (feasible for the new step, the wall having risen), so the
+        prediction is used only if its energy is not above that of u_n. After the preload,
+        u_{n-1} is taken as u_n with the contact lowered by the wall's rise.
         """
+        np.add(self.profile, self.indenter, out=self.wall)
         if self.u_previous is None:
             self.u_previous = self.u - rise * contact
-        increment = self.u - self.u_previous
+        guess = 2.0 * self.u - self.u_previous
+        np.copyto(guess, self.wall, where=contact)
+        guess = project_feasible(guess, self.wall, np.empty(self.n))
         self.u_previous[:] = self.u
-        self.u += increment
-        np.add(self.profile, self.indenter, out=self.wall)
-        np.copyto(self.u, self.wall, where=contact)
+        solver = self.solver
+        if solver.energy(guess, self.wall, ops, self.history) <= solver.energy(
+                self.u, self.wall, ops, self.history):
+            self.u[:] = guess
+        else:
+            self.rejected_predictions += 1
 
     def detached(self) -> bool:
         """True when no node is within the interaction range (complete detachment)."""

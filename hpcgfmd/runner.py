@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import time
 
-from .config import Case
+from .config import TARGET_ZONE_POINTS, Case
 from .driver import Progress, Retraction
 from .output import CaseFile
 
@@ -38,11 +38,13 @@ def describe(case: Case) -> str:
     """The derived groups and numerics, printed at start."""
     g = case.groups()
     u = case.units
+    auto = (f" (chosen automatically: the smallest power of two with w/dx >= {TARGET_ZONE_POINTS:g})"
+            if case.numerics.nx_automatic else "")
     lines = [f"lambda0 = {g['lambda0']:.6g}   lambda_inf = {g['lambda_inf']:.6g}   k = {g['k']:.6g}"
              f"   V_z = {g['Vz']:.6g}   chi_ve = {g['chi_ve']:.6g}   alpha = {g['alpha']:.6g}",
              f"h0/R = {g['depth']:.6g}   L/R = {g['cell']:.6g}   beta = {case.beta * u.length:.6g}"
              f"   load scale = {case.load_scale * u.load:.6g}   w/dx = {g['zone_points']:.3g}",
-             f"nx = {case.numerics.nx}{' (chosen automatically)' if case.numerics.nx_automatic else ''}"
+             f"nx = {case.numerics.nx}{auto}"
              f"   dt = {case.numerics.dt * u.time:.6g}   tolerance = {case.numerics.tolerance:g}"]
     return "\n".join(lines)
 

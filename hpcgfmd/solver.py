@@ -16,9 +16,13 @@ the active set changes (Polonsky and Keer, Wear 231 (1999) 206).
 
 Path following. The Dugdale energy is concave in u (the mean of the convex ramp
 max(dmax - g, 0) over each element, times -sigma_a), so the quadratic model built from K and
-the linearised adhesion is an upper bound of E. Every CG step with the model's optimal length
-therefore lowers E: the iteration goes downhill from the previous step's state and ends in the
-local minimum of that basin, the physical branch, never jumping over a barrier.
+the linearised adhesion is an upper bound of E: every step of length in (0, 2 alpha*) along a
+CG direction, alpha* the bound's minimiser, lowers E. Steps that would cross the wall are
+either projected (accepted only if E drops) or cut at the first contact (inside that
+interval). The iteration therefore goes downhill from its start, the previous step's
+equilibrium or an extrapolation with no higher energy, and ends in the local minimum of that
+basin, the physical branch. The one exception, counted in ``uphill_projections``: a direction
+that already presses on the wall at zero step length leaves only the projection.
 
 Cost per iteration: two FFT pairs (preconditioner and K d), three when a step touches the
 wall; K u is updated incrementally. Serial, full real-space arrays (no MPI here).
@@ -114,7 +118,14 @@ class ConstrainedCG:
         self._d = np.zeros(n)
         self._trial = np.empty(n)
         self._work = np.empty((4, n))
-        self.projections = 0  # steps that reached the wall (CG restarts), for statistics
+        self._projected = np.empty(n)
+        self._k_projected = np.empty(n)
+        self._gap_energy = np.empty(n)
+        # Statistics: projections accepted (and how many of them raised the energy, only when
+        # no descent step along d was possible), steps cut at the first wall contact.
+        self.projections = 0
+        self.uphill_projections = 0
+        self.cut_steps = 0
 
     def solve(self, u, wall, ops: StepOperators, history, applied=None) -> SolveResult:
         """Relax ``u`` in place to the equilibrium of the step (see module docstring).
@@ -194,27 +205,76 @@ class ConstrainedCG:
             alpha = rd / float(d @ k_d)  # minimiser of the quadratic upper bound
             np.multiply(d, alpha, out=self._trial)
             self._trial += u
-            if law.sigma_a > 0.0 and not np.any(self._trial > wall):
-                alpha = self._secant_step(u, wall, d, k_d, history, applied, alpha, rd)
-                np.multiply(d, alpha, out=self._trial)
-                self._trial += u
-            if np.any(self._trial > wall):
-                # The step reaches the wall: project (zero mean, gap >= 0) and restart CG.
-                project_feasible(self._trial, wall, u)
-                fft.apply_diagonal(u, ops.stiffness, k_u)
-                restart = True
-                self.projections += 1
-            else:
+            if not np.any(self._trial > wall):
+                if law.sigma_a > 0.0:
+                    secant = self._secant_step(u, wall, d, k_d, history, applied, alpha, rd)
+                    np.multiply(d, secant, out=self._trial)
+                    self._trial += u
+                    if np.any(self._trial > wall):  # the longer step would reach the wall
+                        np.multiply(d, alpha, out=self._trial)
+                        self._trial += u
+                    else:
+                        alpha = secant
                 u[:] = self._trial
                 k_d *= alpha
                 k_u += k_d
                 restart = False
+            else:
+                self._constrained_step(u, wall, d, k_d, alpha, ops, history, applied)
+                restart = True
             r_old[:] = r
             z_old[:] = z
             rz_old = rz
             iteration += 1
         return SolveResult(iterations=iteration, residual=residual,
                            converged=residual <= self.tolerance, mean_traction=mu)
+
+    def _constrained_step(self, u, wall, d, k_d, alpha, ops, history, applied):
+        """A step u + alpha d that reaches the wall, taken so that the energy decreases.
+
+        First choice: the Euclidean projection (zero mean, gap >= 0), which sets many nodes
+        on the wall at once, accepted only if it lowers the energy. Otherwise the step is cut
+        where the first node touches the wall: that length lies inside (0, alpha], where the
+        quadratic upper bound guarantees descent. Both restart CG.
+        """
+        energy = self.energy_with(u, self._k_u, wall, history, applied)
+        project_feasible(self._trial, wall, self._projected)
+        self.fft.apply_diagonal(self._projected, ops.stiffness, self._k_projected)
+        projected_energy = self.energy_with(self._projected, self._k_projected, wall, history,
+                                            applied)
+        # Step length to the first contact along d.
+        rising = d > 0.0
+        room = (wall[rising] - u[rising]) / d[rising]
+        cut = float(room.min()) if room.size else alpha
+        if projected_energy < energy or cut <= 1e-3 * alpha:
+            # (a direction already pressing on the wall, cut ~ 0, leaves only the projection)
+            u[:] = self._projected
+            self._k_u[:] = self._k_projected
+            self.projections += 1
+            if projected_energy >= energy:
+                self.uphill_projections += 1
+            return
+        u += cut * d
+        np.minimum(u, wall, out=u)  # the touching node lands on the wall exactly
+        k_d *= cut
+        self._k_u += k_d
+        self.cut_steps += 1
+
+    def energy(self, u, wall, ops, history, applied=None):
+        """Energy of the step per unit length, divided by dx (collective-free, one FFT pair).
+
+        E/dx = 1/2 u.K u + (H - p_applied).u - sigma_a sum_e M_e (see the module docstring).
+        """
+        self.fft.apply_diagonal(u, ops.stiffness, self._k_projected)
+        return self.energy_with(u, self._k_projected, wall, history, applied)
+
+    def energy_with(self, u, k_u, wall, history, applied=None):
+        """Energy (per unit length, divided by dx) of u with K u given."""
+        value = 0.5 * float(u @ k_u) + float(history @ u)
+        if applied is not None:
+            value -= float(applied @ u)
+        np.subtract(wall, u, out=self._gap_energy)
+        return value + self.law.energy(self._gap_energy, 1.0)
 
     def _secant_step(self, u, wall, d, k_d, history, applied, alpha, rd):
         """Step length along d from the slope of the true energy at the bound's minimiser.

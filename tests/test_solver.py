@@ -55,6 +55,10 @@ def test_hertz_depth_matches_periodic_green_function(grid_factory):
 
 
 def test_iterations_do_not_grow_like_sqrt_n(grid_factory):
-    its = [hertz(grid_factory(n, 4.0), 0.04)[2] for n in (1024, 16384)]
-    # sqrt(n) growth would be a factor 4 here; the preconditioned CG stays within 2.
-    assert its[1] < 2 * its[0], its
+    # Counts over a ladder of grids are not monotone (active-set restarts), so fit the
+    # log-log slope: measured 0.20 (8 to 25 iterations from 512 to 32768 points); plain CG
+    # or damped dynamics would give 0.5.
+    sizes = [512, 1024, 2048, 4096, 8192, 16384, 32768]
+    its = [hertz(grid_factory(n, 4.0), 0.04)[2] for n in sizes]
+    slope = np.polyfit(np.log(sizes), np.log(its), 1)[0]
+    assert slope < 0.3, (its, slope)
