@@ -55,6 +55,7 @@ def read_series(path) -> Series:
     with h5py.File(path, "r") as f:
         attrs = {k: (v.item() if hasattr(v, "item") else v) for k, v in f.attrs.items()}
         s = f["series"]
-        return Series(attrs=attrs, **{name: s[name][:] for name in
+        n = int(attrs.get("steps_complete", s["time"].shape[0]))
+        return Series(attrs=attrs, **{name: s[name][:n] for name in
                                       ("time", "indenter", "load", "contact_half_width",
                                        "cohesive_half_width", "iterations", "residual", "dt")})

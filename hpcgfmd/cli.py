@@ -13,6 +13,7 @@ from importlib import resources
 
 from . import __version__
 from .config import CaseError, load_case, parse_case
+from .driver import NonConvergenceError
 
 EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
 
@@ -25,6 +26,8 @@ def _check_output_path(path, overwrite):
     directory = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(directory):
         raise UsageError(f"-o {path}: directory {directory} does not exist")
+    if os.path.isdir(path):
+        raise UsageError(f"-o {path}: is a directory; give a file name")
     if os.path.exists(path) and not overwrite:
         raise UsageError(f"-o {path}: file exists; choose another name or pass --overwrite")
 
@@ -36,10 +39,12 @@ def _run(case, output, overwrite, dry_run):
     if dry_run:
         return EXIT_OK
     _check_output_path(output, overwrite)
-    if overwrite and os.path.exists(output):
-        os.remove(output)
     print(f"writing {output}", flush=True)
-    summary = run_case(case, output, printer=lambda line: print(line, flush=True))
+    try:
+        summary = run_case(case, output, printer=lambda line: print(line, flush=True),
+                           overwrite=overwrite)
+    except CaseError as err:  # found by the preload, before the file was created
+        raise UsageError(str(err)) from None
     print(f"finished: {summary['steps']} steps, {summary['iterations']} iterations,"
           f" {summary['wall_time']:.1f} s wall time; results in {output}", flush=True)
     return EXIT_OK
@@ -92,8 +97,10 @@ def cmd_info(args):
         print(f"steps: {a['steps']}, iterations: {a['iterations']}"
               f" ({a['iterations'] / max(a['steps'], 1):.1f} per step), FFT pairs:"
               f" {a['fft_pairs']}, wall time: {a['wall_time']:.1f} s")
-    else:
+    elif s.time.size:
         print(f"steps so far: {s.time.size - 1}, iterations: {int(s.iterations.sum())}")
+    else:
+        print("no step written yet")
     return EXIT_OK
 
 
@@ -105,7 +112,10 @@ def cmd_plot(args):
     except ImportError as err:
         raise UsageError(f"plot needs matplotlib ({err}); pip install 'hpcgfmd[plot]'") from None
     output = args.output or os.path.splitext(args.file)[0] + ".png"
-    plot_case(args.file, output)
+    try:
+        plot_case(args.file, output)
+    except (OSError, KeyError, ValueError) as err:
+        raise UsageError(f"cannot plot {args.file}: {err}") from None
     print(f"wrote {output}")
     return EXIT_OK
 
@@ -143,3 +153,7 @@ def main(argv=None):
     except UsageError as err:
         print(f"hpcgfmd: error: {err}", file=sys.stderr)
         return EXIT_USAGE
+    except (NonConvergenceError, FloatingPointError, RuntimeError, MemoryError) as err:
+        # the output file keeps every step done so far, marked unfinished
+        print(f"hpcgfmd: failed: {type(err).__name__}: {err}", file=sys.stderr)
+        return EXIT_FAILURE

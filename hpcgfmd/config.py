@@ -20,6 +20,7 @@ accepted; the command line turns it into one line and exit status 2.
 from __future__ import annotations
 
 import math
+import os
 import tomllib
 from dataclasses import dataclass, field
 
@@ -36,6 +37,8 @@ MIN_CELL_PER_CONTACT = 6.0
 DEFAULT_STEP_PER_RANGE = 0.25  # default dt: the indenter moves this fraction of dmax per step
 DEFAULT_TOLERANCE = 1e-7
 DEFAULT_MAX_ITERATIONS = 5000
+MIN_TOLERANCE = 1e-13      # the residual's round-off floor (max norm relative to sigma_a)
+BYTES_PER_POINT = 320      # about 40 float64 work arrays per grid point (measured layout)
 
 
 class CaseError(ValueError):
@@ -108,6 +111,11 @@ class Case:
     output: Output = field(default_factory=Output)
     units: Units = field(default_factory=Units)
     text: str = ""
+    form: str = "case"
+
+    def cell_key(self) -> str:
+        """The case file's name for the cell length ([case] cell or [physical] cell_length)."""
+        return "[case] cell" if self.form == "case" else "[physical] cell_length"
 
     # Derived quantities (physics.md, Appendix C corrected), internal units.
     @property
@@ -240,9 +248,11 @@ def parse_case(text: str) -> Case:
         raise CaseError(f"not valid TOML: {err}") from None
     sections = ("case", "physical", "numerics", "output")
     for name, value in doc.items():
-        if name not in sections or not isinstance(value, dict):
+        if name not in sections:
             raise CaseError(f"[{name}]: unknown section; accepted: [case] or [physical],"
                             " [numerics], [output]")
+        if not isinstance(value, dict):
+            raise CaseError(f"{name} = {_fmt(value)}: expected a section [{name}]")
     if ("case" in doc) == ("physical" in doc):
         raise CaseError("exactly one of [case] (dimensionless groups) or [physical] (SI values)"
                         " is required")
@@ -273,18 +283,24 @@ def parse_case(text: str) -> Case:
             need = 2 ** math.ceil(math.log2(MIN_ZONE_POINTS * groups["cell"] / zone))
             raise CaseError(f"[numerics] nx = {nx}: resolves the cohesive zone with w/dx ="
                             f" {points:.3g} points; at least {MIN_ZONE_POINTS:g} is needed"
-                            f" (nx >= {need})")
+                            f" (nx >= {need}; w/dx >= {TARGET_ZONE_POINTS:g} for 1 % accuracy)")
         automatic = False
     else:
         nx = 2 ** max(6, math.ceil(math.log2(TARGET_ZONE_POINTS * groups["cell"] / zone)))
         automatic = True
+    memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    if nx * BYTES_PER_POINT > memory:
+        raise CaseError(f"[numerics] nx = {nx}{' (automatic)' if automatic else ''}: needs about"
+                        f" {nx * BYTES_PER_POINT / 2**30:.1f} GiB, more than the"
+                        f" {memory / 2**30:.1f} GiB of this machine")
     velocity = groups["Vz"] * groups["alpha"] ** (2.0 / 3.0)
     dmax = groups["alpha"] ** (2.0 / 3.0) / groups["lambda0"]
     dt = (_number(num, "numerics", "dt") / units.time if "dt" in num
           else DEFAULT_STEP_PER_RANGE * dmax / velocity)
     tolerance = _number(num, "numerics", "tolerance") if "tolerance" in num else DEFAULT_TOLERANCE
-    if tolerance >= 1e-2:
-        raise CaseError(f"[numerics] tolerance = {tolerance}: expected a number in (0, 0.01)")
+    if not MIN_TOLERANCE <= tolerance < 1e-2:
+        raise CaseError(f"[numerics] tolerance = {tolerance}: expected a number in"
+                        f" [{MIN_TOLERANCE:g}, 0.01)")
     max_it = num.get("max_iterations", DEFAULT_MAX_ITERATIONS)
     if isinstance(max_it, bool) or not isinstance(max_it, int) or max_it < 1:
         raise CaseError(f"[numerics] max_iterations = {_fmt(max_it)}: expected an integer >= 1")
@@ -303,7 +319,7 @@ def parse_case(text: str) -> Case:
                            if "progress_interval" in out else 10.0))
     return Case(numerics=Numerics(nx=nx, nx_automatic=automatic, dt=dt, tolerance=tolerance,
                                   max_iterations=max_it),
-                output=output, units=units, text=text, **groups)
+                output=output, units=units, text=text, form=form, **groups)
 
 
 def load_case(path) -> Case:

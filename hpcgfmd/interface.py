@@ -106,9 +106,10 @@ class DugdaleMaugis:
 def edge_positions(x, gap, level, shape_exponent):
     """Left and right positions where the gap first exceeds ``level`` around the centre.
 
-    The gap outside the edge is modelled as g - level ~ (x - a)^shape_exponent from the
-    first two open nodes (physics.md, "The contact edge": exponent 3/2 for the edge of
-    intimate contact; 1 gives linear interpolation for the cohesive-zone edge).
+    For shape_exponent p != 1 the gap beyond the edge is modelled as g - level ~ (x - a)^p
+    from the first two open nodes (physics.md, "The contact edge": p = 3/2 for the edge of
+    intimate contact); p = 1 interpolates linearly between the last closed and the first
+    open node (the cohesive-zone edge, where g crosses dmax with a finite slope).
 
     Parameters
     ----------
@@ -135,12 +136,15 @@ def edge_positions(x, gap, level, shape_exponent):
     if last - first + 1 == n:  # the whole cell is closed
         return x[0] - 0.5 * dx, x[-1] + 0.5 * dx
 
-    def extrapolate(g1, g2):
-        # distance from the first open node back to the edge, in units of dx
+    def offset(g_in, g1, g2):
+        # distance (in dx) from the last closed node to the edge
+        if shape_exponent == 1.0:  # linear interpolation between the closed and open node
+            return (level - g_in) / (g1 - g_in) if g1 > g_in else 0.5
+        # (g - level)^(1/p) is linear beyond the edge: extrapolate from the two open nodes
         s1 = (g1 - level) ** (1.0 / shape_exponent)
         s2 = (g2 - level) ** (1.0 / shape_exponent)
-        return min(max(s1 / (s2 - s1), 0.0), 1.0) if s2 > s1 else 0.5
+        return 1.0 - min(max(s1 / (s2 - s1), 0.0), 1.0) if s2 > s1 else 0.5
 
-    right = x[last] + dx * (1.0 - extrapolate(gap[(last + 1) % n], gap[(last + 2) % n]))
-    left = x[first] - dx * (1.0 - extrapolate(gap[first - 1], gap[first - 2]))
+    right = x[last] + dx * offset(gap[last], gap[(last + 1) % n], gap[(last + 2) % n])
+    left = x[first] - dx * offset(gap[first], gap[first - 1], gap[first - 2])
     return left, right

@@ -13,9 +13,12 @@ Layout (all values in the case's units: R, E0, tau with ``[case]`` input; SI wit
 /snapshots/       time (s,), surface u, pressure p (traction on the substrate, attractive
                   positive), gap (each (s, nx)); x (nx,)
 
-Crash safety: the file is created before the first step, every step is appended and then
-flushed (H5Fflush writes all metadata), so a killed run leaves a file with every step done so
-far. ``finished`` is set last. The file is written by one process (serial h5py driver).
+Crash safety: the file is created after the preload, every step is appended, the root
+attribute ``steps_complete`` is then raised, and the file is flushed (H5Fflush writes all
+metadata), so a killed run leaves a file with every step done so far; a kill between two
+datasets' appends can leave some series one entry longer, and readers truncate the series to
+``steps_complete`` (``/snapshots`` to its ``complete``). ``finished`` is set last. The file is
+written by one process (serial h5py driver).
 """
 from __future__ import annotations
 
@@ -45,11 +48,11 @@ class CaseFile:
         Grid positions (internal units).
     """
 
-    def __init__(self, path, case, x):
+    def __init__(self, path, case, x, overwrite=False):
         self.units = case.units
         self._scale = {"time": case.units.time, "length": case.units.length,
                        "load": case.units.load, None: 1.0}
-        self.file = h5py.File(path, "w-")
+        self.file = h5py.File(path, "w" if overwrite else "w-")
         attrs = self.file.attrs
         attrs["hpcgfmd_version"] = __version__
         attrs["config"] = case.text
@@ -66,6 +69,7 @@ class CaseFile:
         attrs["vbar_convention"] = ("vbar = 2 pi rhodot tau / (k c0): retardation time tau/k,"
                                     " see hpcgfmd.theory.persson_brener")
         attrs["finished"] = False
+        attrs["steps_complete"] = 0  # entries of /series fully written (readers truncate to it)
         series = self.file.create_group("series")
         for name in SERIES:
             dtype = "i8" if name in _INT_SERIES else "f8"
@@ -74,9 +78,14 @@ class CaseFile:
         n = x.shape[0]
         snaps.create_dataset("x", data=x * case.units.length)
         snaps.create_dataset("time", shape=(0,), maxshape=(None,), dtype="f8", chunks=(64,))
+        meaning = {"surface": "displacement u, upward positive (length)",
+                   "pressure": "traction on the substrate, attractive positive (stress)",
+                   "gap": "g = h + u_z - u (length)"}
         for name in ("surface", "pressure", "gap"):
-            snaps.create_dataset(name, shape=(0, n), maxshape=(None, n), dtype="f8",
-                                 chunks=(1, n))
+            ds = snaps.create_dataset(name, shape=(0, n), maxshape=(None, n), dtype="f8",
+                                      chunks=(1, n))
+            ds.attrs["meaning"] = meaning[name]
+        snaps.attrs["complete"] = 0
         self.file.flush()
 
     def append_step(self, values: dict):
@@ -87,6 +96,7 @@ class CaseFile:
             i = ds.shape[0]
             ds.resize((i + 1,))
             ds[i] = values[name] * self._scale[SERIES_UNITS[name]]
+        self.file.attrs["steps_complete"] = i + 1  # after every dataset holds the step
         self.file.flush()
 
     def add_snapshot(self, time, surface, pressure, gap):
@@ -100,6 +110,7 @@ class CaseFile:
                                    ("gap", gap, self.units.length)):
             snaps[name].resize((i + 1, surface.shape[0]))
             snaps[name][i] = field * scale
+        snaps.attrs["complete"] = i + 1
         self.file.flush()
 
     def finish(self, summary: dict):

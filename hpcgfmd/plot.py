@@ -17,6 +17,8 @@ def plot_case(path, output):
     k = s.attrs["k"]
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
     x, y = s.scaled_curve()
+    if x.size == 0:
+        raise ValueError(f"{path}: no step with contact to plot")
     ax1.plot(x, y, "C0.-", ms=2, lw=1, label=f"hpcgfmd, V_z = {s.attrs['Vz']:g}")
     xs = np.linspace(min(x.min(), -2 * np.sqrt(2 * np.pi / k)), max(x.max(), 1.0), 50)
     ax1.plot(xs, xs + np.sqrt(2 * np.pi), "k:", label="JKR relaxed (dgamma0)")

@@ -3,12 +3,15 @@ from __future__ import annotations
 
 import time
 
-from .config import TARGET_ZONE_POINTS, Case
+from .config import TARGET_ZONE_POINTS, Case, CaseError
 from .driver import Progress, Retraction
 from .output import CaseFile
 
 # The indenter must have left the surface long before it is one radius above it.
 MAX_INDENTER_HEIGHT = 1.0
+# After the preload the cohesive zone must stay within a quarter of the cell: beyond that the
+# periodic images change the load by more than about 10 % (physics.md numerical notes).
+MAX_ZONE_PER_CELL = 0.25
 
 
 class SnapshotSchedule:
@@ -49,18 +52,26 @@ def describe(case: Case) -> str:
     return "\n".join(lines)
 
 
-def run_case(case: Case, path, printer=print) -> dict:
+def run_case(case: Case, path, printer=print, overwrite=False) -> dict:
     """Run the whole retraction of ``case`` into a new HDF5 file at ``path``.
 
-    Returns the summary stored in the file (steps, iterations, wall time, detachment).
+    The preload is solved before the file is created: a contact too large for the cell is
+    reported as a :class:`CaseError` with no file touched. ``overwrite`` replaces an existing
+    file (only once the preload succeeded). Returns the summary stored in the file.
     """
     start = time.monotonic()
     sim = Retraction(case)
-    out = CaseFile(path, case, sim.x)
+    record = sim.preload()
+    if record.cohesive_half_width > MAX_ZONE_PER_CELL * case.cell:
+        need = record.cohesive_half_width / MAX_ZONE_PER_CELL
+        raise CaseError(f"{case.cell_key()} = {case.cell * case.units.length:g}: too small for"
+                        f" the contact; after the preload the cohesive zone reaches a_a ="
+                        f" {record.cohesive_half_width * case.units.length:.4g}, more than"
+                        f" {MAX_ZONE_PER_CELL:g} L; need L >= {need * case.units.length:.4g}")
+    out = CaseFile(path, case, sim.x, overwrite=overwrite)
     try:
         schedule = SnapshotSchedule(case.output)
         progress = Progress(case.output.progress_interval, printer)
-        record = sim.preload()
         out.append_step(record.as_dict())
         out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
         schedule.due(record)
@@ -75,6 +86,10 @@ def run_case(case: Case, path, printer=print) -> dict:
         out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
         summary = {"steps": sim.step_index, "iterations": sim.total_iterations,
                    "fft_pairs": sim.fft.pairs, "wall_time": time.monotonic() - start,
+                   "projections": sim.solver.projections,
+                   "uphill_projections": sim.solver.uphill_projections,
+                   "cut_steps": sim.solver.cut_steps,
+                   "rejected_predictions": sim.rejected_predictions,
                    "detachment_indenter": sim.indenter * case.units.length,
                    "detachment_time": sim.time * case.units.time}
         out.finish(summary)

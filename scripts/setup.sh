@@ -8,7 +8,7 @@ repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 venv="${HPCGFMD_VENV:-$repo/.venv}"
 python="${PYTHON:-python3}"
 
-apt_packages=(openmpi-bin libopenmpi-dev libhdf5-openmpi-dev pkg-config python3-venv)
+apt_packages=(openmpi-bin libopenmpi-dev libhdf5-openmpi-dev pkg-config python3-venv python3-dev gcc)
 missing=()
 for p in "${apt_packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

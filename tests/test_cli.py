@@ -8,6 +8,7 @@ import h5py
 import numpy as np
 import pytest
 
+from hpcgfmd.analysis import read_series
 from hpcgfmd.config import TARGET_ZONE_POINTS, parse_case
 
 GOOD = {"maugis": "1.0", "modulus_ratio": "1.0", "velocity": "1.0", "depth": "0.03",
@@ -37,6 +38,13 @@ BAD = [
      ["nx", "64", "w/dx", "at least", "nx >= "]),
     ("nx odd", case_text(numerics="nx = 1001"), ["nx", "1001", "even integer"]),
     ("tolerance", case_text(numerics="nx = 1024\ntolerance = 0.5"), ["tolerance", "0.5"]),
+    ("tolerance floor", case_text(numerics="nx = 1024\ntolerance = 1e-20"), ["tolerance", "1e-20"]),
+    ("nx memory", case_text(numerics="nx = 1099511627776"), ["nx", "1099511627776", "GiB"]),
+    ("not a table", "output = 3\n" + case_text(), ["output = 3", "section"]),
+    # passes the static check (L >= 6 sqrt(2 R h0)) but the adhesive contact found by the
+    # preload is wider than L/4
+    ("cell after preload", case_text(maugis="1.0", adhesion="1e-2", depth="0.005",
+                                     cell="0.61"), ["cell", "0.61", "after the preload"]),
     ("both forms", case_text() + "[physical]\nradius = 1.0\n", ["exactly one of"]),
     ("unknown section", case_text() + "[solver]\nx = 1\n", ["[solver]", "unknown section"]),
     ("not toml", "[case\nmaugis = ", ["not valid TOML"]),
@@ -62,6 +70,20 @@ def test_bad_input_one_line_status_2_nothing_touched(tmp_path, name, text, words
         assert word in lines[0], (word, lines[0])
     assert existing.read_bytes() == b"previous results"
     assert existing.stat().st_mtime_ns == before
+
+
+def test_output_path_that_is_a_directory(tmp_path):
+    (tmp_path / "case.toml").write_text(case_text())
+    (tmp_path / "out").mkdir()
+    res = hpcgfmd("run", "case.toml", "-o", "out", "--overwrite", cwd=tmp_path)
+    assert res.returncode == 2 and "directory" in res.stderr and "Traceback" not in res.stderr
+
+
+def test_non_convergence_is_one_line_status_1_and_keeps_the_file(tmp_path):
+    (tmp_path / "case.toml").write_text(case_text(numerics="nx = 1024\nmax_iterations = 2"))
+    res = hpcgfmd("run", "case.toml", cwd=tmp_path)
+    assert res.returncode == 1
+    assert len(res.stderr.strip().splitlines()) == 1 and "NonConvergenceError" in res.stderr
 
 
 def test_existing_output_is_refused(tmp_path):
@@ -159,8 +181,9 @@ def test_killed_run_leaves_a_readable_file(tmp_path):
         proc.kill()
     with h5py.File(tmp_path / "case.h5", "r") as f:
         assert not f.attrs["finished"]
-        n = f["series/time"].shape[0]
+        n = int(f.attrs["steps_complete"])
         assert n >= 10
         for name in ("load", "indenter", "contact_half_width", "iterations"):
-            assert f["series"][name].shape[0] in (n, n - 1)  # killed between two appends
-        assert np.all(np.diff(f["series/time"][: n - 1]) > 0)
+            assert f["series"][name].shape[0] in (n, n + 1)  # killed between two appends
+    s = read_series(tmp_path / "case.h5")  # truncates to the complete steps
+    assert s.time.size == n and np.all(np.diff(s.time) > 0) and np.all(s.iterations > 0)

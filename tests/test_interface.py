@@ -46,3 +46,11 @@ def test_edge_interpolation_of_a_three_halves_gap():
     assert right == pytest.approx(a, abs=1e-12)
     assert left == pytest.approx(-a, abs=1e-12)
     assert np.all(np.isnan(edge_positions(x, gap + 1.0, 0.0, 1.5)))  # no contact at all
+
+
+def test_edge_interpolation_of_a_linear_crossing():
+    x = (np.arange(200) - 100) * 0.01
+    gap = 0.5 + 3.0 * np.abs(x)  # crosses 1.2 at |x| = 0.2333...
+    left, right = edge_positions(x, gap, 1.2, 1.0)
+    assert right == pytest.approx(0.7 / 3.0, abs=1e-12)
+    assert left == pytest.approx(-0.7 / 3.0, abs=1e-12)
