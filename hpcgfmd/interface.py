@@ -50,8 +50,8 @@ class DugdaleMaugis:
             Nodal gaps g >= 0 (length units), periodic.
         out : ndarray, optional
             Output buffer, shape (n,).
-        work : ndarray, optional
-            Scratch buffer of shape (4, n) reused between calls (no allocation).
+        work : ndarray of bool, optional
+            Scratch buffer of shape (3, n) reused between calls.
         """
         n = gap.shape[0]
         if out is None:
@@ -60,33 +60,28 @@ class DugdaleMaugis:
             out[:] = 0.0
             return out
         if work is None:
-            work = np.empty((4, n))
-        ramp, delta, d_a, d_b = work
-        np.subtract(self.dmax, gap, out=ramp)
-        np.maximum(ramp, 0.0, out=ramp)
-        # Elements fully inside (trapezoid) contribute -1/2 to each end; fully outside 0.
-        inside = ramp > 0.0
-        np.multiply(inside, -0.5, out=d_a)
-        d_b[:-1] = d_a[1:]
-        d_b[-1] = d_a[0]
-        both = inside.copy()
-        both[:-1] &= inside[1:]
-        both[-1] &= inside[0]
-        d_a *= both
-        d_b *= both
-        # Straddling elements (one end in the zone, the other beyond dmax): exact formula.
-        straddle = np.flatnonzero(inside != np.roll(inside, -1))
-        if straddle.size:
-            nxt = (straddle + 1) % n
-            ra, rb = ramp[straddle], ramp[nxt]
-            dg = gap[nxt] - gap[straddle]  # nonzero: one gap < dmax <= the other
+            work = np.empty((3, n), dtype=bool)
+        inside, both, straddle = work
+        np.less(gap, self.dmax, out=inside)  # node in the zone: ramp > 0
+        # Elements with both ends inside (trapezoid rule) give sigma_a / 2 to each end.
+        np.logical_and(inside[:-1], inside[1:], out=both[:-1])
+        both[-1] = inside[-1] and inside[0]
+        np.add(both[1:], both[:-1], out=out[1:], dtype=np.float64)  # bool + bool would be OR
+        out[0] = float(both[0]) + float(both[-1])
+        out *= 0.5 * self.sigma_a
+        # Elements with one end in the zone and the other beyond dmax: exact formula,
+        # t_a = -sigma_a dM/dg_a, t_b = -sigma_a dM/dg_b with M = (r_a^2 - r_b^2) / (2 dg).
+        np.not_equal(inside[:-1], inside[1:], out=straddle[:-1])
+        straddle[-1] = inside[-1] != inside[0]
+        first = np.flatnonzero(straddle)
+        if first.size:
+            second = (first + 1) % n
+            ga, gb = gap[first], gap[second]
+            ra, rb = np.maximum(self.dmax - ga, 0.0), np.maximum(self.dmax - gb, 0.0)
+            dg = gb - ga  # nonzero: one gap < dmax <= the other
             mean = (ra * ra - rb * rb) / (2.0 * dg)
-            d_a[straddle] = (mean - ra) / dg
-            d_b[straddle] = (rb - mean) / dg
-        # t_i = -sigma_a (d_a[i] + d_b[i-1])
-        np.add(d_a[1:], d_b[:-1], out=out[1:])
-        out[0] = d_a[0] + d_b[-1]
-        out *= -self.sigma_a
+            np.add.at(out, first, -self.sigma_a * (mean - ra) / dg)
+            np.add.at(out, second, -self.sigma_a * (rb - mean) / dg)
         return out
 
     def energy(self, gap, dx):

@@ -117,7 +117,13 @@ class ConstrainedCG:
         self._z_old = np.zeros(n)
         self._d = np.zeros(n)
         self._trial = np.empty(n)
-        self._work = np.empty((4, n))
+        self._work = np.empty((3, n), dtype=bool)
+        self._free = np.empty(n, dtype=bool)
+        self._free_previous = np.empty(n, dtype=bool)
+        self._pressed = np.empty(n, dtype=bool)
+        self._on_wall = np.empty(n, dtype=bool)
+        self._free_weight = np.empty(n)
+        self._scratch = np.empty(n)
         self._projected = np.empty(n)
         self._k_projected = np.empty(n)
         self._gap_energy = np.empty(n)
@@ -150,7 +156,7 @@ class ConstrainedCG:
         u[:] = self._trial
         fft.apply_diagonal(u, ops.stiffness, k_u)
         restart = True
-        previous_free = None
+        first_pass = True
         rz_old = 1.0
         residual = np.inf
         mu = 0.0
@@ -166,30 +172,35 @@ class ConstrainedCG:
             # Active set: nodes on the wall pushed into it once the uniform traction mu (the
             # multiplier of zero mean displacement) is removed; mu depends on the set, so
             # iterate the pair to a fixed point (2-3 passes).
-            on_wall = gap <= 0.0
+            on_wall, pressed, free, weight = self._on_wall, self._pressed, self._free, self._free_weight
+            np.less_equal(gap, 0.0, out=on_wall)
             for _ in range(10):
-                free = ~(on_wall & (r > mu))
+                np.greater(r, mu, out=pressed)
+                pressed &= on_wall
+                np.logical_not(pressed, out=free)
                 n_free = int(np.count_nonzero(free))
-                mu_new = float(r[free].sum()) / n_free
+                np.copyto(weight, free)
+                mu_new = float(r @ weight) / n_free
                 if mu_new == mu:
                     break
                 mu = mu_new
             r -= mu
-            r *= free
-            residual = float(np.abs(r).max()) / self.traction_scale
+            r *= weight
+            residual = float(np.abs(r, out=self._scratch).max()) / self.traction_scale
             if residual <= self.tolerance or iteration >= self.max_iterations:
                 break
             # Restart CG when nodes join the active set (the search space shrinks). Nodes that
             # leave it only enlarge the space: the old direction stays admissible (zero on
             # the released nodes), so conjugacy is kept, which matters when the contact edge
             # recedes by several nodes per step.
-            if previous_free is None or np.any(previous_free & ~free):
+            if first_pass or np.logical_and(self._free_previous, pressed, out=pressed).any():
                 restart = True
-            previous_free = free
+            first_pass = False
+            self._free_previous[:] = free
             # Preconditioned residual, projected on the free nodes with zero mean.
             fft.apply_diagonal(r, ops.compliance, z)
-            z -= float(z[free].sum()) / n_free
-            z *= free
+            z -= float(z @ weight) / n_free
+            z *= weight
             rz = float(r @ z)
             if restart:
                 d[:] = z
@@ -205,12 +216,12 @@ class ConstrainedCG:
             alpha = rd / float(d @ k_d)  # minimiser of the quadratic upper bound
             np.multiply(d, alpha, out=self._trial)
             self._trial += u
-            if not np.any(self._trial > wall):
+            if not self._reaches_wall(wall):
                 if law.sigma_a > 0.0:
                     secant = self._secant_step(u, wall, d, k_d, history, applied, alpha, rd)
                     np.multiply(d, secant, out=self._trial)
                     self._trial += u
-                    if np.any(self._trial > wall):  # the longer step would reach the wall
+                    if self._reaches_wall(wall):  # the longer step would reach the wall
                         np.multiply(d, alpha, out=self._trial)
                         self._trial += u
                     else:
@@ -228,6 +239,9 @@ class ConstrainedCG:
             iteration += 1
         return SolveResult(iterations=iteration, residual=residual,
                            converged=residual <= self.tolerance, mean_traction=mu)
+
+    def _reaches_wall(self, wall):
+        return bool(np.greater(self._trial, wall, out=self._pressed).any())
 
     def _constrained_step(self, u, wall, d, k_d, alpha, ops, history, applied):
         """A step u + alpha d that reaches the wall, taken so that the energy decreases.
