@@ -83,6 +83,9 @@ class Retraction:
         self.step_index = 0
         self.total_iterations = 0
         self.rejected_predictions = 0
+        self.predictor_choice = [0, 0]  # steps started from (linear, moving-edge) guesses
+        self._edges = (np.nan, np.nan)  # contact edges of the last step
+        self._edges_previous = None
 
     # --- one equilibrium -------------------------------------------------------------
     def _equilibrate(self, ops, dt):
@@ -105,6 +108,7 @@ class Retraction:
     def _record(self, result, dt):
         gap = self.wall - self.u
         left, right = edge_positions(self.x, gap, 0.0, 1.5)
+        self._edges_previous, self._edges = self._edges, (left, right)
         zl, zr = edge_positions(self.x, gap, self.case.dmax, 1.0)
         return StepRecord(time=self.time, indenter=self.indenter,
                           load=-float(self.traction.sum()) * self.dx,
@@ -131,28 +135,51 @@ class Retraction:
         return self._equilibrate(ops, dt)
 
     def _predict(self, rise, contact, ops):
-        """Start the step from u_n + (u_n - u_{n-1}) when that is not uphill of u_n.
+        """Start the step from the lowest-energy of three feasible guesses.
 
-        Linear extrapolation in time; the wall moves rigidly, so the contact nodes of step n
-        are put exactly on the new wall (extrapolation lands there only to round-off, and a
-        gap of 1e-18 would free the whole patch). The path is defined by descent from the
-        previous equilibrium u_n (feasible for the new step, the wall having risen), so the
-        prediction is used only if its energy is not above that of u_n. After the preload,
-        u_{n-1} is taken as u_n with the contact lowered by the wall's rise.
+        The path is defined by descent from the previous equilibrium u_n (feasible for the
+        new step, the wall having risen); a guess replaces it only if its energy is lower:
+        - linear extrapolation u_n + (u_n - u_{n-1}), with the contact nodes of step n put
+          exactly on the new wall (extrapolation lands there only to round-off, and a gap of
+          1e-18 would free the whole patch);
+        - the same with the gap profile around each contact edge translated by the edge's
+          last displacement (a peeling edge moves with its shape), which frees the nodes the
+          edge will pass instead of leaving CG to unzip them one by one.
+        After the preload, u_{n-1} is taken as u_n with the contact lowered by the rise.
         """
+        gap_before = self.wall - self.u
         np.add(self.profile, self.indenter, out=self.wall)
         if self.u_previous is None:
             self.u_previous = self.u - rise * contact
-        guess = 2.0 * self.u - self.u_previous
-        np.copyto(guess, self.wall, where=contact)
-        guess = project_feasible(guess, self.wall, np.empty(self.n))
+        linear = 2.0 * self.u - self.u_previous
+        np.copyto(linear, self.wall, where=contact)
+        candidates = [project_feasible(linear, self.wall, np.empty(self.n))]
+        moving = self._moving_edges(linear, gap_before)
+        if moving is not None:
+            candidates.append(project_feasible(moving, self.wall, np.empty(self.n)))
         self.u_previous[:] = self.u
-        solver = self.solver
-        if solver.energy(guess, self.wall, ops, self.history) <= solver.energy(
-                self.u, self.wall, ops, self.history):
-            self.u[:] = guess
+        energies = [self.solver.energy(c, self.wall, ops, self.history) for c in candidates]
+        best = int(np.argmin(energies))
+        if energies[best] <= self.solver.energy(self.u, self.wall, ops, self.history):
+            self.u[:] = candidates[best]
+            self.predictor_choice[best] += 1
         else:
             self.rejected_predictions += 1
+
+    def _moving_edges(self, linear, gap_before):
+        """Guess with the gap near each contact edge translated by the edge's last motion."""
+        if self._edges_previous is None or not np.all(np.isfinite(self._edges)):
+            return None
+        window = 4.0 * self.case.zone_width / self.case.k  # widest cohesive zone (Einf)
+        gap = self.wall - linear
+        for edge, previous in zip(self._edges, self._edges_previous):
+            shift = edge - previous
+            if not np.isfinite(shift) or shift == 0.0:
+                continue
+            near = np.abs(self.x - edge) < window + abs(shift)
+            gap[near] = np.interp(self.x[near] - shift, self.x, gap_before)
+        np.maximum(gap, 0.0, out=gap)
+        return self.wall - gap
 
     def detached(self) -> bool:
         """True when no node is within the interaction range (complete detachment)."""

@@ -87,7 +87,7 @@ def run_case(case: Case, path, printer=print, overwrite=False) -> dict:
         summary = {"steps": sim.step_index, "iterations": sim.total_iterations,
                    "fft_pairs": sim.fft.pairs, "wall_time": time.monotonic() - start,
                    "projections": sim.solver.projections,
-                   "uphill_projections": sim.solver.uphill_projections,
+                   "residual_steps": sim.solver.residual_steps,
                    "cut_steps": sim.solver.cut_steps,
                    "rejected_predictions": sim.rejected_predictions,
                    "detachment_indenter": sim.indenter * case.units.length,

@@ -19,10 +19,10 @@ max(dmax - g, 0) over each element, times -sigma_a), so the quadratic model buil
 the linearised adhesion is an upper bound of E: every step of length in (0, 2 alpha*) along a
 CG direction, alpha* the bound's minimiser, lowers E. Steps that would cross the wall are
 either projected (accepted only if E drops) or cut at the first contact (inside that
-interval). The iteration therefore goes downhill from its start, the previous step's
-equilibrium or an extrapolation with no higher energy, and ends in the local minimum of that
-basin, the physical branch. The one exception, counted in ``uphill_projections``: a direction
-that already presses on the wall at zero step length leaves only the projection.
+interval; when the CG direction presses on a node already on the wall, the step is taken
+along the projected residual instead, whose first contact is at a positive length). Every
+iteration lowers E: the solver goes downhill from its start, the previous step's equilibrium
+or a guess of lower energy, and ends in the local minimum of that basin, the physical branch.
 
 Cost per iteration: two FFT pairs (preconditioner and K d), three when a step touches the
 wall; K u is updated incrementally. Serial, full real-space arrays (no MPI here).
@@ -121,17 +121,18 @@ class ConstrainedCG:
         self._free = np.empty(n, dtype=bool)
         self._free_previous = np.empty(n, dtype=bool)
         self._pressed = np.empty(n, dtype=bool)
+        self._held = np.empty(n, dtype=bool)
         self._on_wall = np.empty(n, dtype=bool)
         self._free_weight = np.empty(n)
         self._scratch = np.empty(n)
         self._projected = np.empty(n)
         self._k_projected = np.empty(n)
         self._gap_energy = np.empty(n)
-        # Statistics: projections accepted (and how many of them raised the energy, only when
-        # no descent step along d was possible), steps cut at the first wall contact.
+        # Statistics: projections accepted (each lowered the energy), steps cut at the first
+        # wall contact.
         self.projections = 0
-        self.uphill_projections = 0
         self.cut_steps = 0
+        self.residual_steps = 0  # cut steps along the residual (d pressed on the wall)
 
     def solve(self, u, wall, ops: StepOperators, history, applied=None) -> SolveResult:
         """Relax ``u`` in place to the equilibrium of the step (see module docstring).
@@ -157,6 +158,8 @@ class ConstrainedCG:
         fft.apply_diagonal(u, ops.stiffness, k_u)
         restart = True
         first_pass = True
+        # Gaps within round-off of the wall count as contact (left by sums of steps).
+        on_wall_tolerance = 1e-14 * float(np.abs(wall).max())
         rz_old = 1.0
         residual = np.inf
         mu = 0.0
@@ -173,7 +176,7 @@ class ConstrainedCG:
             # multiplier of zero mean displacement) is removed; mu depends on the set, so
             # iterate the pair to a fixed point (2-3 passes).
             on_wall, pressed, free, weight = self._on_wall, self._pressed, self._free, self._free_weight
-            np.less_equal(gap, 0.0, out=on_wall)
+            np.less_equal(gap, on_wall_tolerance, out=on_wall)
             for _ in range(10):
                 np.greater(r, mu, out=pressed)
                 pressed &= on_wall
@@ -212,6 +215,27 @@ class ConstrainedCG:
             if rd <= 0.0:  # not a descent direction any more: steepest (preconditioned) descent
                 d[:] = z
                 rd = rz
+            # Nodes on the wall that the (smoothed) direction pushes into it cannot move: hold
+            # them this iteration and keep the zero mean on the others (projected direction).
+            np.greater(d, 0.0, out=pressed)
+            pressed &= on_wall
+            if pressed.any():
+                held = self._held
+                held[:] = False
+                while pressed.any():  # removing the mean can push another node in
+                    held |= pressed
+                    np.logical_not(held, out=pressed)
+                    pressed &= free
+                    np.copyto(self._scratch, pressed)
+                    d -= float(d @ self._scratch) / int(np.count_nonzero(pressed))
+                    d *= self._scratch
+                    np.greater(d, 0.0, out=pressed)
+                    pressed &= on_wall
+                rd = float(r @ d)
+                if rd <= 0.0:  # the projected residual lifts on-wall nodes off: descent
+                    d[:] = r
+                    rd = float(r @ r)
+                restart = True
             fft.apply_diagonal(d, ops.stiffness, k_d)
             alpha = rd / float(d @ k_d)  # minimiser of the quadratic upper bound
             np.multiply(d, alpha, out=self._trial)
@@ -237,6 +261,11 @@ class ConstrainedCG:
             z_old[:] = z
             rz_old = rz
             iteration += 1
+        # Put the nodes counted as contact exactly on the wall, so that every later use of
+        # the state (reaction, load, contact width, predictor) sees the same contact set.
+        np.less_equal(gap, on_wall_tolerance, out=on_wall)
+        np.copyto(u, wall, where=on_wall)
+        fft.apply_diagonal(u, ops.stiffness, k_u)
         return SolveResult(iterations=iteration, residual=residual,
                            converged=residual <= self.tolerance, mean_traction=mu)
 
@@ -246,33 +275,48 @@ class ConstrainedCG:
     def _constrained_step(self, u, wall, d, k_d, alpha, ops, history, applied):
         """A step u + alpha d that reaches the wall, taken so that the energy decreases.
 
-        First choice: the Euclidean projection (zero mean, gap >= 0), which sets many nodes
-        on the wall at once, accepted only if it lowers the energy. Otherwise the step is cut
+        First choice: the Euclidean projection (zero mean, gap >= 0) of u + a d, which sets
+        many nodes on the wall at once, accepted for the first a in alpha, alpha/2, alpha/4,
+        alpha/8 that lowers the energy (projected backtracking). Otherwise the step is cut
         where the first node touches the wall: that length lies inside (0, alpha], where the
-        quadratic upper bound guarantees descent. Both restart CG.
+        quadratic upper bound guarantees descent. All of them restart CG.
         """
         energy = self.energy_with(u, self._k_u, wall, history, applied)
-        project_feasible(self._trial, wall, self._projected)
-        self.fft.apply_diagonal(self._projected, ops.stiffness, self._k_projected)
-        projected_energy = self.energy_with(self._projected, self._k_projected, wall, history,
-                                            applied)
-        # Step length to the first contact along d.
-        rising = d > 0.0
-        room = (wall[rising] - u[rising]) / d[rising]
-        cut = float(room.min()) if room.size else alpha
-        if projected_energy < energy or cut <= 1e-3 * alpha:
-            # (a direction already pressing on the wall, cut ~ 0, leaves only the projection)
-            u[:] = self._projected
-            self._k_u[:] = self._k_projected
-            self.projections += 1
-            if projected_energy >= energy:
-                self.uphill_projections += 1
-            return
+        for halving in range(4):  # projected backtracking along the arc P(u + a d)
+            step = alpha * 0.5**halving
+            np.multiply(d, step, out=self._trial)
+            self._trial += u
+            project_feasible(self._trial, wall, self._projected)
+            self.fft.apply_diagonal(self._projected, ops.stiffness, self._k_projected)
+            if self.energy_with(self._projected, self._k_projected, wall, history,
+                                applied) < energy:
+                u[:] = self._projected
+                self._k_u[:] = self._k_projected
+                self.projections += 1
+                return
+        cut = self._first_contact(u, wall, d)
+        if cut <= 0.0:
+            # d presses on a node already on the wall (held nodes are excluded from d, so only
+            # round-off gets here). The projected residual r moves every free node along its
+            # own force, so on-wall nodes move away and its first contact is at a positive
+            # length: a descent step.
+            d[:] = self._residual
+            self.fft.apply_diagonal(d, ops.stiffness, k_d)
+            alpha = float(self._residual @ d) / float(d @ k_d)
+            cut = min(alpha, self._first_contact(u, wall, d))
+            self.residual_steps += 1
         u += cut * d
         np.minimum(u, wall, out=u)  # the touching node lands on the wall exactly
         k_d *= cut
         self._k_u += k_d
         self.cut_steps += 1
+
+    @staticmethod
+    def _first_contact(u, wall, d):
+        """Largest step length along d before a node reaches the wall."""
+        rising = d > 0.0
+        room = (wall[rising] - u[rising]) / d[rising]
+        return float(room.min()) if room.size else np.inf
 
     def energy(self, u, wall, ops, history, applied=None):
         """Energy of the step per unit length, divided by dx (collective-free, one FFT pair).

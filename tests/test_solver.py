@@ -62,3 +62,45 @@ def test_iterations_do_not_grow_like_sqrt_n(grid_factory):
     its = [hertz(grid_factory(n, 4.0), 0.04)[2] for n in sizes]
     slope = np.polyfit(np.log(sizes), np.log(its), 1)[0]
     assert slope < 0.3, (its, slope)
+
+
+@pytest.mark.parametrize("k, velocity", [(1.0, 1.0), (0.1, 9.0)])
+def test_every_iteration_lowers_the_energy(k, velocity):
+    # Path following rests on monotone descent from the start of each step (module
+    # docstring of hpcgfmd.solver). The solve is deterministic, so the state after m
+    # iterations is a prefix of the state after m + 1: compare energies along the sequence,
+    # through the preload from flat (many wall contacts) and a retraction step.
+    from hpcgfmd.config import parse_case
+    from hpcgfmd.driver import Retraction
+
+    case = parse_case(f"[case]\nmaugis = 3.5\nmodulus_ratio = {k}\nvelocity = {velocity}\n"
+                      "depth = 0.03\ncell = 2.0\nadhesion = 1e-4\n[numerics]\nnx = 2048\n")
+    sim = Retraction(case)
+    solver = sim.solver
+    np.add(sim.profile, sim.indenter, out=sim.wall)
+    ops = sim.substrate.operators(math.inf)
+    start = np.zeros(sim.n)
+    checked = 0
+    for phase in ("preload", "retraction"):
+        energies = []
+        for m in range(0, 60):
+            u = start.copy()
+            solver.max_iterations, solver.tolerance = m, 0.0
+            solver.solve(u, sim.wall, ops, sim.history)
+            energies.append(solver.energy(u, sim.wall, ops, sim.history))
+        rises = np.diff(energies)
+        scale = np.abs(energies).max()
+        assert np.all(rises <= 1e-12 * scale), (phase, rises.max() / scale)
+        checked += len(rises)
+        # next: a retraction step of the real protocol, 20 steps in
+        solver.max_iterations, solver.tolerance = 5000, case.numerics.tolerance
+        sim.preload()
+        for _ in range(20):
+            sim.step()
+        start = sim.u.copy()
+        dt = case.numerics.dt
+        sim.substrate.history(sim.fft, sim.u, sim.substrate_traction, dt, sim.history)
+        sim.indenter += case.velocity * dt
+        np.add(sim.profile, sim.indenter, out=sim.wall)
+        ops = sim.substrate.operators(dt)
+    assert checked == 118
