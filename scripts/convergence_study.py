@@ -18,6 +18,7 @@ import time
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):  # one BLAS thread, as the CLI
     os.environ.setdefault(_var, "1")
 
+from hpcgfmd import config  # noqa: E402
 from hpcgfmd.analysis import read_series  # noqa: E402
 from hpcgfmd.config import DEFAULT_STEP_PER_RANGE, parse_case  # noqa: E402
 from hpcgfmd.runner import run_case  # noqa: E402
@@ -39,7 +40,11 @@ def main():
     parser.add_argument("--dt-nx", type=int, default=None,
                         help="grid of the dt runs (default: the largest --nx)")
     parser.add_argument("--out", default="convergence.csv")
+    parser.add_argument("--min-zone-points", type=float, default=None,
+                        help="accept grids below hpcgfmd's w/dx minimum (study only)")
     args = parser.parse_args()
+    if args.min_zone_points is not None:
+        config.MIN_ZONE_POINTS = args.min_zone_points
     fields = ["lambda0", "Vz", "nx", "dt_factor", "zone_points", "steps", "iterations",
               "wall_time", "pulloff_lbar", "pulloff_abar", "detachment_indenter"]
     new = not os.path.exists(args.out)
