@@ -34,7 +34,8 @@ def case_text(lam, vz, nx, dt_factor, depth=0.1):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--case", action="append", required=True, help="lambda0:V_z")
-    parser.add_argument("--nx", type=int, nargs="+", required=True)
+    parser.add_argument("--nx", type=int, nargs="*", default=[],
+                        help="grids run at the default dt (may be empty)")
     parser.add_argument("--dt-factors", type=float, nargs="+", default=[1.0],
                         help="multiples of the default dt")
     parser.add_argument("--dt-nx", type=int, default=None,
@@ -43,6 +44,8 @@ def main():
     parser.add_argument("--min-zone-points", type=float, default=None,
                         help="accept grids below hpcgfmd's w/dx minimum (study only)")
     args = parser.parse_args()
+    if not args.nx and args.dt_nx is None:
+        parser.error("give --nx or --dt-nx")
     if args.min_zone_points is not None:
         config.MIN_ZONE_POINTS = args.min_zone_points
     fields = ["lambda0", "Vz", "nx", "dt_factor", "zone_points", "steps", "iterations",
