@@ -24,8 +24,9 @@ along the projected residual instead, whose first contact is at a positive lengt
 iteration lowers E: the solver goes downhill from its start, the previous step's equilibrium
 or a guess of lower energy, and ends in the local minimum of that basin, the physical branch.
 
-Cost per iteration: two FFT pairs (preconditioner and K d), three when a step touches the
-wall; K u is updated incrementally. Serial, full real-space arrays (no MPI here).
+Cost per iteration: two FFT pairs (preconditioner and K d); one more when the direction is
+projected off the wall, one per backtracking trial when a step reaches it. K u is updated
+incrementally. Serial, full real-space arrays (no MPI here).
 """
 from __future__ import annotations
 
