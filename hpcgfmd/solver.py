@@ -227,8 +227,12 @@ class ConstrainedCG:
                     held |= pressed
                     np.logical_not(held, out=pressed)
                     pressed &= free
+                    n_keep = int(np.count_nonzero(pressed))
+                    if n_keep == 0:  # every free node held: fall back to the residual below
+                        d[:] = 0.0
+                        break
                     np.copyto(self._scratch, pressed)
-                    d -= float(d @ self._scratch) / int(np.count_nonzero(pressed))
+                    d -= float(d @ self._scratch) / n_keep
                     d *= self._scratch
                     np.greater(d, 0.0, out=pressed)
                     pressed &= on_wall
