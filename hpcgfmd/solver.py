@@ -115,7 +115,6 @@ class ConstrainedCG:
         self._residual = np.empty(n)
         self._residual_old = np.zeros(n)
         self._z = np.empty(n)
-        self._z_old = np.zeros(n)
         self._d = np.zeros(n)
         self._trial = np.empty(n)
         self._work = np.empty((3, n), dtype=bool)
@@ -153,7 +152,7 @@ class ConstrainedCG:
         """
         fft, law = self.fft, self.law
         k_u, k_d, gap, traction = self._k_u, self._k_d, self._gap, self._traction
-        r, r_old, z, z_old, d = self._residual, self._residual_old, self._z, self._z_old, self._d
+        r, r_old, z, d = self._residual, self._residual_old, self._z, self._d
         project_feasible(u, wall, self._trial)
         u[:] = self._trial
         fft.apply_diagonal(u, ops.stiffness, k_u)
@@ -240,7 +239,6 @@ class ConstrainedCG:
                 if rd <= 0.0:  # the projected residual lifts on-wall nodes off: descent
                     d[:] = r
                     rd = float(r @ r)
-                restart = True
             fft.apply_diagonal(d, ops.stiffness, k_d)
             alpha = rd / float(d @ k_d)  # minimiser of the quadratic upper bound
             np.multiply(d, alpha, out=self._trial)
@@ -263,7 +261,6 @@ class ConstrainedCG:
                 self._constrained_step(u, wall, d, k_d, alpha, ops, history, applied)
                 restart = True
             r_old[:] = r
-            z_old[:] = z
             rz_old = rz
             iteration += 1
         # Put the nodes counted as contact exactly on the wall, so that every later use of
