@@ -33,24 +33,6 @@ class RealFFT:
                                      flags=flags, threads=1)
         self.pairs = 0  # number of forward+backward pairs done, for the statistics
 
-    def forward(self, field, out=None):
-        """Unnormalised rfft of ``field`` (shape (n,)); returns a copy unless ``out`` is given."""
-        self.real[:] = field
-        self._forward.execute()
-        if out is None:
-            return self.spectrum.copy()
-        out[:] = self.spectrum
-        return out
-
-    def backward(self, spectrum, out=None):
-        """Unnormalised irfft (no 1/n) of ``spectrum`` (shape (n//2+1,))."""
-        self.spectrum[:] = spectrum
-        self._backward.execute()
-        if out is None:
-            return self.real.copy()
-        out[:] = self.real
-        return out
-
     def apply_diagonal(self, field, diagonal, out):
         """out = irfft(diagonal * rfft(field)) without the 1/n (fold it into ``diagonal``).
 

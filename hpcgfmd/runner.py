@@ -90,6 +90,7 @@ def run_case(case: Case, path, printer=print, overwrite=False) -> dict:
                    "residual_steps": sim.solver.residual_steps,
                    "cut_steps": sim.solver.cut_steps,
                    "rejected_predictions": sim.rejected_predictions,
+                   "moving_edge_predictions": sim.predictor_choice[1],
                    "detachment_indenter": sim.indenter * case.units.length,
                    "detachment_time": sim.time * case.units.time}
         out.finish(summary)

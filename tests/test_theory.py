@@ -47,3 +47,28 @@ def test_jkr_scaled_form_is_slope_one_line():
 def test_groups():
     assert theory.chi_ve(0.45, 7.0) == pytest.approx(22.05)
     assert theory.cohesive_width(7.0) == pytest.approx(np.pi / 196)
+
+
+@pytest.mark.parametrize("rhodot", [1e-5, 3e-4, 1e-2])
+def test_peel_velocity_convention_against_eq6_in_physical_units(rhodot):
+    # Eq. 6 with Eq. 7 evaluated in the case's own units (relaxation time tau = 1, E0 = 1,
+    # beta = alpha^(1/3), sigma_a = lambda0 beta), independently of the retardation-time
+    # bookkeeping of persson_brener_quadrature.
+    from scipy import integrate
+
+    k, lam, alpha, tau = 0.1, 7.0, 5e-5, 1.0
+    beta = alpha ** (1 / 3)
+    sigma_a = lam * beta
+    c0 = alpha / (np.pi * sigma_a**2)  # dgamma0 E0 / (pi sigma_a^2)
+
+    def im_inverse_modulus(omega):  # E(w) = E0 + (Einf - E0) i w tau / (1 + i w tau)
+        return (1.0 / (1.0 + (1.0 / k - 1.0) * 1j * omega * tau / (1.0 + 1j * omega * tau))).imag
+
+    cbar = 1.0
+    for _ in range(300):
+        omega_c = 2 * np.pi * rhodot / (cbar * c0)
+        val = integrate.quad(lambda w: np.sqrt(1 - w * w) / w * im_inverse_modulus(omega_c * w),
+                             0.0, 1.0, limit=200, epsabs=1e-13)[0]
+        cbar = 1.0 / (1.0 + 2.0 / np.pi * val)
+    vbar = theory.peel_velocity(rhodot, tau, k, lam, beta)
+    assert theory.persson_brener(float(vbar), k) == pytest.approx(cbar, rel=1e-7)
