@@ -1,7 +1,12 @@
-"""Command line: ``python -m hpcgfmd [run|info|plot] ...``.
+"""Command line: ``python -m hpcgfmd [run|info|plot] ...``, on one rank or under mpirun/srun.
 
-Exit status: 0 finished, 2 bad input (one line on stderr, nothing written), 1 failure.
+Exit status: 0 finished, 2 bad input (one line on stderr, nothing written), 1 failure,
+75 stopped by SIGTERM/SIGUSR1 after a checkpoint (resumable: run the same command again).
 With no arguments the embedded default case runs into a new time-stamped file.
+
+Every command is called on all ranks of ``comm`` with the same arguments and takes the same
+decisions on all of them (inputs and files are the same for all; solver decisions come from
+reductions); only rank 0 prints.
 """
 from __future__ import annotations
 
@@ -13,9 +18,9 @@ from importlib import resources
 
 from . import __version__
 from .config import CaseError, load_case, parse_case
-from .driver import NonConvergenceError
+from .driver import CaseFailure
 
-EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
+EXIT_OK, EXIT_FAILURE, EXIT_USAGE, EXIT_RESUMABLE = 0, 1, 2, 75
 
 
 class UsageError(Exception):
@@ -32,42 +37,80 @@ def _check_output_path(path, overwrite):
         raise UsageError(f"-o {path}: file exists; choose another name or pass --overwrite")
 
 
-def _run(case, output, overwrite, dry_run):
-    from .runner import describe, run_case
+def _printer(comm):
+    """print() on rank 0, nothing elsewhere."""
+    if comm.Get_rank() == 0:
+        return lambda *line: print(*line, flush=True)
+    return lambda *line: None
 
-    print(describe(case), flush=True)
+
+def _resume_wanted(case, output, restart, overwrite):
+    """Whether to continue from the checkpoint next to ``output`` (checked, same case)."""
+    from .checkpoint import checkpoint_path
+    from .runner import checkpoint_case_identity
+
+    checkpoint = checkpoint_path(output)
+    have_output, have_checkpoint = os.path.exists(output), os.path.exists(checkpoint)
+    if not restart and (overwrite or not (have_output and have_checkpoint)):
+        return False
+    if not have_checkpoint:
+        raise UsageError(f"--restart: no checkpoint {checkpoint} for -o {output}")
+    if not have_output:
+        raise UsageError(f"--restart: checkpoint {checkpoint} exists but its output {output}"
+                         " does not")
+    try:
+        identity = checkpoint_case_identity(checkpoint)
+    except (OSError, KeyError) as err:
+        raise UsageError(f"{checkpoint}: not an hpcgfmd checkpoint ({err})") from None
+    if identity != case.identity():
+        raise UsageError(f"{checkpoint}: checkpoint of a different case (identity {identity},"
+                         f" this case {case.identity()}); choose another -o or remove it")
+    return True
+
+
+def _run(comm, case, output, overwrite, dry_run, restart=False):
+    from .runner import Interrupted, describe, run_case
+
+    say = _printer(comm)
+    say(describe(case))
     if dry_run:
         return EXIT_OK
-    _check_output_path(output, overwrite)
-    print(f"writing {output}", flush=True)
+    resume = _resume_wanted(case, output, restart, overwrite)
+    if not resume:
+        _check_output_path(output, overwrite)
+    say(f"{'resuming' if resume else 'writing'} {output} on {comm.Get_size()} rank(s)")
     try:
-        summary = run_case(case, output, printer=lambda line: print(line, flush=True),
-                           overwrite=overwrite)
+        summary = run_case(case, output, comm, printer=say, overwrite=overwrite, resume=resume)
     except CaseError as err:  # found by the preload, before the file was created
         raise UsageError(str(err)) from None
-    print(f"finished: {summary['steps']} steps, {summary['iterations']} iterations,"
-          f" {summary['wall_time']:.1f} s wall time; results in {output}", flush=True)
+    except Interrupted as err:
+        say(f"hpcgfmd: {err}; run the same command again to continue")
+        return EXIT_RESUMABLE
+    say(f"finished: {summary['steps']} steps, {summary['iterations']} iterations,"
+        f" {summary['wall_time']:.1f} s wall time; results in {output}")
     return EXIT_OK
 
 
-def cmd_run(args):
+def cmd_run(comm, args):
     try:
         case = load_case(args.case)
     except CaseError as err:
         raise UsageError(f"{args.case}: {err}") from None
-    return _run(case, args.output, args.overwrite, args.dry_run)
+    return _run(comm, case, args.output, args.overwrite, args.dry_run, args.restart)
 
 
-def cmd_default(args):
+def cmd_default(comm, args):
     text = resources.files("hpcgfmd").joinpath("default_case.toml").read_text()
     case = parse_case(text)
-    output = time.strftime("hpcgfmd-default-%Y%m%d-%H%M%S.h5")
-    print("running the embedded default case (paper Fig. 5, V_z = 0.45); case file:")
-    print(text.strip())
-    return _run(case, output, False, False)
+    # one name for all ranks: rank 0's clock
+    output = comm.bcast(time.strftime("hpcgfmd-default-%Y%m%d-%H%M%S.h5"), root=0)
+    say = _printer(comm)
+    say("running the embedded default case (paper Fig. 5, V_z = 0.45); case file:")
+    say(text.strip())
+    return _run(comm, case, output, False, False)
 
 
-def cmd_info(args):
+def cmd_info(comm, args):
     from .analysis import read_series
 
     path = args.file
@@ -104,7 +147,7 @@ def cmd_info(args):
     return EXIT_OK
 
 
-def cmd_plot(args):
+def cmd_plot(comm, args):
     if not os.path.isfile(args.file):
         raise UsageError(f"{args.file}: no such file")
     try:
@@ -120,6 +163,16 @@ def cmd_plot(args):
     return EXIT_OK
 
 
+def _serial(func, args):
+    from mpi4py import MPI
+
+    try:
+        return func(MPI.COMM_SELF, args)
+    except UsageError as err:
+        print(f"hpcgfmd: error: {err}", file=sys.stderr)
+        return EXIT_USAGE
+
+
 def build_parser():
     parser = argparse.ArgumentParser(prog="python -m hpcgfmd", description=(
         "GFMD retraction of an adhesive cylinder from a viscoelastic half-space."
@@ -131,6 +184,9 @@ def build_parser():
     run.add_argument("-o", "--output", default=None, help="output HDF5 file (default: case name .h5)")
     run.add_argument("--overwrite", action="store_true", help="replace an existing output file")
     run.add_argument("--dry-run", action="store_true", help="validate and print the groups only")
+    run.add_argument("--restart", action="store_true", help=(
+        "continue from the checkpoint next to the output file (also automatic when both"
+        " exist); any number of ranks"))
     run.set_defaults(func=cmd_run)
     info = sub.add_parser("info", help="summarise a case file's results")
     info.add_argument("file")
@@ -142,18 +198,31 @@ def build_parser():
     return parser
 
 
-def main(argv=None):
-    """Entry point; returns the exit status."""
+def main(comm, argv=None):
+    """Entry point on all ranks of ``comm``; returns the exit status.
+
+    Failures that every rank detects alike (bad input, non-convergence) return 2 or 1 on all
+    ranks; anything else propagates, and with more than one rank the caller aborts the job.
+    """
     args = build_parser().parse_args(argv)
     if getattr(args, "command", None) == "run" and args.output is None:
         args.output = os.path.splitext(args.case)[0] + ".h5"
     func = getattr(args, "func", cmd_default)
+    alike = (CaseFailure, FloatingPointError)
+    if comm.Get_size() == 1:  # one process: any runtime failure is reported the same way
+        alike += (RuntimeError, MemoryError)
     try:
-        return func(args)
+        if func in (cmd_info, cmd_plot) and comm.Get_size() > 1:
+            # serial tools: rank 0 works, the others wait for its status
+            status = _serial(func, args) if comm.Get_rank() == 0 else None
+            return comm.bcast(status, root=0)
+        return func(comm, args)
     except UsageError as err:
-        print(f"hpcgfmd: error: {err}", file=sys.stderr)
+        if comm.Get_rank() == 0:
+            print(f"hpcgfmd: error: {err}", file=sys.stderr)
         return EXIT_USAGE
-    except (NonConvergenceError, FloatingPointError, RuntimeError, MemoryError) as err:
+    except alike as err:
         # the output file keeps every step done so far, marked unfinished
-        print(f"hpcgfmd: failed: {type(err).__name__}: {err}", file=sys.stderr)
+        if comm.Get_rank() == 0:
+            print(f"hpcgfmd: failed: {type(err).__name__}: {err}", file=sys.stderr)
         return EXIT_FAILURE

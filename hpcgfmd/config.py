@@ -11,7 +11,7 @@ Two equivalent forms, exactly one per file (physics.md, "Scales and dimensionles
 
 ``[numerics]`` (optional): nx, dt, tolerance, max_iterations.
 ``[output]`` (optional): snapshot_times, snapshot_contact_widths, snapshot_zero_load,
-progress_interval. Times and lengths there are in the case's units (tau and R with ``[case]``,
+progress_interval, checkpoint_interval (wall seconds), checkpoint_steps. Times and lengths there are in the case's units (tau and R with ``[case]``,
 seconds and metres with ``[physical]``).
 
 Every problem is reported as a :class:`CaseError` naming the key, the value and what is
@@ -19,6 +19,8 @@ accepted; the command line turns it into one line and exit status 2.
 """
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 import os
 import tomllib
@@ -84,6 +86,8 @@ class Output:
     snapshot_contact_widths: tuple = ()
     snapshot_zero_load: bool = False
     progress_interval: float = 10.0
+    checkpoint_interval: float = 600.0  # wall-clock seconds between checkpoints
+    checkpoint_steps: int = 0           # also every this many steps (0: only by wall time)
 
 
 @dataclass(frozen=True)
@@ -162,6 +166,18 @@ class Case:
     def dx(self) -> float:
         return self.cell / self.numerics.nx
 
+    def identity(self) -> str:
+        """Hash of everything that determines the series (groups, units, numerics).
+
+        A checkpoint stores it; a restart with a case of another identity is refused. The
+        ``[output]`` settings are left out: they change what is written, not the solution.
+        """
+        content = {"groups": [self.lambda0, self.k, self.Vz, self.depth, self.cell, self.alpha],
+                   "units": [self.units.length, self.units.stress, self.units.time],
+                   "numerics": [self.numerics.nx, self.numerics.dt, self.numerics.tolerance,
+                                self.numerics.max_iterations]}
+        return hashlib.sha256(json.dumps(content).encode()).hexdigest()[:16]
+
     def groups(self) -> dict:
         """Every derived dimensionless group, as printed at start and stored in the output."""
         return {"lambda0": self.lambda0, "lambda_inf": self.lambda_inf, "k": self.k,
@@ -175,7 +191,7 @@ PHYSICAL_KEYS = ("radius", "modulus_relaxed", "modulus_instantaneous", "relaxati
                  "work_of_adhesion", "interaction_range", "velocity", "depth", "cell_length")
 NUMERICS_KEYS = ("nx", "dt", "tolerance", "max_iterations")
 OUTPUT_KEYS = ("snapshot_times", "snapshot_contact_widths", "snapshot_zero_load",
-               "progress_interval")
+               "progress_interval", "checkpoint_interval", "checkpoint_steps")
 
 
 def _fmt(value) -> str:
@@ -316,10 +332,20 @@ def parse_case(text: str) -> Case:
             out, "output", "snapshot_contact_widths", units.length))),
         snapshot_zero_load=zero_load,
         progress_interval=(_number(out, "output", "progress_interval")
-                           if "progress_interval" in out else 10.0))
+                           if "progress_interval" in out else 10.0),
+        checkpoint_interval=(_number(out, "output", "checkpoint_interval")
+                             if "checkpoint_interval" in out else Output.checkpoint_interval),
+        checkpoint_steps=_count(out, "output", "checkpoint_steps"))
     return Case(numerics=Numerics(nx=nx, nx_automatic=automatic, dt=dt, tolerance=tolerance,
                                   max_iterations=max_it),
                 output=output, units=units, text=text, form=form, **groups)
+
+
+def _count(table, section, key):
+    value = table.get(key, 0)
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected an integer >= 0")
+    return value
 
 
 def load_case(path) -> Case:

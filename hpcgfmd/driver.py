@@ -9,6 +9,8 @@
    detachment). Displacement control: jumps of the contact are recorded, never a stop.
 
 Internal units R = E0 = tau = 1 throughout; the output file converts to the case's units.
+Every method is collective over the case's communicator: each rank holds its block of the
+surface (:class:`hpcgfmd.domain.Domain`) and its share of the Fourier modes.
 """
 from __future__ import annotations
 
@@ -20,7 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .config import Case
-from .fft import RealFFT
+from .domain import Domain
+from .fft import plan_real_fft
 from .interface import DugdaleMaugis, edge_positions
 from .material import StandardLinearSolid, ViscoelasticHalfSpace
 from .solver import ConstrainedCG, project_feasible
@@ -28,7 +31,11 @@ from .solver import ConstrainedCG, project_feasible
 logger = logging.getLogger(__name__)
 
 
-class NonConvergenceError(RuntimeError):
+class CaseFailure(RuntimeError):
+    """A case cannot be completed; raised on every rank of the case alike (reduced values)."""
+
+
+class NonConvergenceError(CaseFailure):
     """The equilibrium solver did not reach the tolerance within max_iterations."""
 
 
@@ -50,28 +57,34 @@ class StepRecord:
 
 
 class Retraction:
-    """State and stepping of one case (serial).
+    """State and stepping of one case on the ranks of ``comm``.
 
     Parameters
     ----------
     case : Case
         The validated case (internal units).
+    comm : mpi4py.MPI.Comm
+        The ranks sharing this case (collective construction: plans the FFT).
+    planner_effort : str
+        FFTW planner flag (FFTW_MEASURE for runs, FFTW_ESTIMATE for quick tests).
     """
 
-    def __init__(self, case: Case):
+    def __init__(self, case: Case, comm, planner_effort="FFTW_MEASURE"):
         self.case = case
         n = case.numerics.nx
         self.n = n
         self.dx = case.cell / n
-        self.x = (np.arange(n) - n // 2) * self.dx  # indenter axis on node n/2
+        self.fft = plan_real_fft(comm, n, planner_effort=planner_effort)
+        self.domain = Domain(comm, n, case.cell, self.fft.x_blocks)
+        self.x = self.domain.x  # this rank's nodes; the indenter axis is on node n/2
         self.profile = self.x**2 / 2.0  # h(x) = x^2 / (2R), paper Eq. 1, R = 1
-        self.half_q = np.pi * np.arange(n // 2 + 1) / case.cell  # |q|/2 per rfft mode
+        self.half_q = np.pi * np.abs(self.fft.wavenumber) / case.cell  # |q|/2 per local mode
         self.substrate = ViscoelasticHalfSpace(StandardLinearSolid(1.0, 1.0 / case.k, 1.0),
                                                self.half_q, n)
         self.law = DugdaleMaugis(case.sigma_a, case.dmax)
-        self.fft = RealFFT(n)
-        self.solver = ConstrainedCG(self.fft, self.law, case.numerics.tolerance,
+        self.solver = ConstrainedCG(self.domain, self.fft, self.law, case.numerics.tolerance,
                                     case.numerics.max_iterations, case.sigma_a)
+        n = self.domain.local_n  # from here on: this rank's block
         self.u = np.zeros(n)  # surface displacement, upward positive
         self.u_previous = None  # displacement of the step before, for the predictor
         self.substrate_traction = np.zeros(n)  # p_n (q != 0 part) of the SLS history
@@ -107,11 +120,11 @@ class Retraction:
 
     def _record(self, result, dt):
         gap = self.wall - self.u
-        left, right = edge_positions(self.x, gap, 0.0, 1.5)
+        left, right = edge_positions(self.domain, gap, 0.0, 1.5)
         self._edges_previous, self._edges = self._edges, (left, right)
-        zl, zr = edge_positions(self.x, gap, self.case.dmax, 1.0)
+        zl, zr = edge_positions(self.domain, gap, self.case.dmax, 1.0)
         return StepRecord(time=self.time, indenter=self.indenter,
-                          load=-float(self.traction.sum()) * self.dx,
+                          load=-self.domain.sum(self.traction.sum()) * self.dx,
                           contact_half_width=0.5 * (right - left) if left == left else 0.0,
                           cohesive_half_width=0.5 * (zr - zl) if zl == zl else 0.0,
                           iterations=result.iterations, residual=result.residual, dt=dt)
@@ -153,10 +166,11 @@ class Retraction:
             self.u_previous = self.u - rise * contact
         linear = 2.0 * self.u - self.u_previous
         np.copyto(linear, self.wall, where=contact)
-        candidates = [project_feasible(linear, self.wall, np.empty(self.n))]
+        m = self.domain.local_n
+        candidates = [project_feasible(self.domain, linear, self.wall, np.empty(m))]
         moving = self._moving_edges(linear, gap_before)
         if moving is not None:
-            candidates.append(project_feasible(moving, self.wall, np.empty(self.n)))
+            candidates.append(project_feasible(self.domain, moving, self.wall, np.empty(m)))
         self.u_previous[:] = self.u
         energies = [self.solver.energy(c, self.wall, ops, self.history) for c in candidates]
         best = int(np.argmin(energies))
@@ -172,21 +186,77 @@ class Retraction:
             return None
         window = 4.0 * self.case.zone_width / self.case.k  # widest cohesive zone (Einf)
         gap = self.wall - linear
+        dom = self.domain
         for edge, previous in zip(self._edges, self._edges_previous):
             shift = edge - previous
             if not np.isfinite(shift) or shift == 0.0:
                 continue
             near = np.abs(self.x - edge) < window + abs(shift)
-            gap[near] = np.interp(self.x[near] - shift, self.x, gap_before)
+            # the shifted positions x - shift of the window's nodes lie in this segment
+            reach = window + 2.0 * abs(shift)
+            first = int(np.floor((edge - reach) / self.dx)) + self.n // 2 - 1
+            last = int(np.ceil((edge + reach) / self.dx)) + self.n // 2 + 1
+            length = min(last - first + 1, self.n)
+            values = dom.segment(gap_before, first, length)
+            gap[near] = np.interp(self.x[near] - shift, dom.position(first + np.arange(length)),
+                                  values)
         np.maximum(gap, 0.0, out=gap)
         return self.wall - gap
 
     def detached(self) -> bool:
-        """True when no node is within the interaction range (complete detachment)."""
-        return bool(np.all(self.wall - self.u > self.case.dmax))
+        """Collective: True when no node is within the interaction range (complete detachment)."""
+        return self.domain.all(self.wall - self.u > self.case.dmax)
 
     def gap(self):
+        """This rank's block of the gap g = h + u_z - u (length)."""
         return self.wall - self.u
+
+    # --- checkpoint ----------------------------------------------------------------------
+    FIELDS = ("u", "u_previous", "substrate_traction", "traction")
+
+    def state(self):
+        """The full state after a step: (this rank's field blocks, rank-independent scalars).
+
+        With it, :meth:`restore` continues the run exactly (the history H and the wall are
+        recomputed from it at the next step).
+        """
+        has_previous = self.u_previous is not None
+        fields = {"u": self.u, "substrate_traction": self.substrate_traction,
+                  "traction": self.traction,
+                  "u_previous": self.u_previous if has_previous else np.zeros_like(self.u)}
+        edges_previous = self._edges_previous or (np.nan, np.nan)
+        attrs = {"time": self.time, "indenter": self.indenter, "step_index": self.step_index,
+                 "total_iterations": self.total_iterations,
+                 "rejected_predictions": self.rejected_predictions,
+                 "predictor_choice": np.array(self.predictor_choice),
+                 "edges": np.array(self._edges), "edges_previous": np.array(edges_previous),
+                 "has_previous": has_previous,
+                 "has_edges_previous": self._edges_previous is not None,
+                 "fft_pairs": self.fft.pairs, "projections": self.solver.projections,
+                 "cut_steps": self.solver.cut_steps,
+                 "residual_steps": self.solver.residual_steps}
+        return fields, attrs
+
+    def restore(self, fields, attrs):
+        """Continue from :meth:`state` (this rank's blocks, possibly of another rank count)."""
+        self.u[:] = fields["u"]
+        self.substrate_traction[:] = fields["substrate_traction"]
+        self.traction[:] = fields["traction"]
+        self.u_previous = fields["u_previous"].copy() if attrs["has_previous"] else None
+        self.time = float(attrs["time"])
+        self.indenter = float(attrs["indenter"])
+        self.step_index = int(attrs["step_index"])
+        self.total_iterations = int(attrs["total_iterations"])
+        self.rejected_predictions = int(attrs["rejected_predictions"])
+        self.predictor_choice = [int(v) for v in attrs["predictor_choice"]]
+        self._edges = tuple(float(v) for v in attrs["edges"])
+        self._edges_previous = (tuple(float(v) for v in attrs["edges_previous"])
+                                if attrs["has_edges_previous"] else None)
+        self.fft.pairs = int(attrs["fft_pairs"])
+        self.solver.projections = int(attrs["projections"])
+        self.solver.cut_steps = int(attrs["cut_steps"])
+        self.solver.residual_steps = int(attrs["residual_steps"])
+        np.add(self.profile, self.indenter, out=self.wall)
 
 
 class Progress:

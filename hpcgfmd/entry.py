@@ -4,17 +4,17 @@ Sets one BLAS thread per process before numpy is imported: the solver's vector d
 are tiny and OpenBLAS's spinning threads made them 10x slower on a loaded 2-core node
 (measured: 78 s -> 19 s for 300 steps at n_x = 2^15); MPI ranks supply the parallelism.
 
-Under MPI with more than one rank an uncaught exception on one rank aborts all of them
-(COMM_WORLD.Abort) instead of leaving the others waiting; SystemExit passes through. This
-version runs one case on one rank: with more than one rank it refuses instead of writing the
-same file from every rank.
+This is the only place that names ``MPI.COMM_WORLD``: the command line receives it as its
+communicator. Under MPI with more than one rank an uncaught exception on one rank aborts all
+of them (COMM_WORLD.Abort, non-zero status) instead of leaving the others waiting in a
+collective; SystemExit passes through.
 """
 import os
 import sys
 
 
 def main():
-    """Run the command line; returns the exit status."""
+    """Run the command line on COMM_WORLD; returns the exit status."""
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(var, "1")
     from mpi4py import MPI
@@ -22,13 +22,8 @@ def main():
     from .cli import main as cli_main
 
     comm = MPI.COMM_WORLD
-    if comm.Get_size() > 1:
-        if comm.Get_rank() == 0:
-            print("hpcgfmd: error: this version runs on one MPI rank; start it without mpirun"
-                  " or with -n 1", file=sys.stderr)
-        return 2
     try:
-        return cli_main()
+        return cli_main(comm)
     except SystemExit:
         raise
     except BaseException:
@@ -36,6 +31,9 @@ def main():
             import traceback
 
             traceback.print_exc()
+            sys.stderr.write(f"hpcgfmd: rank {comm.Get_rank()} failed; aborting all"
+                             f" {comm.Get_size()} ranks\n")
+            sys.stderr.flush()
             comm.Abort(1)
         raise
 

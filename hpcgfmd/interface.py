@@ -14,7 +14,8 @@ of r over an element with end gaps g_a, g_b is
     M = (r_a^2 - r_b^2) / (2 (g_b - g_a))    (= (r_a + r_b)/2 when both ends are in the zone)
 
 and the element energy is -sigma_a dx M. Traction on the substrate is positive upward
-(attractive), as in the paper. Pure numpy on full real-space arrays; no MPI.
+(attractive), as in the paper. The law is pure numpy on one rank's block of nodes (with one
+ghost node each side); the contact measures are collective over the case's ranks.
 """
 from __future__ import annotations
 
@@ -38,59 +39,66 @@ class DugdaleMaugis:
     sigma_a: float
     dmax: float
 
-    def traction(self, gap, out=None, work=None):
+    def traction(self, gap_ext, out=None, work=None):
         """Nodal cohesive traction of the exactly integrated element law (stress units).
 
         t_i = -(1/dx) dE/du_i = -sigma_a (dM_{i-1}/dg_b + dM_i/dg_a): sigma_a inside the
-        zone, 0 beyond it, continuous in between.
+        zone, 0 beyond it, continuous in between. Local: node i needs the gaps of nodes
+        i - 1 and i + 1, so the block comes with one ghost node on each side
+        (:meth:`hpcgfmd.domain.Domain.fill_halo`).
 
         Parameters
         ----------
-        gap : ndarray, shape (n,)
-            Nodal gaps g >= 0 (length units), periodic.
+        gap_ext : ndarray, shape (m + 2,)
+            Nodal gaps g >= 0 (length units) of a block of m nodes, with the node before it
+            in gap_ext[0] and the node after it in gap_ext[-1].
         out : ndarray, optional
-            Output buffer, shape (n,).
+            Output buffer, shape (m,).
         work : ndarray of bool, optional
-            Scratch buffer of shape (3, n) reused between calls.
+            Scratch buffer of shape (3, m + 2) reused between calls.
         """
-        n = gap.shape[0]
+        m = gap_ext.shape[0] - 2
         if out is None:
-            out = np.empty(n)
-        if self.sigma_a == 0.0:
+            out = np.empty(m)
+        if self.sigma_a == 0.0 or m == 0:
             out[:] = 0.0
             return out
         if work is None:
-            work = np.empty((3, n), dtype=bool)
+            work = np.empty((3, m + 2), dtype=bool)
         inside, both, straddle = work
-        np.less(gap, self.dmax, out=inside)  # node in the zone: ramp > 0
-        # Elements with both ends inside (trapezoid rule) give sigma_a / 2 to each end.
+        np.less(gap_ext, self.dmax, out=inside)  # node in the zone: ramp > 0
+        # Element j joins gap_ext[j] and gap_ext[j + 1]; node i (gap_ext[i + 1]) gets the
+        # elements i and i + 1. Elements with both ends inside (trapezoid rule) give
+        # sigma_a / 2 to each end.
         np.logical_and(inside[:-1], inside[1:], out=both[:-1])
-        both[-1] = inside[-1] and inside[0]
-        np.add(both[1:], both[:-1], out=out[1:], dtype=np.float64)  # bool + bool would be OR
-        out[0] = float(both[0]) + float(both[-1])
+        np.add(both[1:-1], both[:-2], out=out, dtype=np.float64)  # bool + bool would be OR
         out *= 0.5 * self.sigma_a
         # Elements with one end in the zone and the other beyond dmax: exact formula,
         # t_a = -sigma_a dM/dg_a, t_b = -sigma_a dM/dg_b with M = (r_a^2 - r_b^2) / (2 dg).
         np.not_equal(inside[:-1], inside[1:], out=straddle[:-1])
-        straddle[-1] = inside[-1] != inside[0]
-        first = np.flatnonzero(straddle)
-        if first.size:
-            second = (first + 1) % n
-            ga, gb = gap[first], gap[second]
+        element = np.flatnonzero(straddle[:-1])
+        if element.size:
+            ga, gb = gap_ext[element], gap_ext[element + 1]
             ra, rb = np.maximum(self.dmax - ga, 0.0), np.maximum(self.dmax - gb, 0.0)
             dg = gb - ga  # nonzero: one gap < dmax <= the other
             mean = (ra * ra - rb * rb) / (2.0 * dg)
-            np.add.at(out, first, -self.sigma_a * (mean - ra) / dg)
-            np.add.at(out, second, -self.sigma_a * (rb - mean) / dg)
+            left = element >= 1  # the element's left node is in the block (not the ghost)
+            np.add.at(out, element[left] - 1, (-self.sigma_a * (mean - ra) / dg)[left])
+            right = element < m  # its right node is in the block
+            np.add.at(out, element[right], (-self.sigma_a * (rb - mean) / dg)[right])
         return out
 
-    def energy(self, gap, dx):
-        """Interface energy per unit length of the cylinder, sum_e -sigma_a dx M_e (energy/length)."""
-        if self.sigma_a == 0.0:
+    def energy(self, gap_ext, dx):
+        """Interface energy of the block's elements, sum_e -sigma_a dx M_e (energy/length).
+
+        The block owns the elements from each of its nodes to the next one, so summing over
+        the blocks counts every element once; ``gap_ext`` as in :meth:`traction`.
+        """
+        if self.sigma_a == 0.0 or gap_ext.shape[0] <= 2:
             return 0.0
-        ramp = np.maximum(self.dmax - gap, 0.0)
-        ramp_next = np.roll(ramp, -1)
-        dg = np.roll(gap, -1) - gap
+        ramp_ext = np.maximum(self.dmax - gap_ext[1:], 0.0)
+        ramp, ramp_next = ramp_ext[:-1], ramp_ext[1:]
+        dg = np.diff(gap_ext[1:])
         straddle = (ramp > 0.0) != (ramp_next > 0.0)
         mean = 0.5 * (ramp + ramp_next)
         mean[straddle] = ((ramp[straddle] ** 2 - ramp_next[straddle] ** 2)
@@ -98,20 +106,22 @@ class DugdaleMaugis:
         return -self.sigma_a * dx * float(mean.sum())
 
 
-def edge_positions(x, gap, level, shape_exponent):
-    """Left and right positions where the gap first exceeds ``level`` around the centre.
+def edge_positions(domain, gap, level, shape_exponent):
+    """Collective: left and right positions where the gap first exceeds ``level``.
 
-    For shape_exponent p != 1 the gap beyond the edge is modelled as g - level ~ (x - a)^p
-    from the first two open nodes (physics.md, "The contact edge": p = 3/2 for the edge of
-    intimate contact); p = 1 interpolates linearly between the last closed and the first
-    open node (the cohesive-zone edge, where g crosses dmax with a finite slope).
+    The region is the span from the first to the last node (global index) with
+    g <= level. For shape_exponent p != 1 the gap beyond the edge is modelled as
+    g - level ~ (x - a)^p from the first two open nodes (physics.md, "The contact edge":
+    p = 3/2 for the edge of intimate contact); p = 1 interpolates linearly between the last
+    closed and the first open node (the cohesive-zone edge, where g crosses dmax with a
+    finite slope).
 
     Parameters
     ----------
-    x : ndarray, shape (n,)
-        Node positions, increasing, centred on the indenter axis.
-    gap : ndarray, shape (n,)
-        Nodal gaps.
+    domain : hpcgfmd.domain.Domain
+        This rank's block and the collectives.
+    gap : ndarray, shape (local_n,)
+        Nodal gaps of this rank's block (length units).
     level : float
         Gap level that defines the region (0 for contact, dmax for the cohesive zone).
     shape_exponent : float
@@ -120,16 +130,18 @@ def edge_positions(x, gap, level, shape_exponent):
     Returns
     -------
     (left, right) : tuple of float
-        Edge positions; (nan, nan) when no node has gap <= level.
+        Edge positions (length units); (nan, nan) when no node has gap <= level.
     """
-    closed = np.flatnonzero(gap <= level)
-    if closed.size == 0:
+    extent = domain.index_extent(gap <= level)
+    if extent is None:
         return np.nan, np.nan
-    n = x.shape[0]
-    dx = x[1] - x[0]
-    first, last = closed[0], closed[-1]
+    first, last = extent
+    n, dx = domain.n, domain.dx
     if last - first + 1 == n:  # the whole cell is closed
-        return x[0] - 0.5 * dx, x[-1] + 0.5 * dx
+        return domain.position(0) - 0.5 * dx, domain.position(n - 1) + 0.5 * dx
+    # the three nodes from each end outward: last, last+1, last+2 and first, first-1, first-2
+    right_nodes = domain.segment(gap, last, 3)
+    left_nodes = domain.segment(gap, first - 2, 3)[::-1]
 
     def offset(g_in, g1, g2):
         # distance (in dx) from the last closed node to the edge
@@ -140,6 +152,6 @@ def edge_positions(x, gap, level, shape_exponent):
         s2 = (g2 - level) ** (1.0 / shape_exponent)
         return 1.0 - min(max(s1 / (s2 - s1), 0.0), 1.0) if s2 > s1 else 0.5
 
-    right = x[last] + dx * offset(gap[last], gap[(last + 1) % n], gap[(last + 2) % n])
-    left = x[first] - dx * offset(gap[first], gap[first - 1], gap[first - 2])
+    right = domain.position(last) + dx * offset(*right_nodes)
+    left = domain.position(first) - dx * offset(*left_nodes)
     return left, right

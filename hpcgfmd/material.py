@@ -11,7 +11,7 @@ a = exp(-dt/tau), phi = tau (1 - a) / dt and Eeff = E0 + (Einf - E0) phi:
 
 so each time step is an elastic problem of stiffness (|q|/2) Eeff plus a known history
 traction. All moduli are plane-strain effective moduli E* = E / (1 - nu^2).
-Pure numpy, no MPI: it acts on whatever block of modes the caller owns.
+Pure numpy: it acts on whatever block of modes the caller owns (in any order).
 """
 from __future__ import annotations
 
@@ -83,9 +83,9 @@ class StepOperators:
 
     Attributes
     ----------
-    stiffness : ndarray, shape (n//2+1,)
+    stiffness : ndarray, shape of this rank's spectrum
         k_q / n = (|q|/2) Eeff / n, zero at q = 0 (stress/length units).
-    compliance : ndarray, shape (n//2+1,)
+    compliance : ndarray, shape of this rank's spectrum
         1 / (k_q n), zero at q = 0: the preconditioner (length/stress units).
     """
 
@@ -94,10 +94,11 @@ class StepOperators:
 
     @classmethod
     def from_modulus(cls, half_q, modulus, n):
-        """Operators for stiffness (|q|/2) * modulus; ``half_q`` is |q|/2 per rfft mode."""
+        """Operators for stiffness (|q|/2) * modulus; ``half_q`` is |q|/2 per local mode."""
         stiffness = half_q * (modulus / n)
         compliance = np.zeros_like(half_q)
-        compliance[1:] = 1.0 / (half_q[1:] * modulus * n)
+        moving = half_q > 0.0  # the q = 0 mode (rigid motion) is held by the zero mean
+        compliance[moving] = 1.0 / (half_q[moving] * modulus * n)
         return cls(stiffness, compliance)
 
 
@@ -111,8 +112,8 @@ class ViscoelasticHalfSpace:
     Parameters
     ----------
     material : StandardLinearSolid
-    half_q : ndarray, shape (n//2+1,)
-        |q|/2 of each rfft mode (1/length).
+    half_q : ndarray
+        |q|/2 of each Fourier mode this rank holds, in the FFT's local order (1/length).
     n : int
         Grid points.
     """
@@ -129,7 +130,11 @@ class ViscoelasticHalfSpace:
         return self._ops
 
     def history(self, fft, u, substrate_traction, dt, out):
-        """History traction H of a step of length dt from u_n and p_n (stress units)."""
+        """Collective (one FFT pair): history traction H of a step of length dt (stress units).
+
+        Mode-local: H_q = a p_q + (|q|/2)(E0 (1 - a) - Eeff) u_q on this rank's modes; u_n,
+        p_n and H are this rank's real-space blocks.
+        """
         self._prepare(dt)
         fft.apply_diagonal(u, self._history_diag, out)
         out += self._decay * substrate_traction

@@ -5,22 +5,32 @@ Layout (all values in the case's units: R, E0, tau with ``[case]`` input; SI wit
 
 /                 attrs: hpcgfmd_version, config (case file text), lambda0, lambda_inf, k, Vz,
                   chi_ve, alpha, depth, cell, zone_points, nx, dt, tolerance, beta, load_scale,
-                  length_unit/stress_unit/time_unit, finished (bool), and when finished:
-                  steps, iterations, wall_time, detachment_indenter
+                  length_unit/stress_unit/time_unit, vbar_convention, finished (bool),
+                  steps_complete, and when finished the run summary (steps, iterations,
+                  wall_time, detachment_indenter, ...)
 /series/          one entry per time step, preload end (t = 0) included:
                   time, indenter (u_z), load (per unit length, compressive positive),
                   contact_half_width, cohesive_half_width, iterations, residual, dt
 /snapshots/       time (s,), surface u, pressure p (traction on the substrate, attractive
-                  positive), gap (each (s, nx)); x (nx,)
+                  positive), gap (each (s, nx)); x (nx,); attr complete
+
+Parallel writing: every rank of the communicator opens the file (h5py ``mpio`` driver) and
+calls every :class:`CaseFile` method collectively with identical arguments, except the field
+blocks. Each rank owns the contiguous grid block [x_start, x_stop) (possibly empty) and writes
+only that part of ``/snapshots/x`` and of each snapshot row; rank 0 alone writes the scalar
+entries (series, snapshot times); attributes and dataset extents are set by all ranks alike
+(HDF5 requires identical metadata calls on every rank).
 
 Crash safety: the file is created after the preload, every step is appended, the root
 attribute ``steps_complete`` is then raised, and the file is flushed (H5Fflush writes all
 metadata), so a killed run leaves a file with every step done so far; a kill between two
 datasets' appends can leave some series one entry longer, and readers truncate the series to
-``steps_complete`` (``/snapshots`` to its ``complete``). ``finished`` is set last. The file is
-written by one process (serial h5py driver).
+``steps_complete`` (``/snapshots`` to its ``complete``). ``finished`` is set last.
+:meth:`CaseFile.reopen` resumes such a file from a checkpoint's step and snapshot counts.
 """
 from __future__ import annotations
+
+import os
 
 import h5py
 import numpy as np
@@ -33,26 +43,124 @@ SERIES_UNITS = {"time": "time", "indenter": "length", "load": "load",
                 "contact_half_width": "length", "cohesive_half_width": "length",
                 "iterations": None, "residual": None, "dt": "time"}
 _INT_SERIES = ("iterations",)
+FIELDS = ("surface", "pressure", "gap")
 
 
-class CaseFile:
-    """Writer of one case's HDF5 file (serial).
+# --- collective block I/O, shared with hpcgfmd.checkpoint -------------------------------------
+
+def open_file(path, mode, comm):
+    """Open ``path`` on every rank of ``comm`` (collective).
 
     Parameters
     ----------
     path : str or Path
-        Output file; must not exist (the caller decides about overwriting).
+        HDF5 file.
+    mode : str
+        h5py mode ("r", "r+", "w", "w-").
+    comm : mpi4py.MPI.Comm
+        Ranks that open the file together.
+
+    Returns
+    -------
+    h5py.File
+        Opened with the ``mpio`` driver when h5py is built with MPI, else serially (one rank
+        only).
+    """
+    if h5py.get_config().mpi:
+        return h5py.File(path, mode, driver="mpio", comm=comm)
+    if comm.size > 1:
+        raise RuntimeError("h5py is built without MPI: cannot write one file from several ranks")
+    return h5py.File(path, mode)
+
+
+def _transfer(file):
+    """Dataset transfer property list: collective under mpio (every rank calls H5Dwrite)."""
+    dxpl = h5py.h5p.create(h5py.h5p.DATASET_XFER)
+    if file.driver == "mpio":
+        dxpl.set_dxpl_mpio(h5py.h5fd.MPIO_COLLECTIVE)
+    return dxpl
+
+
+def _spaces(ds, row, start, count):
+    """File and memory dataspaces selecting ``count`` entries from ``start`` (of ``row``)."""
+    fspace = ds.id.get_space()
+    mspace = h5py.h5s.create_simple((count,))
+    if count == 0:
+        # h5py's ds[...] skips H5Dwrite/H5Dread for an empty selection, which hangs the other
+        # ranks of a collective call; an explicit "none" selection still takes part.
+        fspace.select_none()
+        mspace.select_none()
+    elif row is None:
+        fspace.select_hyperslab((start,), (count,))
+    else:
+        fspace.select_hyperslab((row, start), (1, count))
+    return fspace, mspace
+
+
+def write_block(ds, start, block, row=None):
+    """Write this rank's ``block`` at ``[row,] start:start + len(block)`` of ``ds`` (collective).
+
+    Parameters
+    ----------
+    ds : h5py.Dataset
+        1D dataset, or 2D with ``row`` given; float64 or int64.
+    start : int
+        Global index of the block's first entry.
+    block : array_like
+        1D, possibly empty (the rank still takes part).
+    row : int, optional
+        Row of a 2D dataset.
+    """
+    block = np.ascontiguousarray(block, dtype=ds.dtype)
+    fspace, mspace = _spaces(ds, row, start, block.shape[0])
+    ds.id.write(mspace, fspace, block, dxpl=_transfer(ds.file))
+
+
+def read_block(ds, start, stop):
+    """Read entries [start, stop) of the 1D dataset ``ds`` on this rank (collective)."""
+    out = np.empty(stop - start, dtype=ds.dtype)
+    fspace, mspace = _spaces(ds, None, start, stop - start)
+    ds.id.read(mspace, fspace, out, dxpl=_transfer(ds.file))
+    return out
+
+
+def check_blocks(comm, n, x_start, x_stop):
+    """Raise ValueError on every rank unless the ranks' blocks tile [0, n) in rank order."""
+    blocks = comm.allgather((int(x_start), int(x_stop)))
+    starts, stops = [a for a, _ in blocks], [b for _, b in blocks]
+    if starts != [0] + stops[:-1] or stops[-1] != n or any(b < a for a, b in blocks):
+        raise ValueError(f"rank blocks {blocks} do not tile the {n} grid nodes in rank order")
+
+
+# --- the case file ----------------------------------------------------------------------------
+
+class CaseFile:
+    """Writer of one case's HDF5 file; every method is collective over ``comm``.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file; must not exist unless ``overwrite`` (the caller decides).
     case : hpcgfmd.config.Case
         The case (internal units); its ``units`` convert to the file's units.
-    x : ndarray
-        Grid positions (internal units).
+    x_local : ndarray
+        This rank's grid positions, nodes [x_start, x_start + len(x_local)) (internal length
+        units); may be empty.
+    comm : mpi4py.MPI.Comm
+        Ranks writing the file together.
+    x_start : int
+        Global index of this rank's first node.
+    n : int
+        Global number of grid nodes (nx).
+    overwrite : bool
+        Replace an existing file.
     """
 
-    def __init__(self, path, case, x, overwrite=False):
-        self.units = case.units
-        self._scale = {"time": case.units.time, "length": case.units.length,
-                       "load": case.units.load, None: 1.0}
-        self.file = h5py.File(path, "w" if overwrite else "w-")
+    def __init__(self, path, case, x_local, comm, x_start, n, overwrite=False):
+        check_blocks(comm, n, x_start, x_start + len(x_local))
+        if not overwrite and os.path.exists(path):  # mpio's "w-" raises a bare OSError
+            raise FileExistsError(f"{path}: file exists")
+        self._setup(open_file(path, "w" if overwrite else "w-", comm), case, comm, x_start)
         attrs = self.file.attrs
         attrs["hpcgfmd_version"] = __version__
         attrs["config"] = case.text
@@ -75,50 +183,134 @@ class CaseFile:
             dtype = "i8" if name in _INT_SERIES else "f8"
             series.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dtype, chunks=(1024,))
         snaps = self.file.create_group("snapshots")
-        n = x.shape[0]
-        snaps.create_dataset("x", data=x * case.units.length)
+        x = snaps.create_dataset("x", shape=(n,), dtype="f8")
+        write_block(x, x_start, np.asarray(x_local) * case.units.length)
         snaps.create_dataset("time", shape=(0,), maxshape=(None,), dtype="f8", chunks=(64,))
         meaning = {"surface": "displacement u, upward positive (length)",
                    "pressure": "traction on the substrate, attractive positive (stress)",
                    "gap": "g = h + u_z - u (length)"}
-        for name in ("surface", "pressure", "gap"):
+        for name in FIELDS:
             ds = snaps.create_dataset(name, shape=(0, n), maxshape=(None, n), dtype="f8",
                                       chunks=(1, n))
             ds.attrs["meaning"] = meaning[name]
         snaps.attrs["complete"] = 0
         self.file.flush()
 
+    def _setup(self, file, case, comm, x_start):
+        self.file, self.comm, self.x_start = file, comm, x_start
+        self.units = case.units
+        self._scale = {"time": case.units.time, "length": case.units.length,
+                       "load": case.units.load, None: 1.0}
+
+    @classmethod
+    def reopen(cls, path, case, comm, x_start, n, steps, snapshots):
+        """Reopen an existing case file to resume a run (collective).
+
+        Parameters
+        ----------
+        path : str or Path
+            Case file written by an earlier (killed) run of the same case.
+        case : hpcgfmd.config.Case
+            The case (for the units).
+        comm : mpi4py.MPI.Comm
+            Ranks writing from now on (any number).
+        x_start : int
+            Global index of this rank's first node; the block length is that of the blocks
+            later passed to :meth:`add_snapshot`.
+        n : int
+            Global number of grid nodes; must match the file.
+        steps, snapshots : int
+            Entries of /series and /snapshots to keep (those of the checkpoint resumed
+            from); later ones are dropped. At most ``steps_complete`` and ``complete``.
+
+        Returns
+        -------
+        CaseFile
+            Marked unfinished; the next :meth:`append_step` writes entry ``steps``.
+        """
+        self = cls.__new__(cls)
+        file = open_file(path, "r+", comm)
+        try:
+            have = (int(file.attrs["steps_complete"]), int(file["snapshots"].attrs["complete"]))
+            if file["snapshots/x"].shape != (n,):
+                raise ValueError(f"{path}: has {file['snapshots/x'].shape[0]} grid nodes, not {n}")
+            if not (0 <= steps <= have[0] and 0 <= snapshots <= have[1]):
+                raise ValueError(f"{path}: cannot resume at {steps} steps and {snapshots}"
+                                 f" snapshots, the file holds {have[0]} and {have[1]}")
+        except BaseException:
+            file.close()
+            raise
+        self._setup(file, case, comm, x_start)
+        file.attrs["finished"] = False  # before truncating: a kill now leaves an unfinished file
+        for name in SERIES:
+            file["series"][name].resize((steps,))
+        file.attrs["steps_complete"] = steps
+        snaps = file["snapshots"]
+        snaps["time"].resize((snapshots,))
+        for name in FIELDS:
+            snaps[name].resize((snapshots, n))
+        snaps.attrs["complete"] = snapshots
+        file.flush()
+        return self
+
     def append_step(self, values: dict):
-        """Append one time step's series entries (internal units) and flush."""
+        """Append one time step's series entries and flush (collective).
+
+        Parameters
+        ----------
+        values : dict
+            One scalar per name of :data:`SERIES`, internal units (rank-independent; rank 0's
+            are written).
+        """
         series = self.file["series"]
+        i = series["time"].shape[0]
         for name in SERIES:
             ds = series[name]
-            i = ds.shape[0]
             ds.resize((i + 1,))
-            ds[i] = values[name] * self._scale[SERIES_UNITS[name]]
+            scalar = [values[name] * self._scale[SERIES_UNITS[name]]] if self.comm.rank == 0 else []
+            write_block(ds, i, scalar)
         self.file.attrs["steps_complete"] = i + 1  # after every dataset holds the step
         self.file.flush()
 
     def add_snapshot(self, time, surface, pressure, gap):
-        """Append one snapshot of the surface displacement, traction and gap (internal units)."""
+        """Append one snapshot row and flush (collective).
+
+        Parameters
+        ----------
+        time : float
+            Time of the snapshot (internal units; rank-independent).
+        surface, pressure, gap : ndarray
+            This rank's blocks (nodes [x_start, x_stop), possibly empty) of the surface
+            displacement (length), the traction on the substrate (stress) and the gap
+            (length), internal units.
+        """
         snaps = self.file["snapshots"]
         i = snaps["time"].shape[0]
+        n = snaps["x"].shape[0]
         snaps["time"].resize((i + 1,))
-        snaps["time"][i] = time * self.units.time
+        write_block(snaps["time"], i, [time * self.units.time] if self.comm.rank == 0 else [])
         for name, field, scale in (("surface", surface, self.units.length),
                                    ("pressure", pressure, self.units.stress),
                                    ("gap", gap, self.units.length)):
-            snaps[name].resize((i + 1, surface.shape[0]))
-            snaps[name][i] = field * scale
+            snaps[name].resize((i + 1, n))
+            write_block(snaps[name], self.x_start, np.asarray(field) * scale, row=i)
         snaps.attrs["complete"] = i + 1
         self.file.flush()
 
     def finish(self, summary: dict):
-        """Store the run summary and mark the file finished (the last write)."""
-        for key, value in summary.items():
+        """Store the run summary and mark the file finished, the last write (collective).
+
+        Parameters
+        ----------
+        summary : dict
+            Attribute name to scalar or string, in the file's units. Rank 0's dict is stored
+            on every rank: HDF5 needs identical attribute writes and e.g. wall times differ.
+        """
+        for key, value in self.comm.bcast(summary, root=0).items():
             self.file.attrs[key] = value
         self.file.attrs["finished"] = True
         self.file.flush()
 
     def close(self):
+        """Close the file (collective)."""
         self.file.close()

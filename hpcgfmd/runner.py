@@ -1,10 +1,21 @@
-"""One case from a validated :class:`~hpcgfmd.config.Case` to a finished HDF5 file."""
+"""One case from a validated :class:`~hpcgfmd.config.Case` to a finished HDF5 file.
+
+Collective over the case's communicator. A run survives the end of a job's allocation:
+the full state is checkpointed (:mod:`hpcgfmd.checkpoint`) every ``[output]
+checkpoint_interval`` seconds of wall time and/or every ``checkpoint_steps`` steps, and when
+the process receives SIGTERM or SIGUSR1 (what SLURM sends before the time limit), after which
+the run stops with :class:`Interrupted` (exit status 75). ``resume=True`` continues from the
+checkpoint on any number of ranks, appending to the same output file.
+"""
 from __future__ import annotations
 
+import json
+import signal
 import time
 
+from .checkpoint import checkpoint_path, read_checkpoint, remove_checkpoint, write_checkpoint
 from .config import TARGET_ZONE_POINTS, Case, CaseError
-from .driver import Progress, Retraction
+from .driver import CaseFailure, Progress, Retraction
 from .output import CaseFile
 
 # The indenter must have left the surface long before it is one radius above it.
@@ -12,6 +23,11 @@ MAX_INDENTER_HEIGHT = 1.0
 # After the preload the cohesive zone must stay within a quarter of the cell: beyond that the
 # periodic images change the load by more than about 10 % (physics.md numerical notes).
 MAX_ZONE_PER_CELL = 0.25
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGUSR1)
+
+
+class Interrupted(Exception):
+    """The run stopped on a signal after writing a checkpoint; it can be resumed."""
 
 
 class SnapshotSchedule:
@@ -36,6 +52,36 @@ class SnapshotSchedule:
             hit = True
         return hit
 
+    def state(self) -> str:
+        return json.dumps({"times": self.times, "widths": self.widths,
+                           "zero_load": self.zero_load})
+
+    def restore(self, text):
+        saved = json.loads(text)
+        self.times, self.widths, self.zero_load = (saved["times"], saved["widths"],
+                                                   saved["zero_load"])
+
+
+class StopSignals:
+    """Context manager that records SIGTERM/SIGUSR1 instead of dying on them.
+
+    The handler only sets a flag; the run acts on it at the end of the current step, after
+    the ranks agreed on it (one reduction), so all of them stop at the same step.
+    """
+
+    def __enter__(self):
+        self.received = None
+        self._previous = {s: signal.signal(s, self._handle) for s in STOP_SIGNALS}
+        return self
+
+    def _handle(self, signum, frame):
+        self.received = signum
+
+    def __exit__(self, *exc):
+        for s, handler in self._previous.items():
+            signal.signal(s, handler)
+        return False
+
 
 def describe(case: Case) -> str:
     """The derived groups and numerics, printed at start."""
@@ -52,40 +98,94 @@ def describe(case: Case) -> str:
     return "\n".join(lines)
 
 
-def run_case(case: Case, path, printer=print, overwrite=False) -> dict:
-    """Run the whole retraction of ``case`` into a new HDF5 file at ``path``.
+def checkpoint_case_identity(path) -> str:
+    """The case identity stored in a checkpoint file (serial read; any rank may call it)."""
+    import h5py
 
-    The preload is solved before the file is created: a contact too large for the cell is
-    reported as a :class:`CaseError` with no file touched. ``overwrite`` replaces an existing
-    file (only once the preload succeeded). Returns the summary stored in the file.
+    with h5py.File(path, "r") as f:
+        return str(f.attrs["case_identity"])
+
+
+def run_case(case: Case, path, comm, printer=print, overwrite=False, resume=False,
+             planner_effort="FFTW_MEASURE") -> dict:
+    """Collective: run (or resume) the retraction of ``case`` into the HDF5 file ``path``.
+
+    A new run solves the preload before the file is created: a contact too large for the
+    cell is reported as a :class:`CaseError` with no file touched; ``overwrite`` replaces an
+    existing file (only once the preload succeeded). ``resume`` continues from the
+    checkpoint next to ``path`` (the caller checked that it belongs to this case).
+    Returns the summary stored in the file; raises :class:`Interrupted` after a signal.
     """
     start = time.monotonic()
-    sim = Retraction(case)
-    record = sim.preload()
-    if record.cohesive_half_width > MAX_ZONE_PER_CELL * case.cell:
-        need = record.cohesive_half_width / MAX_ZONE_PER_CELL
-        raise CaseError(f"{case.cell_key()} = {case.cell * case.units.length:g}: too small for"
-                        f" the contact; after the preload the cohesive zone reaches a_a ="
-                        f" {record.cohesive_half_width * case.units.length:.4g}, more than"
-                        f" {MAX_ZONE_PER_CELL:g} L; need L >= {need * case.units.length:.4g}")
-    out = CaseFile(path, case, sim.x, overwrite=overwrite)
-    try:
-        schedule = SnapshotSchedule(case.output)
-        progress = Progress(case.output.progress_interval, printer)
+    sim = Retraction(case, comm, planner_effort=planner_effort)
+    dom = sim.domain
+    checkpoint = checkpoint_path(path)
+    schedule = SnapshotSchedule(case.output)
+    if resume:
+        fields, attrs = read_checkpoint(checkpoint, comm, dom.x_start, dom.x_stop)
+        sim.restore(fields, attrs)
+        schedule.restore(attrs["snapshot_schedule"])
+        snapshots = int(attrs["snapshots_written"])
+        wall_before = float(attrs["wall_time"])
+        out = CaseFile.reopen(path, case, comm, dom.x_start, sim.n,
+                              steps=sim.step_index + 1, snapshots=snapshots)
+        printer(f"resuming from {checkpoint} at step {sim.step_index}"
+                f" (t = {sim.time * case.units.time:.6g}) on {comm.Get_size()} rank(s)")
+    else:
+        record = sim.preload()
+        if record.cohesive_half_width > MAX_ZONE_PER_CELL * case.cell:
+            need = record.cohesive_half_width / MAX_ZONE_PER_CELL
+            raise CaseError(f"{case.cell_key()} = {case.cell * case.units.length:g}: too small"
+                            f" for the contact; after the preload the cohesive zone reaches"
+                            f" a_a = {record.cohesive_half_width * case.units.length:.4g}, more"
+                            f" than {MAX_ZONE_PER_CELL:g} L; need L >="
+                            f" {need * case.units.length:.4g}")
+        wall_before = 0.0
+        remove_checkpoint(checkpoint, comm)  # a stale one would pair with the new file
+        out = CaseFile(path, case, sim.x, comm, dom.x_start, sim.n, overwrite=overwrite)
         out.append_step(record.as_dict())
         out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
+        snapshots = 1
         schedule.due(record)
-        while not sim.detached():
-            record = sim.step()
-            out.append_step(record.as_dict())
-            if schedule.due(record):
-                out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
-            progress.update(sim.step_index, record, case.units)
-            if sim.indenter > MAX_INDENTER_HEIGHT:
-                raise RuntimeError(f"no complete detachment by u_z = {MAX_INDENTER_HEIGHT} R")
-        out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
+    every = case.output.checkpoint_steps
+    last_checkpoint = time.monotonic()
+
+    def save():
+        fields, attrs = sim.state()
+        attrs.update(case_identity=case.identity(), snapshot_schedule=schedule.state(),
+                     snapshots_written=snapshots,
+                     wall_time=wall_before + time.monotonic() - start)
+        write_checkpoint(checkpoint, comm, sim.n, dom.x_start, fields, attrs)
+
+    try:
+        progress = Progress(case.output.progress_interval, printer)
+        with StopSignals() as stop:
+            while not sim.detached():
+                record = sim.step()
+                out.append_step(record.as_dict())
+                if schedule.due(record):
+                    out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
+                    snapshots += 1
+                progress.update(sim.step_index, record, case.units)
+                if sim.indenter > MAX_INDENTER_HEIGHT:
+                    raise CaseFailure(f"no complete detachment by u_z = {MAX_INDENTER_HEIGHT} R")
+                # One reduction decides for all ranks: a signal on any rank, or rank 0's clock.
+                by_time = (comm.Get_rank() == 0
+                           and time.monotonic() - last_checkpoint >= case.output.checkpoint_interval)
+                by_step = every > 0 and sim.step_index % every == 0
+                signalled, timed = dom.maxes(float(stop.received is not None), float(by_time))
+                if signalled or timed or by_step:
+                    save()
+                    last_checkpoint = time.monotonic()
+                if signalled:
+                    raise Interrupted(f"stopped by a signal at step {sim.step_index}"
+                                      f" (t = {sim.time * case.units.time:.6g}); checkpoint"
+                                      f" {checkpoint}")
+        out.add_snapshot(sim.time, sim.u, sim.traction, sim.gap())
         summary = {"steps": sim.step_index, "iterations": sim.total_iterations,
-                   "fft_pairs": sim.fft.pairs, "wall_time": time.monotonic() - start,
+                   "fft_pairs": sim.fft.pairs,
+                   "wall_time": wall_before + time.monotonic() - start,
+                   "ranks": comm.Get_size(),
                    "projections": sim.solver.projections,
                    "residual_steps": sim.solver.residual_steps,
                    "cut_steps": sim.solver.cut_steps,
@@ -96,4 +196,5 @@ def run_case(case: Case, path, printer=print, overwrite=False) -> dict:
         out.finish(summary)
     finally:
         out.close()
+    remove_checkpoint(checkpoint, comm)
     return summary

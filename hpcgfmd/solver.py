@@ -26,7 +26,13 @@ or a guess of lower energy, and ends in the local minimum of that basin, the phy
 
 Cost per iteration: two FFT pairs (preconditioner and K d); one more when the direction is
 projected off the wall, one per backtracking trial when a step reaches it. K u is updated
-incrementally. Serial, full real-space arrays (no MPI here).
+incrementally.
+
+Parallel layout. Every real-space vector is this rank's block of nodes
+(:class:`hpcgfmd.domain.Domain`); the transforms inside ``fft.apply_diagonal`` are the only
+bulk communication. Each iteration adds about ten ``Allreduce`` calls of one to five doubles
+(dot products, counts, the residual's maximum) and one ghost-node exchange for the
+interface law; every branch is decided on those reduced values, so all ranks take it.
 """
 from __future__ import annotations
 
@@ -34,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .fft import RealFFT
+from .domain import Domain
 from .interface import DugdaleMaugis
 from .material import StepOperators
 
@@ -61,23 +67,23 @@ class SolveResult:
     mean_traction: float
 
 
-def project_feasible(u, wall, out):
-    """Closest displacement with zero mean and u <= wall of the form min(u - c, wall).
+def project_feasible(domain, u, wall, out):
+    """Collective: closest displacement with zero mean and u <= wall of the form min(u - c, wall).
 
     Finds the shift c with sum(min(u - c, wall)) = 0 by Newton's method on this concave,
     decreasing, piecewise-linear function of c (finite, monotone convergence).
     """
     c = 0.0
+    wall_scale = domain.max_abs(wall) + 1e-300
     for _ in range(100):
         np.subtract(u, c, out=out)
         free = out < wall
         np.minimum(out, wall, out=out)
-        total = out.sum()
-        count = int(np.count_nonzero(free))
+        total, count = domain.sums(out.sum(), np.count_nonzero(free))
         if count == 0:
             raise FloatingPointError("the wall leaves no free node for zero mean displacement")
         step = total / count
-        if abs(step) <= 1e-15 * (np.abs(wall).max() + 1e-300):
+        if abs(step) <= 1e-15 * wall_scale:
             break
         c += step
     return out
@@ -88,8 +94,10 @@ class ConstrainedCG:
 
     Parameters
     ----------
-    fft : RealFFT
-        Planned transforms of the grid size.
+    domain : Domain
+        This rank's block of nodes and the collectives.
+    fft : SerialRealFFT or TransposedRealFFT
+        Planned transforms of the grid (same block layout as ``domain``).
     law : DugdaleMaugis
         Cohesive law.
     tolerance : float
@@ -100,24 +108,26 @@ class ConstrainedCG:
         Traction used to make the residual dimensionless (stress units).
     """
 
-    def __init__(self, fft: RealFFT, law: DugdaleMaugis, tolerance: float,
+    def __init__(self, domain: Domain, fft, law: DugdaleMaugis, tolerance: float,
                  max_iterations: int, traction_scale: float):
+        self.domain = domain
         self.fft = fft
         self.law = law
         self.tolerance = tolerance
         self.max_iterations = max_iterations
         self.traction_scale = traction_scale
-        n = fft.n
+        n = domain.local_n
         self._k_u = np.empty(n)
         self._k_d = np.empty(n)
-        self._gap = np.empty(n)
+        self._gap_ext = np.empty(n + 2)  # the block's gaps with a ghost node each side
+        self._gap = self._gap_ext[1:-1]
         self._traction = np.empty(n)
         self._residual = np.empty(n)
         self._residual_old = np.zeros(n)
         self._z = np.empty(n)
         self._d = np.zeros(n)
         self._trial = np.empty(n)
-        self._work = np.empty((3, n), dtype=bool)
+        self._work = np.empty((3, n + 2), dtype=bool)
         self._free = np.empty(n, dtype=bool)
         self._free_previous = np.empty(n, dtype=bool)
         self._pressed = np.empty(n, dtype=bool)
@@ -127,7 +137,7 @@ class ConstrainedCG:
         self._scratch = np.empty(n)
         self._projected = np.empty(n)
         self._k_projected = np.empty(n)
-        self._gap_energy = np.empty(n)
+        self._gap_energy_ext = np.empty(n + 2)
         # Statistics: projections accepted (each lowered the energy), steps cut at the first
         # wall contact.
         self.projections = 0
@@ -135,31 +145,32 @@ class ConstrainedCG:
         self.residual_steps = 0  # cut steps along the residual (d pressed on the wall)
 
     def solve(self, u, wall, ops: StepOperators, history, applied=None) -> SolveResult:
-        """Relax ``u`` in place to the equilibrium of the step (see module docstring).
+        """Collective: relax ``u`` in place to the equilibrium of the step (module docstring).
 
         Parameters
         ----------
-        u : ndarray, shape (n,)
-            Start (previous step's displacement), overwritten by the solution (length).
-        wall : ndarray, shape (n,)
+        u : ndarray, shape (local_n,)
+            This rank's block of the start (previous step's displacement), overwritten by
+            the solution (length).
+        wall : ndarray, shape (local_n,)
             h(x) + u_z: the largest admissible displacement (length).
         ops : StepOperators
             Stiffness and preconditioner of the step.
-        history : ndarray, shape (n,)
+        history : ndarray, shape (local_n,)
             SLS history traction H with zero mean (stress).
         applied : ndarray, optional
             Prescribed external traction on the surface, positive upward (stress); tests only.
         """
-        fft, law = self.fft, self.law
+        fft, law, dom = self.fft, self.law, self.domain
         k_u, k_d, gap, traction = self._k_u, self._k_d, self._gap, self._traction
         r, r_old, z, d = self._residual, self._residual_old, self._z, self._d
-        project_feasible(u, wall, self._trial)
+        project_feasible(dom, u, wall, self._trial)
         u[:] = self._trial
         fft.apply_diagonal(u, ops.stiffness, k_u)
         restart = True
         first_pass = True
         # Gaps within round-off of the wall count as contact (left by sums of steps).
-        on_wall_tolerance = 1e-14 * float(np.abs(wall).max())
+        on_wall_tolerance = 1e-14 * dom.max_abs(wall)
         rz_old = 1.0
         residual = np.inf
         mu = 0.0
@@ -167,7 +178,8 @@ class ConstrainedCG:
         while True:
             # Residual traction on every node: cohesive + applied - elastic - history.
             np.subtract(wall, u, out=gap)
-            law.traction(gap, out=traction, work=self._work)
+            dom.fill_halo(self._gap_ext)
+            law.traction(self._gap_ext, out=traction, work=self._work)
             np.subtract(traction, k_u, out=r)
             r -= history
             if applied is not None:
@@ -181,37 +193,37 @@ class ConstrainedCG:
                 np.greater(r, mu, out=pressed)
                 pressed &= on_wall
                 np.logical_not(pressed, out=free)
-                n_free = int(np.count_nonzero(free))
                 np.copyto(weight, free)
-                mu_new = float(r @ weight) / n_free
+                r_free, n_free = dom.sums(r @ weight, np.count_nonzero(free))
+                mu_new = r_free / n_free
                 if mu_new == mu:
                     break
                 mu = mu_new
             r -= mu
             r *= weight
-            residual = float(np.abs(r, out=self._scratch).max()) / self.traction_scale
+            residual = dom.max_abs(r) / self.traction_scale
             if residual <= self.tolerance or iteration >= self.max_iterations:
                 break
             # Restart CG when nodes join the active set (the search space shrinks). Nodes that
             # leave it only enlarge the space: the old direction stays admissible (zero on
             # the released nodes), so conjugacy is kept, which matters when the contact edge
             # recedes by several nodes per step.
-            if first_pass or np.logical_and(self._free_previous, pressed, out=pressed).any():
+            if first_pass or dom.any(np.logical_and(self._free_previous, pressed, out=pressed)):
                 restart = True
             first_pass = False
             self._free_previous[:] = free
             # Preconditioned residual, projected on the free nodes with zero mean.
             fft.apply_diagonal(r, ops.compliance, z)
-            z -= float(z @ weight) / n_free
+            z -= dom.dot(z, weight) / n_free
             z *= weight
-            rz = float(r @ z)
+            rz, r_old_z = dom.sums(r @ z, r_old @ z)
             if restart:
                 d[:] = z
             else:
-                beta = max(0.0, (rz - float(r_old @ z)) / rz_old)  # Polak-Ribiere+
+                beta = max(0.0, (rz - r_old_z) / rz_old)  # Polak-Ribiere+
                 d *= beta
                 d += z
-            rd = float(r @ d)
+            rd = dom.dot(r, d)
             if rd <= 0.0:  # not a descent direction any more: steepest (preconditioned) descent
                 d[:] = z
                 rd = rz
@@ -219,28 +231,28 @@ class ConstrainedCG:
             # them this iteration and keep the zero mean on the others (projected direction).
             np.greater(d, 0.0, out=pressed)
             pressed &= on_wall
-            if pressed.any():
+            if dom.any(pressed):
                 held = self._held
                 held[:] = False
-                while pressed.any():  # removing the mean can push another node in
+                while dom.any(pressed):  # removing the mean can push another node in
                     held |= pressed
                     np.logical_not(held, out=pressed)
                     pressed &= free
-                    n_keep = int(np.count_nonzero(pressed))
+                    np.copyto(self._scratch, pressed)
+                    d_keep, n_keep = dom.sums(d @ self._scratch, np.count_nonzero(pressed))
                     if n_keep == 0:  # every free node held: fall back to the residual below
                         d[:] = 0.0
                         break
-                    np.copyto(self._scratch, pressed)
-                    d -= float(d @ self._scratch) / n_keep
+                    d -= d_keep / n_keep
                     d *= self._scratch
                     np.greater(d, 0.0, out=pressed)
                     pressed &= on_wall
-                rd = float(r @ d)
+                rd = dom.dot(r, d)
                 if rd <= 0.0:  # the projected residual lifts on-wall nodes off: descent
                     d[:] = r
-                    rd = float(r @ r)
+                    rd = dom.dot(r, r)
             fft.apply_diagonal(d, ops.stiffness, k_d)
-            alpha = rd / float(d @ k_d)  # minimiser of the quadratic upper bound
+            alpha = rd / dom.dot(d, k_d)  # minimiser of the quadratic upper bound
             np.multiply(d, alpha, out=self._trial)
             self._trial += u
             if not self._reaches_wall(wall):
@@ -272,7 +284,7 @@ class ConstrainedCG:
                            converged=residual <= self.tolerance, mean_traction=mu)
 
     def _reaches_wall(self, wall):
-        return bool(np.greater(self._trial, wall, out=self._pressed).any())
+        return self.domain.any(np.greater(self._trial, wall, out=self._pressed))
 
     def _constrained_step(self, u, wall, d, k_d, alpha, ops, history, applied):
         """A step u + alpha d that reaches the wall, taken so that the energy decreases.
@@ -290,7 +302,7 @@ class ConstrainedCG:
             step = alpha * 0.125**trial  # a full CG step can push thousands of nodes in
             np.multiply(d, step, out=self._trial)
             self._trial += u
-            project_feasible(self._trial, wall, self._projected)
+            project_feasible(self.domain, self._trial, wall, self._projected)
             self.fft.apply_diagonal(self._projected, ops.stiffness, self._k_projected)
             if self.energy_with(self._projected, self._k_projected, wall, history,
                                 applied) < energy:
@@ -306,7 +318,8 @@ class ConstrainedCG:
             # length: a descent step.
             d[:] = self._residual
             self.fft.apply_diagonal(d, ops.stiffness, k_d)
-            alpha = float(self._residual @ d) / float(d @ k_d)
+            rd, dkd = self.domain.sums(self._residual @ d, d @ k_d)
+            alpha = rd / dkd
             cut = min(alpha, self._first_contact(u, wall, d))
             self.residual_steps += 1
         u += cut * d
@@ -315,15 +328,14 @@ class ConstrainedCG:
         self._k_u += k_d
         self.cut_steps += 1
 
-    @staticmethod
-    def _first_contact(u, wall, d):
-        """Largest step length along d before a node reaches the wall."""
+    def _first_contact(self, u, wall, d):
+        """Collective: largest step length along d before a node reaches the wall."""
         rising = d > 0.0
         room = (wall[rising] - u[rising]) / d[rising]
-        return float(room.min()) if room.size else np.inf
+        return self.domain.min(float(room.min()) if room.size else np.inf)
 
     def energy(self, u, wall, ops, history, applied=None):
-        """Energy of the step per unit length, divided by dx (collective-free, one FFT pair).
+        """Collective: energy of the step per unit length, divided by dx (one FFT pair).
 
         E/dx = 1/2 u.K u + (H - p_applied).u - sigma_a sum_e M_e (see the module docstring).
         """
@@ -331,12 +343,14 @@ class ConstrainedCG:
         return self.energy_with(u, self._k_projected, wall, history, applied)
 
     def energy_with(self, u, k_u, wall, history, applied=None):
-        """Energy (per unit length, divided by dx) of u with K u given."""
+        """Collective: energy (per unit length, divided by dx) of u with K u given."""
         value = 0.5 * float(u @ k_u) + float(history @ u)
         if applied is not None:
             value -= float(applied @ u)
-        np.subtract(wall, u, out=self._gap_energy)
-        return value + self.law.energy(self._gap_energy, 1.0)
+        gap_ext = self._gap_energy_ext
+        np.subtract(wall, u, out=gap_ext[1:-1])
+        self.domain.fill_halo(gap_ext)
+        return self.domain.sum(value + self.law.energy(gap_ext, 1.0))
 
     def _secant_step(self, u, wall, d, k_d, history, applied, alpha, rd):
         """Step length along d from the slope of the true energy at the bound's minimiser.
@@ -348,10 +362,13 @@ class ConstrainedCG:
         """
         gap, traction = self._gap, self._traction
         np.subtract(wall, self._trial, out=gap)
-        self.law.traction(gap, out=traction, work=self._work)
+        self.domain.fill_halo(self._gap_ext)
+        self.law.traction(self._gap_ext, out=traction, work=self._work)
         # phi'(alpha) = -(t - K(u + alpha d) - H + applied) . d; uniform parts drop (mean d = 0)
-        slope = -(float(traction @ d) - float(self._k_u @ d) - alpha * float(k_d @ d)
-                  - float(history @ d) + (float(applied @ d) if applied is not None else 0.0))
+        t_d, ku_d, kd_d, h_d, a_d = self.domain.sums(
+            traction @ d, self._k_u @ d, k_d @ d, history @ d,
+            applied @ d if applied is not None else 0.0)
+        slope = -(t_d - ku_d - alpha * kd_d - h_d + a_d)
         if slope >= -1e-300:
             return alpha
         if slope <= -rd:  # no positive curvature along d: go as far as the bound allows
@@ -369,7 +386,8 @@ class ConstrainedCG:
         K u + H + mean_traction - applied, which balances the substrate.
         """
         np.subtract(wall, u, out=self._gap)
-        self.law.traction(self._gap, out=out, work=self._work)
+        self.domain.fill_halo(self._gap_ext)
+        self.law.traction(self._gap_ext, out=out, work=self._work)
         contact = self._gap <= 0.0
         balance = self._k_u + history + mean_traction
         if applied is not None:

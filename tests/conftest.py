@@ -7,23 +7,27 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):  # as python -m hpcgfmd
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from hpcgfmd.fft import RealFFT  # noqa: E402
+from mpi4py import MPI  # noqa: E402
+
+from hpcgfmd.domain import Domain  # noqa: E402
+from hpcgfmd.fft import plan_real_fft  # noqa: E402
 from hpcgfmd.interface import DugdaleMaugis  # noqa: E402
 from hpcgfmd.solver import ConstrainedCG  # noqa: E402
 
 
 class Grid:
-    """Periodic grid of n points on [-L/2, L/2) with |q|/2 per rfft mode."""
+    """Periodic grid of n points on [-L/2, L/2) with |q|/2 per rfft mode, on one rank."""
 
     def __init__(self, n, cell):
         self.n, self.cell = n, cell
         self.dx = cell / n
         self.x = (np.arange(n) - n // 2) * self.dx
         self.half_q = np.pi * np.arange(n // 2 + 1) / cell
-        self.fft = RealFFT(n, planner_effort="FFTW_ESTIMATE")
+        self.fft = plan_real_fft(MPI.COMM_SELF, n, planner_effort="FFTW_ESTIMATE")
+        self.domain = Domain(MPI.COMM_SELF, n, cell, self.fft.x_blocks)
 
     def solver(self, sigma_a=0.0, dmax=1.0, tolerance=1e-10, scale=1.0, max_iterations=5000):
-        return ConstrainedCG(self.fft, DugdaleMaugis(sigma_a, dmax), tolerance, max_iterations,
+        return ConstrainedCG(self.domain, self.fft, DugdaleMaugis(sigma_a, dmax), tolerance, max_iterations,
                              scale)
 
 

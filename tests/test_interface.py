@@ -2,7 +2,19 @@
 import numpy as np
 import pytest
 
+from mpi4py import MPI
+
+from hpcgfmd.domain import Domain
 from hpcgfmd.interface import DugdaleMaugis, edge_positions
+
+
+def periodic(gap):
+    """The whole periodic grid as one block: its ghost nodes are its own ends."""
+    return np.concatenate([gap[-1:], gap, gap[:1]])
+
+
+def one_rank(n, cell):
+    return Domain(MPI.COMM_SELF, n, cell, [(0, n)])
 
 
 def test_traction_is_minus_energy_gradient():
@@ -13,28 +25,28 @@ def test_traction_is_minus_energy_gradient():
     n, dx = 64, 0.01
     gap = np.abs(np.cumsum(rng.normal(0, 0.03, n)))
     gap[10:14] = 0.0
-    traction = law.traction(gap)
+    traction = law.traction(periodic(gap))
     h = 1e-7 * law.dmax
     for i in range(n):
         up, down = gap.copy(), gap.copy()
         up[i] += h
         down[i] -= h
         # u up = gap down: traction (upward) = dE/dg / dx
-        fd = (law.energy(up, dx) - law.energy(down, dx)) / (2 * h) / dx
+        fd = (law.energy(periodic(up), dx) - law.energy(periodic(down), dx)) / (2 * h) / dx
         assert traction[i] == pytest.approx(fd, abs=1e-6 * law.sigma_a)
 
 
 def test_traction_values_inside_outside_and_continuity():
     law = DugdaleMaugis(sigma_a=1.0, dmax=1.0)
     gap = np.linspace(0, 3, 301)
-    t = law.traction(gap)
+    t = law.traction(periodic(gap))
     assert np.allclose(t[1:99], 1.0)  # all elements inside the zone
     assert np.allclose(t[102:-1], 0.0)  # all elements outside
     assert np.all(np.abs(np.diff(t[:-1])) <= 0.6)  # no jump larger than the element's share
     # continuity in the gaps: moving the edge node across dmax changes t smoothly
     g = np.array([0.5, 0.999, 1.5, 2.0])
     g2 = g.copy(); g2[1] = 1.001
-    assert np.abs(law.traction(g) - law.traction(g2)).max() < 0.01
+    assert np.abs(law.traction(periodic(g)) - law.traction(periodic(g2))).max() < 0.01
 
 
 def test_edge_interpolation_of_a_three_halves_gap():
@@ -42,15 +54,15 @@ def test_edge_interpolation_of_a_three_halves_gap():
     x = (np.arange(200) - 100) * 0.01
     a = 0.4137
     gap = np.where(np.abs(x) > a, 0.2 * np.clip(np.abs(x) - a, 0, None) ** 1.5, 0.0)
-    left, right = edge_positions(x, gap, 0.0, 1.5)
+    left, right = edge_positions(one_rank(200, 2.0), gap, 0.0, 1.5)
     assert right == pytest.approx(a, abs=1e-12)
     assert left == pytest.approx(-a, abs=1e-12)
-    assert np.all(np.isnan(edge_positions(x, gap + 1.0, 0.0, 1.5)))  # no contact at all
+    assert np.all(np.isnan(edge_positions(one_rank(200, 2.0), gap + 1.0, 0.0, 1.5)))  # no contact at all
 
 
 def test_edge_interpolation_of_a_linear_crossing():
     x = (np.arange(200) - 100) * 0.01
     gap = 0.5 + 3.0 * np.abs(x)  # crosses 1.2 at |x| = 0.2333...
-    left, right = edge_positions(x, gap, 1.2, 1.0)
+    left, right = edge_positions(one_rank(200, 2.0), gap, 1.2, 1.0)
     assert right == pytest.approx(0.7 / 3.0, abs=1e-12)
     assert left == pytest.approx(-0.7 / 3.0, abs=1e-12)

@@ -14,7 +14,11 @@ def test_project_feasible_zero_mean_and_wall():
     rng = np.random.default_rng(0)
     u = rng.normal(size=1000)
     wall = np.full(1000, 0.5) + 0.1 * rng.normal(size=1000)
-    out = project_feasible(u, wall, np.empty(1000))
+    from mpi4py import MPI
+
+    from hpcgfmd.domain import Domain
+
+    out = project_feasible(Domain(MPI.COMM_SELF, 1000, 1.0, [(0, 1000)]), u, wall, np.empty(1000))
     assert abs(out.mean()) < 1e-14
     assert np.all(out <= wall)
     c = np.median(u - out)  # the common shift of the nodes not on the wall
@@ -31,7 +35,7 @@ def hertz(grid, depth):
     assert res.converged
     p = np.empty(grid.n)
     solver.interface_traction(u, wall, np.zeros(grid.n), res.mean_traction, p)
-    left, right = edge_positions(grid.x, wall - u, 0.0, 1.5)
+    left, right = edge_positions(grid.domain, wall - u, 0.0, 1.5)
     return -p.sum() * grid.dx, 0.5 * (right - left), res.iterations
 
 
@@ -70,12 +74,14 @@ def test_every_iteration_lowers_the_energy(k, velocity):
     # docstring of hpcgfmd.solver). The solve is deterministic, so the state after m
     # iterations is a prefix of the state after m + 1: compare energies along the sequence,
     # through the preload from flat (many wall contacts) and a retraction step.
+    from mpi4py import MPI
+
     from hpcgfmd.config import parse_case
     from hpcgfmd.driver import Retraction
 
     case = parse_case(f"[case]\nmaugis = 3.5\nmodulus_ratio = {k}\nvelocity = {velocity}\n"
                       "depth = 0.03\ncell = 2.0\nadhesion = 1e-4\n[numerics]\nnx = 2048\n")
-    sim = Retraction(case)
+    sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
     solver = sim.solver
     np.add(sim.profile, sim.indenter, out=sim.wall)
     ops = sim.substrate.operators(math.inf)

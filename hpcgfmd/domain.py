@@ -1,0 +1,182 @@
+"""This rank's share of the periodic surface grid, and the collectives the real-space step needs.
+
+The surface has n nodes x_i = (i - n/2) dx on a cell of length L (indenter axis on node n/2).
+Each rank owns one contiguous block [x_start, x_stop) of nodes (the block layout comes from
+the distributed FFT, :mod:`hpcgfmd.fft`); a rank may own none. Everything the solver does in
+real space is pointwise on the block, except:
+
+- global reductions (dot products, sums, counts, extrema) for CG and the stop decisions: one
+  ``Allreduce`` of a few doubles each, so every rank takes every decision from the same value;
+- the element law of the interface (:mod:`hpcgfmd.interface`) couples a node to its two
+  neighbours: :meth:`Domain.fill_halo` exchanges one ghost node with each neighbouring block;
+- the contact measures and the moving-edge predictor read a few nodes around the contact
+  edges, wherever they are: :meth:`Domain.segment` assembles a short global segment.
+
+Every method that communicates says "Collective" in its first line and must be called by all
+ranks of ``comm`` in the same order. With one rank no MPI call is made.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from mpi4py import MPI
+
+
+class Domain:
+    """Real-space block of this rank and the collectives over ``comm``.
+
+    Parameters
+    ----------
+    comm : mpi4py.MPI.Comm
+        Communicator of the ranks sharing one case.
+    n : int
+        Number of grid nodes.
+    cell : float
+        Cell length L (length units).
+    x_blocks : list of (int, int)
+        Node block [start, stop) of every rank, in rank order, covering [0, n).
+    """
+
+    def __init__(self, comm, n: int, cell: float, x_blocks):
+        self.comm = comm
+        self.n = n
+        self.cell = cell
+        self.dx = cell / n
+        self.x_blocks = [tuple(b) for b in x_blocks]
+        self.size = comm.Get_size()
+        self.rank = comm.Get_rank()
+        self.x_start, self.x_stop = self.x_blocks[self.rank]
+        self.local_n = self.x_stop - self.x_start
+        self.x = (np.arange(self.x_start, self.x_stop) - n // 2) * self.dx
+        self.serial = self.size == 1
+        # Halo partners: the nearest ranks to the left and right that own nodes (periodic).
+        owners = [r for r, (a, b) in enumerate(self.x_blocks) if b > a]
+        if self.local_n and len(owners) > 1:
+            i = owners.index(self.rank)
+            self._left, self._right = owners[i - 1], owners[(i + 1) % len(owners)]
+        else:
+            self._left = self._right = None  # alone (or empty): the ghosts are our own ends
+        self._send = np.zeros(8)
+        self._receive = np.zeros(8)
+        self.communication_time = 0.0  # seconds in MPI calls here (waiting included)
+        self.messages = 0  # collective calls made (reductions, halo exchanges, segments)
+
+    # --- reductions ------------------------------------------------------------------
+    def _allreduce(self, values, op):
+        k = len(values)
+        if k > self._send.size:
+            self._send = np.zeros(k)
+            self._receive = np.zeros(k)
+        self._send[:k] = values
+        started = time.perf_counter()
+        self.comm.Allreduce(self._send[:k], self._receive[:k], op=op)
+        self.communication_time += time.perf_counter() - started
+        self.messages += 1
+        return self._receive[:k]
+
+    def sums(self, *values):
+        """Collective: global sums of several local scalars (one message), as floats."""
+        if self.serial:
+            return tuple(float(v) for v in values)
+        return tuple(float(v) for v in self._allreduce(values, MPI.SUM))
+
+    def sum(self, value) -> float:
+        """Collective: global sum of a local scalar."""
+        return self.sums(value)[0]
+
+    def dot(self, a, b) -> float:
+        """Collective: global dot product of two local blocks."""
+        return self.sum(a @ b)
+
+    def count(self, mask) -> int:
+        """Collective: number of True entries over all blocks."""
+        return int(self.sum(np.count_nonzero(mask)))
+
+    def maxes(self, *values):
+        """Collective: global maxima of several local scalars (one message), as floats."""
+        if self.serial:
+            return tuple(float(v) for v in values)
+        return tuple(float(v) for v in self._allreduce(values, MPI.MAX))
+
+    def max(self, value) -> float:
+        """Collective: global maximum of a local scalar (-inf for 'nothing here')."""
+        return self.maxes(value)[0]
+
+    def min(self, value) -> float:
+        """Collective: global minimum of a local scalar (+inf for 'nothing here')."""
+        return -self.max(-value)
+
+    def max_abs(self, a) -> float:
+        """Collective: max |a| over all blocks (0 when no rank owns nodes)."""
+        return self.max(float(np.abs(a).max()) if a.size else 0.0)
+
+    def any(self, mask) -> bool:
+        """Collective: True when any entry of any block is True."""
+        local = bool(mask.any()) if mask.size else False
+        return self.max(1.0 if local else 0.0) > 0.0
+
+    def all(self, mask) -> bool:
+        """Collective: True when every entry of every block is True."""
+        local = bool(mask.all()) if mask.size else True
+        return self.min(1.0 if local else 0.0) > 0.0
+
+    # --- neighbours ----------------------------------------------------------------------
+    def fill_halo(self, extended):
+        """Collective: set the ghost nodes extended[0] and extended[-1] from the neighbours.
+
+        ``extended`` has shape (local_n + 2,) with this block in extended[1:-1]; the ghosts
+        are the nodes x_start - 1 and x_stop (periodic). Ranks that own nothing skip it.
+        """
+        if not self.local_n:
+            return extended
+        if self._left is None:
+            extended[0] = extended[-2]
+            extended[-1] = extended[1]
+            return extended
+        comm = self.comm
+        started = time.perf_counter()
+        comm.Sendrecv(extended[1:2], dest=self._left, sendtag=71,
+                      recvbuf=extended[-1:], source=self._right, recvtag=71)
+        comm.Sendrecv(extended[-2:-1], dest=self._right, sendtag=72,
+                      recvbuf=extended[:1], source=self._left, recvtag=72)
+        self.communication_time += time.perf_counter() - started
+        self.messages += 1
+        return extended
+
+    def segment(self, local_values, start: int, length: int):
+        """Collective: values at the global nodes start, start+1, ..., start+length-1 (mod n).
+
+        Every rank receives the whole segment; each node's owner supplies it (cost: one
+        Allreduce of ``length`` doubles). ``length`` is at most n.
+        """
+        index = (start + np.arange(min(length, self.n))) % self.n
+        if self.serial:
+            return local_values[index]
+        values = np.zeros(index.size)
+        mine = (index >= self.x_start) & (index < self.x_stop)
+        values[mine] = local_values[index[mine] - self.x_start]
+        started = time.perf_counter()
+        self.comm.Allreduce(MPI.IN_PLACE, values, op=MPI.SUM)
+        self.communication_time += time.perf_counter() - started
+        self.messages += 1
+        return values
+
+    def index_extent(self, mask):
+        """Collective: (first, last) global node index where ``mask`` is True, or None."""
+        where = np.flatnonzero(mask)
+        if where.size:
+            first, last = where[0] + self.x_start, where[-1] + self.x_start
+        else:
+            first, last = self.n, -1
+        if self.serial:
+            high, low = last, -first
+        else:
+            high, low = self._allreduce((last, -first), MPI.MAX)
+        if high < 0:
+            return None
+        return int(-low), int(high)
+
+    def position(self, index):
+        """x of a global node index (length units), unwrapped: index n is x_0 + L."""
+        return (index - self.n // 2) * self.dx

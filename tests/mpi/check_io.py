@@ -1,0 +1,161 @@
+"""Parallel check of hpcgfmd.output and hpcgfmd.checkpoint (run under mpirun, any rank count).
+
+Writes a case file and a checkpoint from uneven blocks with one rank owning no node (rank 1),
+resumes the case file, then rank 0 compares the files with the same content computed
+globally; the checkpoint is read back on another block split. Exit status 1 on any failure.
+
+    mpirun --oversubscribe -n 3 python tests/mpi/check_io.py [directory]
+"""
+import os
+import shutil
+import sys
+import tempfile
+import traceback
+
+import h5py
+import numpy as np
+from mpi4py import MPI
+
+from hpcgfmd.analysis import read_series
+from hpcgfmd.checkpoint import read_checkpoint, write_checkpoint
+from hpcgfmd.config import parse_case
+from hpcgfmd.output import SERIES, SERIES_UNITS, CaseFile
+
+CASE = ("[case]\nmaugis = 1.0\nmodulus_ratio = 1.0\nvelocity = 1.0\ndepth = 0.03\ncell = 2.0\n"
+        "adhesion = 1e-4\n[numerics]\nnx = 1024\n")
+
+
+def write_edges(n, size):
+    """Rank 0 owns 10 nodes (all with two ranks), rank 1 none, the others the rest unevenly."""
+    if size == 1:
+        return [0, n]
+    if size == 2:
+        return [0, n, n]
+    return [0, 10, 10] + [int(e) for e in np.linspace(10, n, size - 1)[1:]]
+
+
+def read_edges(n, size):
+    """Another split: rank 0 owns nothing, the others share the nodes evenly."""
+    if size == 1:
+        return [0, n]
+    return [0] + [int(e) for e in np.linspace(0, n, size)]
+
+
+def step_values(k):
+    return {name: (k + 1 if name == "iterations" else 0.1 * k + j + 0.5 ** k)
+            for j, name in enumerate(SERIES)}
+
+
+def snapshot(x, s):
+    """Global snapshot s: time and (surface, pressure, gap)."""
+    return 0.25 * s, (np.sin(3 * x + s), np.cos(x) - s, x**2 + s)
+
+
+def main(directory):
+    comm = MPI.COMM_WORLD
+    case = parse_case(CASE)
+    n = case.numerics.nx
+    x = (np.arange(n) - n // 2) * case.cell / n
+    edges = write_edges(n, comm.size)
+    lo, hi = edges[comm.rank], edges[comm.rank + 1]
+    path = os.path.join(directory, "case.h5")
+
+    # 5 steps and 3 snapshots, "crash", resume at 3 steps and 2 snapshots, 2 steps + 1 more
+    out = CaseFile(path, case, x[lo:hi], comm, lo, n)
+    for k in range(5):
+        out.append_step(step_values(k))
+        if k % 2 == 0:
+            t, fields = snapshot(x, k // 2)
+            out.add_snapshot(t, *(f[lo:hi] for f in fields))
+    out.close()
+    out = CaseFile.reopen(path, case, comm, lo, n, steps=3, snapshots=2)
+    for k in (3, 4):
+        out.append_step(step_values(10 + k))
+    t, fields = snapshot(x, 7)
+    out.add_snapshot(t, *(f[lo:hi] for f in fields))
+    out.finish({"steps": 4, "wall_time": float(comm.rank)})
+    out.close()
+
+    rng = np.random.default_rng(7)
+    state = {"u": rng.standard_normal(n), "traction": rng.standard_normal(n), "x": x}
+    attrs = {"step": 42, "time": 10.5, "config": case.text, "times": np.array([0.5, 2.0]),
+             "preloaded": True}
+    ckpt = os.path.join(directory, "case.checkpoint.h5")
+    write_checkpoint(ckpt, comm, n, lo, {k: v[lo:hi] for k, v in state.items()}, attrs)
+
+    errors = []
+    comm.Barrier()
+    if comm.rank == 0:
+        errors += compare_case(path, case, x)
+    redges = read_edges(n, comm.size)
+    rlo, rhi = redges[comm.rank], redges[comm.rank + 1]
+    got, got_attrs = read_checkpoint(ckpt, comm, rlo, rhi)
+    if set(got) != set(state):
+        errors.append(f"checkpoint fields {sorted(got)}")
+    for name, value in state.items():
+        if not np.array_equal(got.get(name), value[rlo:rhi]):
+            errors.append(f"checkpoint field {name} block [{rlo}, {rhi})")
+    for key, value in attrs.items():
+        if not same(got_attrs.get(key), value):
+            errors.append(f"checkpoint attr {key}: {got_attrs.get(key)!r} != {value!r}")
+    return [f"rank {comm.rank}: {e}" for e in errors]
+
+
+def same(got, want):
+    """Equal, and of the same kind: numpy array for arrays, the Python type for scalars."""
+    if isinstance(want, np.ndarray):
+        return isinstance(got, np.ndarray) and np.array_equal(got, want)
+    return type(got) is type(want) and got == want
+
+
+def compare_case(path, case, x):
+    """Rank 0, serially: the case file against the globally computed content."""
+    errors = []
+    steps = [step_values(k) for k in (0, 1, 2, 13, 14)]
+    series = read_series(path)
+    scale = {"time": case.units.time, "length": case.units.length, "load": case.units.load,
+             None: 1.0}
+    for name in SERIES:
+        want = np.array([v[name] * scale[SERIES_UNITS[name]] for v in steps])
+        if not np.array_equal(getattr(series, name), want):
+            errors.append(f"series {name}: {getattr(series, name)} != {want}")
+    if series.attrs["steps_complete"] != 5 or series.attrs["finished"] is not True:
+        errors.append(f"attrs steps_complete/finished {series.attrs}")
+    if series.attrs["wall_time"] != 0.0:  # rank 0's summary is the one stored
+        errors.append(f"summary wall_time {series.attrs['wall_time']}")
+    with h5py.File(path, "r") as f:
+        snaps = f["snapshots"]
+        if snaps.attrs["complete"] != 3 or snaps["surface"].shape != (3, x.size):
+            errors.append(f"snapshots complete {snaps.attrs['complete']} shape"
+                          f" {snaps['surface'].shape}")
+        if not np.array_equal(snaps["x"][()], x * case.units.length):
+            errors.append("snapshots/x")
+        for row, s in enumerate((0, 1, 7)):
+            t, fields = snapshot(x, s)
+            if snaps["time"][row] != t * case.units.time:
+                errors.append(f"snapshot time {row}")
+            for name, field, unit in zip(("surface", "pressure", "gap"), fields,
+                                         (case.units.length, case.units.stress,
+                                          case.units.length)):
+                if not np.array_equal(snaps[name][row], field * unit):
+                    errors.append(f"snapshot {name} row {row}")
+    return errors
+
+
+if __name__ == "__main__":
+    comm = MPI.COMM_WORLD
+    own = len(sys.argv) < 2
+    directory = comm.bcast(tempfile.mkdtemp() if own and comm.rank == 0 else
+                           (None if own else sys.argv[1]), root=0)
+    try:
+        errors = main(directory)
+    except Exception:  # one failing rank would leave the others blocked in a collective call
+        traceback.print_exc()
+        sys.stdout.flush()
+        comm.Abort(2)
+    errors = sum(comm.allgather(errors), [])
+    if comm.rank == 0:
+        if own:
+            shutil.rmtree(directory)
+        print("\n".join(errors) if errors else f"check_io: OK on {comm.size} ranks", flush=True)
+    sys.exit(1 if errors else 0)

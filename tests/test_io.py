@@ -1,0 +1,196 @@
+"""Case file and checkpoint I/O on one rank (COMM_SELF), and the parallel check under mpirun."""
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from hpcgfmd import checkpoint as ckpt
+from hpcgfmd.analysis import read_series
+from hpcgfmd.checkpoint import (checkpoint_path, read_checkpoint, remove_checkpoint,
+                                write_checkpoint)
+from hpcgfmd.config import parse_case
+from hpcgfmd.output import SERIES, SERIES_UNITS, CaseFile
+
+COMM = MPI.COMM_SELF
+CASE_TEXT = ("[case]\nmaugis = 1.0\nmodulus_ratio = 1.0\nvelocity = 1.0\ndepth = 0.03\n"
+             "cell = 2.0\nadhesion = 1e-4\n[numerics]\nnx = 64\n")
+
+
+PHYSICAL_TEXT = ("[physical]\nradius = 1e-3\nmodulus_relaxed = 1e6\nmodulus_instantaneous = 1e7\n"
+                 "relaxation_time = 2.0\nwork_of_adhesion = 0.05\ninteraction_range = 1e-6\n"
+                 "velocity = 1e-6\ndepth = 3e-5\ncell_length = 2e-3\n[numerics]\nnx = 1024\n")
+
+
+@pytest.fixture
+def case():
+    return parse_case(CASE_TEXT)
+
+
+def grid(case):
+    n = case.numerics.nx
+    return n, (np.arange(n) - n // 2) * case.cell / n
+
+
+def values(k):
+    return {name: (k + 1 if name == "iterations" else 1.5 * k + j) for j, name in enumerate(SERIES)}
+
+
+def fields(x, s):
+    return np.sin(x + s), np.cos(x) * s, x + s
+
+
+@pytest.mark.parametrize("text", [CASE_TEXT, PHYSICAL_TEXT], ids=["case", "physical"])
+def test_case_file_round_trip(tmp_path, text):
+    case = parse_case(text)
+    u = case.units
+    scale = {"time": u.time, "length": u.length, "load": u.load, None: 1.0}
+    n, x = grid(case)
+    path = tmp_path / "case.h5"
+    out = CaseFile(path, case, x, COMM, 0, n)
+    for k in range(3):
+        out.append_step(values(k))
+    out.add_snapshot(0.5, *fields(x, 1))
+    series = read_series(path)  # readable while open and unfinished
+    assert series.attrs["finished"] is False and len(series.time) == 3
+    out.finish({"steps": 2, "wall_time": 1.25})
+    out.close()
+    series = read_series(path)
+    assert series.attrs["finished"] is True and series.attrs["steps"] == 2
+    assert series.attrs["steps_complete"] == 3 and series.attrs["nx"] == n
+    for name in SERIES:
+        want = [values(k)[name] * scale[SERIES_UNITS[name]] for k in range(3)]
+        assert np.array_equal(getattr(series, name), want)
+    assert series.iterations.dtype == np.int64
+    with h5py.File(path, "r") as f:
+        snaps = f["snapshots"]
+        assert snaps.attrs["complete"] == 1 and np.array_equal(snaps["x"][()], x * u.length)
+        assert np.array_equal(snaps["time"][()], [0.5 * u.time])
+        for name, want, unit in zip(("surface", "pressure", "gap"), fields(x, 1),
+                                    (u.length, u.stress, u.length)):
+            assert np.array_equal(snaps[name][()], [want * unit])
+    with pytest.raises(FileExistsError):
+        CaseFile(path, case, x, COMM, 0, n)
+    CaseFile(path, case, x, COMM, 0, n, overwrite=True).close()
+    assert len(read_series(path).time) == 0
+
+
+def test_reopen_truncates(tmp_path, case):
+    n, x = grid(case)
+    path = tmp_path / "case.h5"
+    out = CaseFile(path, case, x, COMM, 0, n)
+    for k in range(5):
+        out.append_step(values(k))
+        if k in (0, 3):
+            out.add_snapshot(k, *fields(x, k))
+    out.finish({"steps": 4})
+    out.close()
+    with pytest.raises(ValueError, match="cannot resume"):
+        CaseFile.reopen(path, case, COMM, 0, n, steps=6, snapshots=1)
+    out = CaseFile.reopen(path, case, COMM, 0, n, steps=3, snapshots=1)
+    assert read_series(path).attrs["finished"] is False
+    out.append_step(values(10))
+    out.add_snapshot(9.0, *fields(x, 9))
+    out.close()
+    series = read_series(path)
+    assert series.attrs["steps_complete"] == 4 and series.attrs["finished"] is False
+    assert np.array_equal(series.load, [values(k)["load"] for k in (0, 1, 2, 10)])
+    with h5py.File(path, "r") as f:
+        snaps = f["snapshots"]
+        assert snaps.attrs["complete"] == 2 and snaps["gap"].shape == (2, n)
+        assert np.array_equal(snaps["time"][()], [0.0, 9.0])
+        assert np.array_equal(snaps["surface"][()], [fields(x, 0)[0], fields(x, 9)[0]])
+        assert f["series/time"].shape == (4,)
+
+
+def state(n):
+    rng = np.random.default_rng(3)
+    return ({"u": rng.standard_normal(n), "traction": rng.standard_normal(n)},
+            {"step": 17, "time": 4.25, "config": CASE_TEXT, "flag": False,
+             "times": np.array([0.5, 1.0, 2.0])})
+
+
+def test_checkpoint_round_trip(tmp_path):
+    assert checkpoint_path(tmp_path / "run.h5") == str(tmp_path / "run.checkpoint.h5")
+    path = checkpoint_path(tmp_path / "run.h5")
+    fields_in, attrs_in = state(50)
+    write_checkpoint(path, COMM, 50, 0, fields_in, attrs_in)
+    fields_out, attrs_out = read_checkpoint(path, COMM, 0, 50)
+    assert fields_out.keys() == fields_in.keys()
+    for name in fields_in:
+        assert fields_out[name].dtype == np.float64
+        assert np.array_equal(fields_out[name], fields_in[name])
+    assert attrs_out.keys() == attrs_in.keys()
+    for key, value in attrs_in.items():
+        if isinstance(value, np.ndarray):
+            assert np.array_equal(attrs_out[key], value)
+        else:
+            assert type(attrs_out[key]) is type(value) and attrs_out[key] == value
+    part, _ = read_checkpoint(path, COMM, 20, 20)  # an empty block
+    assert all(block.shape == (0,) for block in part.values())
+    part, _ = read_checkpoint(path, COMM, 10, 30)
+    assert np.array_equal(part["u"], fields_in["u"][10:30])
+    with pytest.raises(ValueError, match="outside"):
+        read_checkpoint(path, COMM, 10, 51)
+    with pytest.raises(ValueError, match="reserved"):
+        write_checkpoint(path, COMM, 50, 0, fields_in, {"hpcgfmd_checkpoint": 2})
+    remove_checkpoint(path, COMM)
+    assert not os.path.exists(path)
+    remove_checkpoint(path, COMM)  # absent: nothing to do
+
+
+def test_checkpoint_rejects_other_files(tmp_path, case):
+    n, x = grid(case)
+    CaseFile(tmp_path / "case.h5", case, x, COMM, 0, n).close()
+    with pytest.raises(ValueError, match="not an hpcgfmd checkpoint"):
+        read_checkpoint(tmp_path / "case.h5", COMM, 0, n)
+    (tmp_path / "junk").write_text("junk")
+    with pytest.raises(ValueError, match="not an hpcgfmd checkpoint"):
+        read_checkpoint(tmp_path / "junk", COMM, 0, 1)
+    with pytest.raises(FileNotFoundError):
+        read_checkpoint(tmp_path / "none.h5", COMM, 0, 1)
+
+
+def test_checkpoint_atomic(tmp_path, monkeypatch):
+    path = str(tmp_path / "run.checkpoint.h5")
+    old, attrs = state(40)
+    write_checkpoint(path, COMM, 40, 0, old, attrs)
+    # A crash before the rename: the .tmp holds a partial new checkpoint, the old one stays.
+    new = {name: value + 1.0 for name, value in old.items()}
+
+    def crash(src, dst):
+        raise OSError("killed")
+
+    monkeypatch.setattr(ckpt.os, "replace", crash)
+    with pytest.raises(OSError, match="killed"):
+        write_checkpoint(path, COMM, 40, 0, new, {**attrs, "step": 18})
+    monkeypatch.undo()
+    Path(path + ".tmp").write_bytes(b"partial garbage")  # or torn mid-write
+    got, got_attrs = read_checkpoint(path, COMM, 0, 40)
+    assert np.array_equal(got["u"], old["u"]) and got_attrs["step"] == 17
+    # The next write replaces both the stale .tmp and the old checkpoint.
+    write_checkpoint(path, COMM, 40, 0, new, {**attrs, "step": 18})
+    got, got_attrs = read_checkpoint(path, COMM, 0, 40)
+    assert np.array_equal(got["u"], new["u"]) and got_attrs["step"] == 18
+    assert not os.path.exists(path + ".tmp")
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("args", [["-n", "2"], ["--oversubscribe", "-n", "3"]])
+def test_parallel_io(tmp_path, args):
+    mpirun = shutil.which("mpirun")
+    if mpirun is None:
+        pytest.skip("no mpirun")
+    # Should pytest itself run under an MPI launcher, keep its variables out of the new job.
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "PRTE_"))}
+    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OPENBLAS_NUM_THREADS="1")
+    script = Path(__file__).parent / "mpi" / "check_io.py"
+    run = subprocess.run([mpirun, *args, sys.executable, str(script), str(tmp_path)], env=env,
+                         capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0, run.stdout + run.stderr
