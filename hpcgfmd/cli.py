@@ -11,6 +11,7 @@ reductions); only rank 0 prints.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import time
@@ -204,7 +205,12 @@ def main(comm, argv=None):
     Failures that every rank detects alike (bad input, non-convergence) return 2 or 1 on all
     ranks; anything else propagates, and with more than one rank the caller aborts the job.
     """
-    args = build_parser().parse_args(argv)
+    if comm.Get_rank() == 0:
+        args = build_parser().parse_args(argv)
+    else:  # usage errors, --help and --version are printed once, by rank 0
+        with open(os.devnull, "w") as quiet, contextlib.redirect_stdout(quiet), \
+                contextlib.redirect_stderr(quiet):
+            args = build_parser().parse_args(argv)
     if getattr(args, "command", None) == "run" and args.output is None:
         args.output = os.path.splitext(args.case)[0] + ".h5"
     func = getattr(args, "func", cmd_default)

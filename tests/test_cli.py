@@ -53,6 +53,10 @@ BAD = [
      "interaction_range = 1e-8\nvelocity = 1e-6\ndepth = 1e-4\ncell_length = 1e-2\n",
      ["modulus_instantaneous", "1000000.0", "modulus_relaxed"]),
     ("snapshot list", case_text(output="snapshot_times = [1, -2]"), ["snapshot_times", "list"]),
+    ("checkpoint steps", case_text(output="checkpoint_steps = -1"),
+     ["checkpoint_steps", "-1", "integer >= 0"]),
+    ("checkpoint interval", case_text(output="checkpoint_interval = 0"),
+     ["checkpoint_interval", "0", "> 0"]),
 ]
 
 

@@ -70,13 +70,15 @@ def relative(a, b):
     return float(np.max(np.abs(a - b)) / np.max(np.abs(a)))
 
 
-def assert_same(reference, other, tolerance, edge_tolerance=None):
+def assert_same(reference, other, tolerance, edge_tolerance=None, field_tolerance=None):
     """Series and snapshots equal to ``tolerance`` (relative to each quantity's maximum).
 
     ``edge_tolerance`` for the contact half-width: the (x - a)^(3/2) extrapolation from the
     two first open nodes amplifies round-off; two uninterrupted serial runs of this case
     differ by 2.0e-12 there (FFTW_MEASURE picks its plans by timing), against 5.9e-13 in
-    the load (measured).
+    the load (measured). ``field_tolerance`` for the snapshots (default ``tolerance``): the
+    contact pressure is the reaction K u + H + mu, whose multiplier mu is converged to the
+    solver tolerance (measured between rank counts: 6e-12 to 2.5e-11 of the peak pressure).
     """
     (s0, p0), (s1, p1) = reference, other
     for name in SERIES:
@@ -85,8 +87,9 @@ def assert_same(reference, other, tolerance, edge_tolerance=None):
         assert relative(s0[name], s1[name]) <= limit, (name, relative(s0[name], s1[name]))
     np.testing.assert_array_equal(p1["time"], p0["time"])
     np.testing.assert_array_equal(p1["x"], p0["x"])
+    limit = field_tolerance or tolerance
     for name in ("surface", "pressure", "gap"):
-        assert relative(p0[name], p1[name]) <= tolerance, (name, relative(p0[name], p1[name]))
+        assert relative(p0[name], p1[name]) <= limit, (name, relative(p0[name], p1[name]))
     # contact sets (nodes on the wall) identical in every snapshot
     np.testing.assert_array_equal(p1["gap"] <= 0.0, p0["gap"] <= 0.0)
 
@@ -148,7 +151,7 @@ def test_interrupted_run_resumes_to_the_uninterrupted_series(serial_run, tmp_pat
     resumed = read(tmp_path / "out.h5")
     # Measured across 1, 2 and 3 ranks for this case: 8.5e-13 in the load, 2.6e-12 in the
     # contact half-width, as between two serial runs (see assert_same).
-    assert_same(reference, resumed, 1e-12, edge_tolerance=1e-11)
+    assert_same(reference, resumed, 1e-12, edge_tolerance=1e-11, field_tolerance=1e-10)
 
 
 def test_checkpoint_of_another_case_is_refused(serial_run, tmp_path):
@@ -160,7 +163,8 @@ def test_checkpoint_of_another_case_is_refused(serial_run, tmp_path):
     before = (tmp_path / "out.h5").read_bytes()
     done = run(2, "run", "other.toml", "-o", "out.h5", cwd=tmp_path)
     assert done.returncode == 2
-    lines = done.stderr.strip().splitlines()
+    # one line from rank 0 (mpirun adds its own banner about the non-zero status)
+    lines = [line for line in done.stderr.splitlines() if line.startswith("hpcgfmd:")]
     assert len(lines) == 1 and "checkpoint of a different case" in lines[0], done.stderr
     assert (tmp_path / "out.h5").read_bytes() == before  # nothing touched
 
@@ -186,3 +190,16 @@ def test_failure_on_one_rank_stops_all_ranks(tmp_path):
     assert "disk gone on rank 1" in done.stderr
     assert "aborting all 2 ranks" in done.stderr
     assert time.monotonic() - started < 30
+
+
+def test_non_convergence_stops_every_rank_with_status_1(tmp_path):
+    # A failure every rank detects alike (from reduced values): status 1 from all ranks and
+    # one line from rank 0, no hang. Here the preload fails, before the file is created.
+    text = CASE.format(nx=2048, checkpoint_steps=0).replace(
+        "tolerance = 1e-13", "tolerance = 1e-13\nmax_iterations = 3")
+    (tmp_path / "case.toml").write_text(text)
+    done = run(2, "run", "case.toml", "-o", "out.h5", cwd=tmp_path)
+    assert done.returncode == 1, done.stderr
+    lines = [line for line in done.stderr.splitlines() if line.startswith("hpcgfmd:")]
+    assert len(lines) == 1 and "NonConvergenceError" in lines[0], done.stderr
+    assert not (tmp_path / "out.h5").exists()

@@ -1,0 +1,260 @@
+"""Strong scaling of the engine: wall time per time step and per inner iteration on P ranks.
+
+What is measured (one row per grid size and rank count, appended to a CSV file)
+    The paper's default case (lambda0 = 7, k = 0.1, V_z = 0.45, h0/R = 0.1, L/R = 10,
+    alpha = 5e-5, default dt and tolerance) on a grid of n_x = 2^N nodes. The run builds the
+    :class:`~hpcgfmd.driver.Retraction` (``setup``: dominated by FFTW planning), solves the
+    preload from the flat surface (``preload``, reported with its iterations but not part of
+    the per-step cost), then times ``--steps`` retraction steps exactly as the production loop
+    does them (a detachment test and one step each, no output file), between two barriers.
+    Times are the maximum over the ranks. Communication shares are the seconds spent in the
+    FFT's ``Alltoallv`` and in the Domain's collectives (reductions, halo exchanges, segments)
+    during the timed steps, maximum over the ranks, as fractions of the timed wall time; they
+    include the time a rank waits for the other one (load imbalance shows up there).
+    ``load`` is the load of the last timed step: runs on different rank counts agree to about
+    1e-8 relative (the solver tolerance; transforms and sums round differently).
+
+How to run it (``OPENBLAS_NUM_THREADS=1``; as root also ``OMPI_ALLOW_RUN_AS_ROOT=1
+OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1``)
+    One rank count, the communicator the script runs on::
+
+        python scripts/bench_scaling.py --n 17 20 22 --steps 20 --out bench.csv
+        mpirun -n 2 python scripts/bench_scaling.py --n 17 20 22 --steps 20 --out bench.csv
+
+    Everything in one session (the ratios should come from one session on one machine): runs
+    itself under ``mpirun -n P`` for each P, interleaved per grid (P = 1 then P = 2 for the
+    same n_x) so that a change of the machine's load affects both alike, then reports::
+
+        python scripts/bench_scaling.py --launch 1 2 --n 17 20 22 --steps 20 --out bench.csv \\
+            --markdown bench.md
+
+    The table of an existing CSV file (latest row per rank count and grid)::
+
+        python scripts/bench_scaling.py --report bench.csv --markdown bench.md
+
+How to read the table
+    ``ms/iteration`` (timed wall time / inner CG iterations, per-step work included) is the
+    figure to compare between rank counts: the iteration count of a step can differ by a few
+    between rank counts (round-off), the work per iteration cannot. ``speedup`` is the
+    1-rank time divided by this row's time at the same n_x (per iteration and per step);
+    2 ranks on 2 cores can at best reach 2. ``FFT comm`` and ``Domain comm`` are the shares of
+    the wall time in communication (see above); what is neither is local work. ``pairs/it``
+    (FFT forward+backward pairs) and ``msgs/it`` (Domain collectives) per iteration show what
+    each iteration costs in transforms and latency-bound messages. ``setup s`` is the
+    construction of the Retraction, i.e. the FFTW planning with the flag in brackets (the
+    rest of it takes milliseconds). ``host load`` is the 1-minute load average of the
+    machine before the row was measured: a value well above the rank count means other
+    processes shared the cores, which hurts 2 ranks most (they wait for each other at every
+    collective, tens per iteration).
+"""
+import argparse
+import csv
+import datetime
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):  # one BLAS thread, as the CLI
+    os.environ.setdefault(_var, "1")
+
+import numpy as np  # noqa: E402
+
+# mpi4py (and hpcgfmd, which imports it) is imported only where a measurement runs: --launch
+# and --report must not initialise MPI, or the mpirun they start would inherit a singleton's
+# environment.
+
+CASE = """[case]
+maugis = 7.0
+modulus_ratio = 0.1
+velocity = 0.45
+depth = 0.1
+cell = 10.0
+adhesion = 5e-5
+[numerics]
+nx = {nx}
+"""
+FIELDS = ["started", "host_load", "ranks", "nx", "planner", "steps", "iterations", "fft_pairs",
+          "messages", "wall_time", "time_per_step", "time_per_iteration", "fft_comm_share",
+          "domain_comm_share", "setup_time", "preload_time", "preload_iterations", "load"]
+
+
+def measure(comm, nx, steps, planner):
+    """Collective: time ``steps`` retraction steps of the default case on ``nx`` nodes.
+
+    Returns
+    -------
+    dict
+        One CSV row (keys :data:`FIELDS`); the same on every rank.
+    """
+    from mpi4py import MPI
+
+    from hpcgfmd import config
+    from hpcgfmd.driver import Retraction
+
+    # Cost, not accuracy, is measured: accept the quick test grid 2^14 (w/dx = 0.97 < 1).
+    config.MIN_ZONE_POINTS = 0.5
+    row = {"started": datetime.datetime.now().isoformat(timespec="seconds"),
+           "host_load": os.getloadavg()[0], "ranks": comm.Get_size(), "nx": nx,
+           "planner": planner}
+    case = config.parse_case(CASE.format(nx=nx))
+    comm.Barrier()
+    t0 = time.perf_counter()
+    sim = Retraction(case, comm, planner_effort=planner)
+    t1 = time.perf_counter()
+    preload = sim.preload()
+    comm.Barrier()
+    t2 = time.perf_counter()
+    fft, dom = sim.fft, sim.domain
+    before = (sim.total_iterations, fft.pairs, dom.messages, fft.communication_time,
+              dom.communication_time)
+    done = 0
+    record = preload
+    comm.Barrier()
+    t3 = time.perf_counter()
+    while done < steps and not sim.detached():
+        record = sim.step()
+        done += 1
+    comm.Barrier()
+    t4 = time.perf_counter()
+    after = (sim.total_iterations, fft.pairs, dom.messages, fft.communication_time,
+             dom.communication_time)
+    iterations, pairs, messages = (a - b for a, b in zip(after[:3], before[:3]))
+    # Slowest rank decides; the barriers make the ranks' wall times nearly equal anyway.
+    local = np.array([t1 - t0, t2 - t1, t4 - t3, after[3] - before[3], after[4] - before[4]])
+    comm.Allreduce(MPI.IN_PLACE, local, op=MPI.MAX)
+    setup, preload_time, wall, fft_comm, dom_comm = local
+    row.update(steps=done, iterations=iterations, fft_pairs=pairs, messages=messages,
+               wall_time=wall, time_per_step=wall / max(done, 1),
+               time_per_iteration=wall / max(iterations, 1), fft_comm_share=fft_comm / wall,
+               domain_comm_share=dom_comm / wall, setup_time=setup, preload_time=preload_time,
+               preload_iterations=preload.iterations, load=repr(record.load))
+    return row
+
+
+def append_row(path, row):
+    """Append ``row`` to the CSV file ``path``, writing the header if the file is new."""
+    new = not os.path.exists(path) or os.path.getsize(path) == 0
+    if not new:
+        with open(path, newline="") as fh:
+            if next(csv.reader(fh), None) != FIELDS:
+                sys.exit(f"{path}: exists with other columns; give another --out")
+    with open(path, "a", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=FIELDS)
+        if new:
+            writer.writeheader()
+        writer.writerow(row)
+
+
+def run_here(args):
+    """Measure every grid on COMM_WORLD and append the rows (rank 0 prints and writes)."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    root = comm.Get_rank() == 0
+    for n in args.n:
+        row = measure(comm, 2**n, args.steps, args.planner)
+        if root:
+            append_row(args.out, row)
+            print(f"ranks {row['ranks']}  nx 2^{n}  {row['steps']} steps"
+                  f"  {row['iterations']} iterations  {row['time_per_step']:.4g} s/step"
+                  f"  {1e3 * row['time_per_iteration']:.4g} ms/iteration"
+                  f"  FFT comm {row['fft_comm_share']:.1%}  Domain comm"
+                  f" {row['domain_comm_share']:.1%}  setup {row['setup_time']:.3g} s"
+                  f"  preload {row['preload_time']:.3g} s ({row['preload_iterations']} it)"
+                  f"  load {float(row['load']):.10g}", flush=True)
+
+
+def uptime():
+    return subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
+
+
+def launch(args):
+    """Run this script under ``mpirun -n P`` for each P and grid, then print the report."""
+    mpirun = shutil.which("mpirun")
+    if mpirun is None:
+        sys.exit("--launch needs OpenMPI's mpirun on the PATH")
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    notes = [f"start: {uptime()}"]
+    print(notes[0], flush=True)
+    for n in args.n:
+        for ranks in args.launch:  # interleaved: the same n_x on every P before the next
+            command = [mpirun, "-n", str(ranks), sys.executable, os.path.abspath(__file__),
+                       "--n", str(n), "--steps", str(args.steps), "--planner", args.planner,
+                       "--out", args.out]
+            subprocess.run(command, env=env, check=True)
+    notes.append(f"end: {uptime()}")
+    report(args.out, args.markdown, notes)
+
+
+def latest_rows(path):
+    """The last row per (ranks, nx) of the CSV file, as {nx: {ranks: row}}."""
+    table = {}
+    with open(path, newline="") as fh:
+        for row in csv.DictReader(fh):
+            table.setdefault(int(row["nx"]), {})[int(row["ranks"])] = row
+    return table
+
+
+def report(path, markdown=None, notes=()):
+    """Print the scaling table of the CSV file ``path``; also write it to ``markdown``."""
+    head = ["n_x", "ranks", "steps", "iterations", "s/step", "ms/iteration", "speedup/it",
+            "speedup/step", "FFT comm", "Domain comm", "pairs/it", "msgs/it", "setup s",
+            "preload s (it)", "load of last step", "rel. diff", "host load"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for nx, by_ranks in sorted(latest_rows(path).items()):
+        base = by_ranks[min(by_ranks)]  # the fewest ranks, normally 1
+        for ranks, r in sorted(by_ranks.items()):
+            it, step = float(r["time_per_iteration"]), float(r["time_per_step"])
+            iterations = max(int(r["iterations"]), 1)
+            load, load0 = float(r["load"]), float(base["load"])
+            cells = [f"2^{nx.bit_length() - 1}" if nx & (nx - 1) == 0 else str(nx), str(ranks),
+                     r["steps"], r["iterations"], f"{step:.4g}", f"{1e3 * it:.4g}",
+                     f"{float(base['time_per_iteration']) / it:.2f}",
+                     f"{float(base['time_per_step']) / step:.2f}",
+                     f"{float(r['fft_comm_share']):.1%}", f"{float(r['domain_comm_share']):.1%}",
+                     f"{int(r['fft_pairs']) / iterations:.2f}",
+                     f"{int(r['messages']) / iterations:.1f}",
+                     f"{float(r['setup_time']):.3g} ({r['planner'].removeprefix('FFTW_')})",
+                     f"{float(r['preload_time']):.3g} ({r['preload_iterations']})",
+                     f"{load:.10g}", f"{abs(load - load0) / abs(load0):.1e}",
+                     f"{float(r['host_load']):.2f}"]
+            lines.append("| " + " | ".join(cells) + " |")
+    cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo")
+                if line.startswith("model name")), "unknown CPU")
+    text = "\n".join([f"Scaling of the default case ({path}; {os.cpu_count()} cores, {cpu})",
+                      "", *lines, "", *notes])
+    print(text, flush=True)
+    if markdown:
+        with open(markdown, "w") as fh:
+            fh.write(text + "\n")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    mode = parser.add_mutually_exclusive_group()
+    mode.add_argument("--launch", type=int, nargs="+", metavar="P",
+                      help="run under mpirun -n P for each P, then report")
+    mode.add_argument("--report", metavar="CSV", help="only print the table of this CSV file")
+    parser.add_argument("--n", type=int, nargs="+", default=[17, 20, 22],
+                        help="grid sizes as powers of two, n_x = 2^N")
+    parser.add_argument("--steps", type=int, default=20, help="timed retraction steps")
+    parser.add_argument("--planner", default="FFTW_MEASURE",
+                        help="FFTW planner flag (FFTW_ESTIMATE plans in no time)")
+    parser.add_argument("--out", default="bench.csv", help="CSV file the rows are appended to")
+    parser.add_argument("--markdown", help="also write the table to this Markdown file")
+    args = parser.parse_args()
+    if args.markdown and not (args.launch or args.report):
+        parser.error("--markdown goes with --launch or --report")
+    if args.report:
+        report(args.report, args.markdown)
+    elif args.launch:
+        launch(args)
+    else:
+        run_here(args)
+
+
+if __name__ == "__main__":
+    main()
