@@ -1,4 +1,4 @@
-"""Command line: ``python -m hpcgfmd [run|info|plot] ...``, on one rank or under mpirun/srun.
+"""Command line: ``python -m hpcgfmd [run|farm|info|plot] ...``, on one rank or under mpirun/srun.
 
 Exit status: 0 finished, 2 bad input (one line on stderr, nothing written), 1 failure,
 75 stopped by SIGTERM/SIGUSR1 after a checkpoint (resumable: run the same command again).
@@ -111,6 +111,64 @@ def cmd_default(comm, args):
     return _run(comm, case, output, False, False)
 
 
+def cmd_farm(comm, args):
+    from .farm import case_file, file_status, run_farm
+    from .sweep import SweepError, load_sweep
+
+    try:
+        sweep = load_sweep(args.sweep)
+    except SweepError as err:
+        raise UsageError(f"{args.sweep}: {err}") from None
+    if args.output is not None:
+        out_dir = args.output
+    elif sweep.output is not None:  # relative to the sweep file, like its base case file
+        out_dir = os.path.join(os.path.dirname(os.path.abspath(args.sweep)), sweep.output)
+    else:
+        out_dir = os.path.splitext(args.sweep)[0]
+    ranks = args.ranks_per_case or sweep.ranks_per_case
+    if ranks < 1 or ranks > comm.Get_size():
+        raise UsageError(f"--ranks-per-case {ranks}: expected 1 to {comm.Get_size()}"
+                         " (the number of ranks)")
+    if args.case is not None and not 0 <= args.case < len(sweep.cases):
+        raise UsageError(f"--case {args.case}: expected 0 to {len(sweep.cases) - 1}"
+                         " (see --dry-run)")
+    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+        raise UsageError(f"-o {out_dir}: exists and is not a directory")
+    say = _printer(comm)
+    if args.dry_run:
+        say(_farm_table(sweep, out_dir, comm.Get_size() // ranks, case_file, file_status))
+        return EXIT_OK
+    say(f"farm: {len(sweep.cases)} cases in {out_dir}, {comm.Get_size()} ranks,"
+        f" {ranks} per case")
+    # each group's leader prints its own cases' lines
+    return run_farm(sweep, comm, out_dir, ranks_per_case=ranks,
+                    printer=lambda line: print(line, flush=True), only=args.case)
+
+
+def _farm_table(sweep, out_dir, groups, case_file, file_status):
+    """The dry run's listing: each case, its groups, its file's state and its estimated cost."""
+    lines = [f"{len(sweep.cases)} cases; outputs in {out_dir}",
+             f"{'#':>3}  {'name':<32} {'lambda0':>8} {'k':>6} {'V_z':>8} {'chi_ve':>9}"
+             f" {'h0/R':>6} {'nx':>8} {'cost/s':>8}  file"]
+    loads = [0.0] * max(groups, 1)
+    for item in sorted(sweep.cases, key=lambda c: -c.cost()):
+        loads[loads.index(min(loads))] += item.cost()  # longest first onto the freest group
+    for item in sweep.cases:
+        if item.case is None:
+            lines.append(f"{item.index:>3}  {item.name:<32} invalid: {item.error}")
+            continue
+        g = item.case.groups()
+        lines.append(f"{item.index:>3}  {item.name:<32} {g['lambda0']:>8.4g} {g['k']:>6.3g}"
+                     f" {g['Vz']:>8.4g} {g['chi_ve']:>9.4g} {g['depth']:>6.3g}"
+                     f" {item.case.numerics.nx:>8} {item.cost():>8.3g}"
+                     f"  {file_status(case_file(out_dir, item), item)}")
+    total = sum(c.cost() for c in sweep.cases)
+    lines.append(f"estimated cost: {total:.0f} core-seconds (model: 8.7 ms per CG iteration at"
+                 f" 2^17 nodes, 16.7 iterations per step); about {max(loads):.0f} s on"
+                 f" {groups} group(s) of ranks, longest first")
+    return "\n".join(lines)
+
+
 def cmd_info(comm, args):
     from .analysis import read_series
 
@@ -189,6 +247,18 @@ def build_parser():
         "continue from the checkpoint next to the output file (also automatic when both"
         " exist); any number of ranks"))
     run.set_defaults(func=cmd_run)
+    farm = sub.add_parser("farm", help="run every case of a sweep file (task farm)")
+    farm.add_argument("sweep", help="sweep file (TOML): base case plus [grid] / [[cases]]")
+    farm.add_argument("-o", "--output", default=None,
+                      help="directory of the case files and summary (default: [farm] output,"
+                           " else the sweep file's name)")
+    farm.add_argument("--ranks-per-case", type=int, default=None,
+                      help="ranks sharing one case (default: [farm] ranks_per_case, else 1)")
+    farm.add_argument("--case", type=int, default=None,
+                      help="run only this case index (as --dry-run lists them; job arrays)")
+    farm.add_argument("--dry-run", action="store_true",
+                      help="list the cases, their groups and estimated cost; run nothing")
+    farm.set_defaults(func=cmd_farm)
     info = sub.add_parser("info", help="summarise a case file's results")
     info.add_argument("file")
     info.set_defaults(func=cmd_info)

@@ -164,6 +164,7 @@ class CaseFile:
         attrs = self.file.attrs
         attrs["hpcgfmd_version"] = __version__
         attrs["config"] = case.text
+        attrs["case_identity"] = case.identity()  # what a resumed run or the farm compares
         for key, value in case.groups().items():
             attrs[key] = value
         attrs["nx"] = case.numerics.nx

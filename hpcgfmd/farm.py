@@ -1,0 +1,250 @@
+"""Task farm: every case of a sweep, as many at a time as there are rank groups.
+
+Scheduling. The ranks of ``comm`` are split (``comm.Split``) into groups of ``ranks_per_case``
+consecutive ranks; each group runs one case at a time on its own communicator (the engine is
+the distributed one, so a group of K ranks shares one large grid). Cases are handed out
+dynamically, the most expensive first (estimated cost, :meth:`SweepCase.cost`): the next index
+comes from an atomic counter in an MPI window on rank 0 (``MPI.Win.Fetch_and_op``), fetched by
+each group's leader when the group is free and broadcast inside the group. There is no master
+rank: every rank computes, and a long case never waits behind short ones.
+
+Outputs. ``OUTDIR/<name>.h5`` per case (named from the swept values, see
+:mod:`hpcgfmd.sweep`), and ``OUTDIR/summary.csv`` and ``OUTDIR/summary.h5`` with one row per
+case, written atomically by rank 0 at the end from the case files themselves (so the table is
+complete after a resumed farm too).
+
+Faults. A case that fails (invalid parameters, a cell too small, non-convergence, NaN) is
+recorded with its error and the farm goes on. Re-running the same command resumes: a case
+whose file is marked finished (and belongs to the same case) is skipped, an interrupted one
+continues from its checkpoint, any other is started again. SIGTERM or SIGUSR1 makes every
+running case checkpoint and stop, and no new case starts.
+
+Exit status: 0 all cases finished; 75 interrupted by a signal (resumable); 100 + N when N
+cases failed (capped at 199); 2 for a bad sweep file or command line.
+"""
+from __future__ import annotations
+
+import csv
+import os
+import time
+
+import h5py
+import numpy as np
+from mpi4py import MPI
+
+from .analysis import read_series
+from .config import CaseError
+from .driver import CaseFailure
+from .runner import Interrupted, StopSignals, run_case
+from .checkpoint import checkpoint_path
+
+EXIT_INTERRUPTED = 75
+EXIT_FAILED_BASE = 100
+SUMMARY_COLUMNS = ("index", "name", "status", "error", "lambda0", "lambda_inf", "k", "Vz",
+                   "chi_ve", "alpha", "depth", "cell", "nx", "pull_off_load", "pull_off_lbar",
+                   "pull_off_contact_half_width", "pull_off_abar", "detachment_indenter",
+                   "max_effective_work", "steps", "wall_time", "ranks", "file")
+
+
+def case_file(out_dir, item) -> str:
+    return os.path.join(out_dir, item.name + ".h5")
+
+
+def file_status(path, item) -> str:
+    """'new', 'finished', 'resumable', 'unfinished' or 'other case' for a case's output file."""
+    if not os.path.exists(path):
+        return "new"
+    try:
+        with h5py.File(path, "r") as f:
+            finished = bool(f.attrs.get("finished", False))
+            identity = str(f.attrs.get("case_identity", ""))
+    except OSError:
+        return "unfinished"  # unreadable (killed while being created): written again
+    if item.case is None or identity != item.case.identity():
+        return "other case"
+    if finished:
+        return "finished"
+    return "resumable" if os.path.exists(checkpoint_path(path)) else "unfinished"
+
+
+class _Counter:
+    """Collective construction: an atomic next-index counter in a window on rank 0."""
+
+    def __init__(self, comm):
+        itemsize = MPI.INT64_T.Get_size()
+        self.window = MPI.Win.Allocate(itemsize if comm.Get_rank() == 0 else 0, itemsize,
+                                       comm=comm)
+        if comm.Get_rank() == 0:
+            self.window.Lock(0)
+            self.window.Put(np.zeros(1, dtype=np.int64), 0)
+            self.window.Unlock(0)
+        comm.Barrier()
+        self._one = np.ones(1, dtype=np.int64)
+        self._value = np.zeros(1, dtype=np.int64)
+
+    def next(self) -> int:
+        """The next index (0, 1, 2, ... over all callers); one atomic operation."""
+        self.window.Lock(0)
+        self.window.Fetch_and_op(self._one, self._value, 0, op=MPI.SUM)
+        self.window.Unlock(0)
+        return int(self._value[0])
+
+    def free(self):
+        self.window.Free()
+
+
+def _run_one(item, out_dir, group, say):
+    """Run (or resume, or skip) one case on ``group``; returns its record."""
+    path = case_file(out_dir, item)
+    record = {"index": item.index, "name": item.name, "file": os.path.basename(path),
+              "ranks": group.Get_size(), "error": ""}
+    if item.case is None:
+        return dict(record, status="failed", error=item.error)
+    status = file_status(path, item)
+    if status == "finished":
+        say(f"[{item.index}] {item.name}: finished before, skipped")
+        return dict(record, status="finished")
+    if status == "other case":
+        return dict(record, status="failed",
+                    error=f"{path} holds another case; move it away to run this one")
+    say(f"[{item.index}] {item.name}: {'resuming' if status == 'resumable' else 'starting'}"
+        f" on {group.Get_size()} rank(s)")
+    alike = (CaseError, CaseFailure, FloatingPointError)
+    if group.Get_size() == 1:  # nothing collective to leave hanging: record any error
+        alike += (Exception,)
+    started = time.monotonic()
+    try:
+        summary = run_case(item.case, path, group, printer=lambda *a: None,
+                           overwrite=status == "unfinished", resume=status == "resumable")
+    except Interrupted:
+        say(f"[{item.index}] {item.name}: interrupted, checkpointed")
+        return dict(record, status="interrupted")
+    except alike as err:
+        say(f"[{item.index}] {item.name}: failed: {type(err).__name__}: {err}")
+        return dict(record, status="failed", error=f"{type(err).__name__}: {err}")
+    say(f"[{item.index}] {item.name}: finished, {summary['steps']} steps,"
+        f" {time.monotonic() - started:.1f} s")
+    return dict(record, status="finished")
+
+
+def run_farm(sweep, comm, out_dir, ranks_per_case=1, printer=print, only=None) -> int:
+    """Collective: run the cases of ``sweep`` on ``comm``; returns the exit status.
+
+    ``only`` runs just that case index on all of ``comm`` (one element of a job array).
+    """
+    rank = comm.Get_rank()
+    if rank == 0:
+        os.makedirs(out_dir, exist_ok=True)
+    comm.Barrier()
+    if only is not None:
+        group, order = comm, [only]
+    else:
+        group = comm.Split(color=rank // ranks_per_case, key=rank)
+        order = sorted(range(len(sweep.cases)), key=lambda i: -sweep.cases[i].cost())
+    leader = group.Get_rank() == 0
+    say = printer if leader else (lambda line: None)  # each group's leader reports its cases
+    counter = _Counter(comm)
+    records = []
+    stopped = False
+    with StopSignals() as stop:
+        while True:
+            # a signal between cases: the group agrees, then takes no new case
+            if group.allreduce(stop.received is not None, op=MPI.LOR):
+                stopped = True
+                break
+            position = counter.next() if leader else None
+            position = group.bcast(position, root=0)
+            if only is not None and position > 0 or position >= len(order):
+                break
+            record = _run_one(sweep.cases[order[position]], out_dir, group, say)
+            if leader:
+                records.append(record)
+            if record["status"] == "interrupted":
+                stopped = True
+                break
+    counter.free()
+    gathered = comm.gather(records, root=0)
+    stopped = comm.allreduce(stopped, op=MPI.LOR)
+    failed = 0
+    if rank == 0:
+        done = {r["index"]: r for part in gathered for r in part}
+        rows = summary_rows(sweep, out_dir, done, [only] if only is not None else None)
+        write_summary(out_dir, rows, sweep.swept)
+        failed = sum(r["status"] == "failed" for r in rows)
+        counts = {s: sum(r["status"] == s for r in rows) for s in
+                  ("finished", "failed", "interrupted", "pending")}
+        printer(f"farm: {counts['finished']} finished, {counts['failed']} failed,"
+                f" {counts['interrupted']} interrupted, {counts['pending']} pending; summary in"
+                f" {os.path.join(out_dir, 'summary.csv')}")
+    failed = comm.bcast(failed, root=0)
+    if group is not comm:
+        group.Free()
+    if stopped:
+        return EXIT_INTERRUPTED
+    return EXIT_FAILED_BASE + min(failed, 99) if failed else 0
+
+
+def _case_results(path):
+    """Pull-off, detachment and effective work of a finished case file."""
+    s = read_series(path)
+    i = s.pull_off()
+    # Delta gamma_eff from the point (Lbar/sqrt(abar), (pi/4) abar^(3/2)) holds while the
+    # contact is JKR-like, up to pull-off; past it abar -> 0 at detachment and x diverges.
+    work = s.effective_work()[:np.count_nonzero(s.contact_half_width[:i + 1] > 0)]
+    return {"pull_off_load": float(s.load[i]), "pull_off_lbar": float(s.lbar[i]),
+            "pull_off_contact_half_width": float(s.contact_half_width[i]),
+            "pull_off_abar": float(s.abar[i]),
+            "detachment_indenter": float(s.attrs.get("detachment_indenter", np.nan)),
+            "max_effective_work": float(np.max(work)) if work.size else np.nan,
+            "steps": int(s.attrs.get("steps", s.time.size - 1)),
+            "wall_time": float(s.attrs.get("wall_time", np.nan))}
+
+
+def summary_rows(sweep, out_dir, records, indices=None):
+    """One row per case: the farm's records, completed from the case files on disk."""
+    rows = []
+    for item in sweep.cases:
+        if indices is not None and item.index not in indices:
+            continue
+        path = case_file(out_dir, item)
+        record = records.get(item.index)
+        status = record["status"] if record else "pending"
+        if status == "pending" and item.case is None:
+            status = "failed"
+        if status == "pending" and file_status(path, item) == "finished":
+            status = "finished"
+        row = {"index": item.index, "name": item.name, "status": status,
+               "error": (record or {}).get("error", "") or (item.error or ""),
+               "file": os.path.basename(path), "ranks": (record or {}).get("ranks", "")}
+        row.update({k: v for k, v in item.values.items()})
+        if item.case is not None:
+            row.update(item.case.groups())
+            row["nx"] = item.case.numerics.nx
+        if status == "finished":
+            row.update(_case_results(path))
+        rows.append(row)
+    return rows
+
+
+def write_summary(out_dir, rows, swept):
+    """summary.csv and summary.h5 (one row per case), each written then renamed."""
+    columns = list(SUMMARY_COLUMNS[:4]) + [k for k in swept] + list(SUMMARY_COLUMNS[4:])
+    columns = [c for c in columns if c != "zone_points"]
+    csv_path = os.path.join(out_dir, "summary.csv")
+    with open(csv_path + ".tmp", "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore", restval="")
+        writer.writeheader()
+        writer.writerows(rows)
+    os.replace(csv_path + ".tmp", csv_path)
+    h5_path = os.path.join(out_dir, "summary.h5")
+    with h5py.File(h5_path + ".tmp", "w") as f:
+        for column in columns:
+            values = [row.get(column, "") for row in rows]
+            if all(isinstance(v, (int, float, np.integer, np.floating)) and
+                   not isinstance(v, bool) for v in values) and values:
+                f.create_dataset(column, data=np.asarray(values, dtype=float))
+            else:
+                f.create_dataset(column, data=np.asarray([str(v) for v in values], dtype=object),
+                                 dtype=h5py.string_dtype())
+        f.attrs["columns"] = columns
+    os.replace(h5_path + ".tmp", h5_path)

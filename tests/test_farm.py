@@ -1,0 +1,184 @@
+"""Sweep files and the task farm (`mpirun -n 2 python -m hpcgfmd farm sweep.toml`)."""
+import csv
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import h5py
+import numpy as np
+import pytest
+
+from hpcgfmd.analysis import read_series
+from hpcgfmd.config import parse_case
+from hpcgfmd.sweep import SweepError, parse_sweep
+
+MPIRUN = shutil.which("mpirun")
+BASE = """[base.case]
+maugis = 3.5
+modulus_ratio = 0.1
+velocity = 1.0
+depth = 0.03
+cell = 2.0
+adhesion = 1e-4
+[base.numerics]
+nx = 1024
+"""
+
+
+def test_grid_times_cases_and_overrides():
+    sweep = parse_sweep(BASE + "[grid]\nvelocity = [0.5, 2.0]\ndepth = [0.03, 0.02]\n"
+                        "[[cases]]\n[[cases]]\nmaugis = 1.0\nnumerics.nx = 2048\n")
+    assert len(sweep.cases) == 8
+    assert sweep.swept == ["case.velocity", "case.depth", "case.maugis", "numerics.nx"]
+    first, last = sweep.cases[0], sweep.cases[-1]
+    assert first.name == "velocity_0.5-depth_0.03"
+    assert last.name == "maugis_1.0-nx_2048-velocity_2.0-depth_0.02"
+    # each case file is the base with its values: the same Case as writing it by hand
+    by_hand = parse_case(BASE.replace("[base.", "[").replace("velocity = 1.0", "velocity = 2.0")
+                         .replace("depth = 0.03", "depth = 0.02")
+                         .replace("maugis = 3.5", "maugis = 1.0")
+                         .replace("nx = 1024", "nx = 2048"))
+    assert last.case.identity() == by_hand.identity()
+    assert all(c.error is None for c in sweep.cases)
+
+
+def test_an_invalid_case_is_kept_with_its_error():
+    sweep = parse_sweep(BASE + "[grid]\nnx = [1024, 64]\n")
+    assert sweep.cases[0].error is None
+    assert sweep.cases[1].case is None and "nx = 64" in sweep.cases[1].error
+
+
+@pytest.mark.parametrize("text, words", [
+    (BASE + "[grid]\ncolour = [1, 2]\n", ["colour", "not a key"]),
+    (BASE + "[grid]\nvelocity = 0.5\n", ["velocity", "non-empty list"]),
+    (BASE + "[grid]\nphysical.radius = [1.0]\n", ["physical.radius", "no key"]),
+    (BASE + "[farm]\nranks_per_case = 0\n", ["ranks_per_case", "integer >= 1"]),
+    (BASE + "[sweep]\n", ["sweep", "unknown"]),
+    ("[grid]\nvelocity = [1.0]\n", ["base", "missing"]),
+    (BASE + "[[cases]]\nvelocity = 1.0\n[[cases]]\nvelocity = 1.0\n", ["same case"]),
+])
+def test_bad_sweep_files_are_rejected(text, words):
+    with pytest.raises(SweepError) as err:
+        parse_sweep(text)
+    assert all(w in str(err.value) for w in words), str(err.value)
+
+
+def test_base_from_a_case_file(tmp_path):
+    (tmp_path / "case.toml").write_text(BASE.replace("[base.", "["))
+    sweep = parse_sweep('base = "case.toml"\n[grid]\nvelocity = [1.0, 2.0]\n', str(tmp_path))
+    assert [c.case.Vz for c in sweep.cases] == [1.0, 2.0]
+
+
+# --- the farm as a user runs it ------------------------------------------------------------
+def environment():
+    return dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+                OPENBLAS_NUM_THREADS="1")
+
+
+def farm_command(ranks, *args):
+    return [MPIRUN, "--oversubscribe", "-n", str(ranks), sys.executable, "-m", "hpcgfmd",
+            "farm", *map(str, args)]
+
+
+def summary(path):
+    with open(path) as fh:
+        return {int(row["index"]): row for row in csv.DictReader(fh)}
+
+
+@pytest.mark.mpi
+def test_farm_records_failures_goes_on_and_resumes(tmp_path):
+    # 4 cases: two fine, one invalid (too coarse a grid), one that cannot converge
+    (tmp_path / "sweep.toml").write_text(
+        BASE + "[[cases]]\nvelocity = 1.0\n[[cases]]\nvelocity = 2.0\n"
+        "[[cases]]\nnx = 64\n[[cases]]\nvelocity = 0.5\nmax_iterations = 2\n")
+    run = subprocess.run(farm_command(2, "sweep.toml", "-o", "out"), cwd=tmp_path,
+                         capture_output=True, text=True, timeout=300, env=environment())
+    assert run.returncode == 102, run.stdout + run.stderr  # 100 + 2 failed
+    rows = summary(tmp_path / "out" / "summary.csv")
+    assert [rows[i]["status"] for i in range(4)] == ["finished", "finished", "failed", "failed"]
+    assert "nx = 64" in rows[2]["error"] and "NonConvergenceError" in rows[3]["error"]
+    for i in (0, 1):
+        s = read_series(tmp_path / "out" / rows[i]["file"])
+        assert s.attrs["finished"]
+        assert float(rows[i]["pull_off_load"]) == s.load.min()
+        assert float(rows[i]["steps"]) == s.attrs["steps"]
+    with h5py.File(tmp_path / "out" / "summary.h5", "r") as f:
+        assert [v.decode() for v in f["status"][:]] == [rows[i]["status"] for i in range(4)]
+        np.testing.assert_array_equal(f["index"][:], [0, 1, 2, 3])
+    before = os.path.getmtime(tmp_path / "out" / rows[0]["file"])
+    again = subprocess.run(farm_command(2, "sweep.toml", "-o", "out"), cwd=tmp_path,
+                           capture_output=True, text=True, timeout=300, env=environment())
+    assert again.returncode == 102
+    assert again.stdout.count("finished before, skipped") == 2
+    assert os.path.getmtime(tmp_path / "out" / rows[0]["file"]) == before  # not rewritten
+
+
+@pytest.mark.mpi
+def test_farm_signal_checkpoints_and_the_same_command_finishes(tmp_path):
+    # Three cases on two single-rank groups; SIGUSR1 (forwarded by mpirun) stops them with
+    # checkpoints (status 75); the same command on one group of two ranks finishes them,
+    # each equal to a direct serial run of its case.
+    base = BASE.replace("nx = 1024", "nx = 2048\ntolerance = 1e-13") + \
+        "[base.output]\ncheckpoint_steps = 5\n"
+    (tmp_path / "sweep.toml").write_text(base + "[grid]\nvelocity = [0.6, 0.8, 1.0]\n")
+    process = subprocess.Popen(farm_command(2, "sweep.toml", "-o", "out"), cwd=tmp_path,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               env=environment())
+    out = tmp_path / "out"
+    deadline = time.monotonic() + 120
+    while not (out.exists() and any(p.endswith(".checkpoint.h5") for p in os.listdir(out))):
+        assert process.poll() is None and time.monotonic() < deadline, process.communicate()
+        time.sleep(0.02)
+    process.send_signal(signal.SIGUSR1)
+    stdout, stderr = process.communicate(timeout=120)
+    assert process.returncode == 75, stdout + stderr
+    rows = summary(tmp_path / "out" / "summary.csv")
+    assert "interrupted" in [r["status"] for r in rows.values()]
+    done = subprocess.run(farm_command(2, "sweep.toml", "-o", "out", "--ranks-per-case", 2),
+                          cwd=tmp_path, capture_output=True, text=True, timeout=300,
+                          env=environment())
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "resuming" in done.stdout
+    rows = summary(tmp_path / "out" / "summary.csv")
+    assert all(r["status"] == "finished" for r in rows.values())
+    assert not [p for p in os.listdir(tmp_path / "out") if p.endswith(".checkpoint.h5")]
+    # the interrupted-and-resumed case against a direct serial run of the same case file
+    sweep = parse_sweep(base + "[grid]\nvelocity = [0.6, 0.8, 1.0]\n")
+    item = sweep.cases[0]
+    (tmp_path / "direct.toml").write_text(item.text)
+    direct = subprocess.run([sys.executable, "-m", "hpcgfmd", "run", "direct.toml", "-o",
+                             "direct.h5"], cwd=tmp_path, capture_output=True, text=True,
+                            timeout=300, env=environment())
+    assert direct.returncode == 0, direct.stderr
+    a = read_series(tmp_path / "direct.h5")
+    b = read_series(tmp_path / "out" / (item.name + ".h5"))
+    assert a.load.shape == b.load.shape
+    assert np.max(np.abs(a.load - b.load)) <= 1e-10 * np.max(np.abs(a.load))
+
+
+@pytest.mark.mpi
+def test_one_case_of_the_sweep_for_a_job_array(tmp_path):
+    (tmp_path / "sweep.toml").write_text(BASE + "[grid]\nvelocity = [1.0, 2.0]\n")
+    run = subprocess.run(farm_command(2, "sweep.toml", "-o", "out", "--case", 1),
+                         cwd=tmp_path, capture_output=True, text=True, timeout=300,
+                         env=environment())
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert sorted(p for p in os.listdir(tmp_path / "out") if p.endswith(".h5")) == [
+        "summary.h5", "velocity_2.0.h5"]
+    rows = summary(tmp_path / "out" / "summary.csv")
+    assert list(rows) == [1] and rows[1]["status"] == "finished"
+
+
+def test_dry_run_lists_cases_groups_and_cost(tmp_path):
+    (tmp_path / "sweep.toml").write_text(BASE + "[grid]\nvelocity = [0.045, 0.45, 4.5]\n")
+    run = subprocess.run([sys.executable, "-m", "hpcgfmd", "farm", "sweep.toml", "--dry-run"],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0, run.stderr
+    lines = run.stdout.splitlines()
+    assert lines[0].startswith("3 cases")
+    assert "chi_ve" in lines[1] and "cost" in lines[1]
+    assert " 55.12 " in run.stdout  # chi_ve = V_z lambda0^2 = 4.5 * 3.5^2
+    assert not (tmp_path / "sweep").exists()  # nothing written
