@@ -123,7 +123,8 @@ def _resolve(key, base):
     """'section.key' of a swept key, looked up in the base's sections."""
     if "." in key:
         section, name = key.split(".", 1)
-        if section not in base or name not in SECTIONS.get(section, ()):
+        present = section in base or section in ("numerics", "output")  # optional sections
+        if not present or name not in SECTIONS.get(section, ()):
             raise SweepError(f"{key}: no key {name!r} in section [{section}] of this base case")
         return section, name
     owners = [s for s in SECTIONS if (s in base or s in ("numerics", "output"))
