@@ -11,7 +11,7 @@ rank: every rank computes, and a long case never waits behind short ones.
 Outputs. ``OUTDIR/<name>.h5`` per case (named from the swept values, see
 :mod:`hpcgfmd.sweep`), and ``OUTDIR/summary.csv`` and ``OUTDIR/summary.h5`` with one row per
 case, written atomically by rank 0 at the end from the case files themselves (so the table is
-complete after a resumed farm too).
+complete after a resumed farm, or after the last element of a job array, too).
 
 Faults. A case that fails (invalid parameters, a cell too small, non-convergence, NaN) is
 recorded with its error and the farm goes on. Re-running the same command resumes: a case
@@ -25,6 +25,7 @@ cases failed (capped at 199); 2 for a bad sweep file or command line.
 from __future__ import annotations
 
 import csv
+import fcntl
 import os
 import time
 
@@ -33,10 +34,10 @@ import numpy as np
 from mpi4py import MPI
 
 from .analysis import read_series
+from .checkpoint import checkpoint_path
 from .config import CaseError
 from .driver import CaseFailure
 from .runner import Interrupted, StopSignals, run_case
-from .checkpoint import checkpoint_path
 
 EXIT_INTERRUPTED = 75
 EXIT_FAILED_BASE = 100
@@ -168,8 +169,7 @@ def run_farm(sweep, comm, out_dir, ranks_per_case=1, printer=print, only=None) -
     failed = 0
     if rank == 0:
         done = {r["index"]: r for part in gathered for r in part}
-        rows = summary_rows(sweep, out_dir, done, [only] if only is not None else None)
-        write_summary(out_dir, rows, sweep.swept)
+        rows = write_summary(sweep, out_dir, done)
         failed = sum(r["status"] == "failed" for r in rows)
         counts = {s: sum(r["status"] == s for r in rows) for s in
                   ("finished", "failed", "interrupted", "pending")}
@@ -200,12 +200,10 @@ def _case_results(path):
             "wall_time": float(s.attrs.get("wall_time", np.nan))}
 
 
-def summary_rows(sweep, out_dir, records, indices=None):
-    """One row per case: the farm's records, completed from the case files on disk."""
+def summary_rows(sweep, out_dir, records):
+    """One row per case: this run's records, completed from the case files on disk."""
     rows = []
     for item in sweep.cases:
-        if indices is not None and item.index not in indices:
-            continue
         path = case_file(out_dir, item)
         record = records.get(item.index)
         status = record["status"] if record else "pending"
@@ -226,18 +224,31 @@ def summary_rows(sweep, out_dir, records, indices=None):
     return rows
 
 
-def write_summary(out_dir, rows, swept):
-    """summary.csv and summary.h5 (one row per case), each written then renamed."""
+def write_summary(sweep, out_dir, records):
+    """summary.csv and summary.h5 (one row per case of the sweep); returns the rows.
+
+    Elements of a job array (``farm --case``) finish independently and each refreshes the
+    whole table from the files on disk, under a lock and through private temporary files, so
+    the last one to finish leaves the complete summary.
+    """
+    with open(os.path.join(out_dir, ".summary.lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        rows = summary_rows(sweep, out_dir, records)
+        _write_tables(out_dir, rows, sweep.swept)
+    return rows
+
+
+def _write_tables(out_dir, rows, swept):
     columns = list(SUMMARY_COLUMNS[:4]) + [k for k in swept] + list(SUMMARY_COLUMNS[4:])
-    columns = [c for c in columns if c != "zone_points"]
+    private = f".{os.getpid()}.tmp"
     csv_path = os.path.join(out_dir, "summary.csv")
-    with open(csv_path + ".tmp", "w", newline="") as fh:
+    with open(csv_path + private, "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore", restval="")
         writer.writeheader()
         writer.writerows(rows)
-    os.replace(csv_path + ".tmp", csv_path)
+    os.replace(csv_path + private, csv_path)
     h5_path = os.path.join(out_dir, "summary.h5")
-    with h5py.File(h5_path + ".tmp", "w") as f:
+    with h5py.File(h5_path + private, "w") as f:
         for column in columns:
             values = [row.get(column, "") for row in rows]
             if all(isinstance(v, (int, float, np.integer, np.floating)) and
@@ -247,4 +258,4 @@ def write_summary(out_dir, rows, swept):
                 f.create_dataset(column, data=np.asarray([str(v) for v in values], dtype=object),
                                  dtype=h5py.string_dtype())
         f.attrs["columns"] = columns
-    os.replace(h5_path + ".tmp", h5_path)
+    os.replace(h5_path + private, h5_path)

@@ -42,10 +42,11 @@ How to read the table
     (FFT forward+backward pairs) and ``msgs/it`` (Domain collectives) per iteration show what
     each iteration costs in transforms and latency-bound messages. ``setup s`` is the
     construction of the Retraction, i.e. the FFTW planning with the flag in brackets (the
-    rest of it takes milliseconds). ``host load`` is the 1-minute load average of the
-    machine before the row was measured: a value well above the rank count means other
-    processes shared the cores, which hurts 2 ranks most (they wait for each other at every
-    collective, tens per iteration).
+    rest of it takes milliseconds). ``other CPU`` is the CPU time other processes used
+    during the timed steps, in cores (from /proc/stat, 10 ms resolution): it should be ~0.
+    Above ~0.1 the row is not clean; sharing the cores hurts 2 ranks most, as they wait for
+    each other at every collective (tens per iteration). ``uptime`` at the start and end of
+    a --launch session is printed below the table.
 """
 import argparse
 import csv
@@ -75,7 +76,7 @@ adhesion = 5e-5
 [numerics]
 nx = {nx}
 """
-FIELDS = ["started", "host_load", "ranks", "nx", "planner", "steps", "iterations", "fft_pairs",
+FIELDS = ["started", "other_cpu", "ranks", "nx", "planner", "steps", "iterations", "fft_pairs",
           "messages", "wall_time", "time_per_step", "time_per_iteration", "fft_comm_share",
           "domain_comm_share", "setup_time", "preload_time", "preload_iterations", "load"]
 
@@ -83,22 +84,31 @@ FIELDS = ["started", "host_load", "ranks", "nx", "planner", "steps", "iterations
 def measure(comm, nx, steps, planner):
     """Collective: time ``steps`` retraction steps of the default case on ``nx`` nodes.
 
+    Parameters
+    ----------
+    comm : mpi4py.MPI.Comm
+        The ranks to measure.
+    nx : int
+        Grid nodes.
+    steps : int
+        Retraction steps to time (fewer if the indenter detaches before).
+    planner : str
+        FFTW planner flag.
+
     Returns
     -------
     dict
-        One CSV row (keys :data:`FIELDS`); the same on every rank.
+        One CSV row (keys :data:`FIELDS`); rank 0's is the one to write (the clock and
+        /proc/stat readings of the other ranks differ slightly).
     """
     from mpi4py import MPI
 
-    from hpcgfmd import config
+    from hpcgfmd.config import parse_case
     from hpcgfmd.driver import Retraction
 
-    # Cost, not accuracy, is measured: accept the quick test grid 2^14 (w/dx = 0.97 < 1).
-    config.MIN_ZONE_POINTS = 0.5
     row = {"started": datetime.datetime.now().isoformat(timespec="seconds"),
-           "host_load": os.getloadavg()[0], "ranks": comm.Get_size(), "nx": nx,
-           "planner": planner}
-    case = config.parse_case(CASE.format(nx=nx))
+           "ranks": comm.Get_size(), "nx": nx, "planner": planner}
+    case = parse_case(CASE.format(nx=nx))
     comm.Barrier()
     t0 = time.perf_counter()
     sim = Retraction(case, comm, planner_effort=planner)
@@ -112,12 +122,15 @@ def measure(comm, nx, steps, planner):
     done = 0
     record = preload
     comm.Barrier()
+    busy, own = busy_seconds(), time.process_time()
     t3 = time.perf_counter()
     while done < steps and not sim.detached():
         record = sim.step()
         done += 1
     comm.Barrier()
     t4 = time.perf_counter()
+    own = comm.allreduce(time.process_time() - own, op=MPI.SUM)  # busy-waiting included
+    busy = busy_seconds() - busy
     after = (sim.total_iterations, fft.pairs, dom.messages, fft.communication_time,
              dom.communication_time)
     iterations, pairs, messages = (a - b for a, b in zip(after[:3], before[:3]))
@@ -125,12 +138,24 @@ def measure(comm, nx, steps, planner):
     local = np.array([t1 - t0, t2 - t1, t4 - t3, after[3] - before[3], after[4] - before[4]])
     comm.Allreduce(MPI.IN_PLACE, local, op=MPI.MAX)
     setup, preload_time, wall, fft_comm, dom_comm = local
-    row.update(steps=done, iterations=iterations, fft_pairs=pairs, messages=messages,
-               wall_time=wall, time_per_step=wall / max(done, 1),
-               time_per_iteration=wall / max(iterations, 1), fft_comm_share=fft_comm / wall,
-               domain_comm_share=dom_comm / wall, setup_time=setup, preload_time=preload_time,
+    row.update(other_cpu=max(busy - own, 0.0) / wall, steps=done, iterations=iterations,
+               fft_pairs=pairs, messages=messages, wall_time=wall,
+               time_per_step=wall / max(done, 1), time_per_iteration=wall / max(iterations, 1),
+               fft_comm_share=fft_comm / wall, domain_comm_share=dom_comm / wall,
+               setup_time=setup, preload_time=preload_time,
                preload_iterations=preload.iterations, load=repr(record.load))
     return row
+
+
+def busy_seconds():
+    """CPU seconds used so far by everything on this machine (all cores, Linux /proc/stat).
+
+    Minus the ranks' own CPU time it gives what other processes took during the timed
+    steps (steal by the hypervisor included): the benchmark is only clean when that is ~0.
+    """
+    with open("/proc/stat") as fh:
+        ticks = [int(v) for v in fh.readline().split()[1:9]]  # user ... steal
+    return (sum(ticks) - ticks[3] - ticks[4]) / os.sysconf("SC_CLK_TCK")  # minus idle, iowait
 
 
 def append_row(path, row):
@@ -151,6 +176,10 @@ def run_here(args):
     """Measure every grid on COMM_WORLD and append the rows (rank 0 prints and writes)."""
     from mpi4py import MPI
 
+    from hpcgfmd import config
+
+    # Cost, not accuracy, is measured: accept the quick test grid 2^14 (w/dx = 0.97 < 1).
+    config.MIN_ZONE_POINTS = 0.5
     comm = MPI.COMM_WORLD
     root = comm.Get_rank() == 0
     for n in args.n:
@@ -163,7 +192,8 @@ def run_here(args):
                   f"  FFT comm {row['fft_comm_share']:.1%}  Domain comm"
                   f" {row['domain_comm_share']:.1%}  setup {row['setup_time']:.3g} s"
                   f"  preload {row['preload_time']:.3g} s ({row['preload_iterations']} it)"
-                  f"  load {float(row['load']):.10g}", flush=True)
+                  f"  load {float(row['load']):.10g}  other CPU {row['other_cpu']:.2f}",
+                  flush=True)
 
 
 def uptime():
@@ -202,7 +232,7 @@ def report(path, markdown=None, notes=()):
     """Print the scaling table of the CSV file ``path``; also write it to ``markdown``."""
     head = ["n_x", "ranks", "steps", "iterations", "s/step", "ms/iteration", "speedup/it",
             "speedup/step", "FFT comm", "Domain comm", "pairs/it", "msgs/it", "setup s",
-            "preload s (it)", "load of last step", "rel. diff", "host load"]
+            "preload s (it)", "load of last step", "rel. diff", "other CPU"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for nx, by_ranks in sorted(latest_rows(path).items()):
         base = by_ranks[min(by_ranks)]  # the fewest ranks, normally 1
@@ -220,7 +250,7 @@ def report(path, markdown=None, notes=()):
                      f"{float(r['setup_time']):.3g} ({r['planner'].removeprefix('FFTW_')})",
                      f"{float(r['preload_time']):.3g} ({r['preload_iterations']})",
                      f"{load:.10g}", f"{abs(load - load0) / abs(load0):.1e}",
-                     f"{float(r['host_load']):.2f}"]
+                     f"{float(r['other_cpu']):.2f}"]
             lines.append("| " + " | ".join(cells) + " |")
     cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo")
                 if line.startswith("model name")), "unknown CPU")

@@ -1,14 +1,17 @@
 #!/usr/bin/env bash
 # Idempotent set-up for a fresh Debian 12 machine (as root, or with sudo for apt):
-# OpenMPI and parallel HDF5 from apt, a virtual environment in .venv, h5py built
-# against parallel HDF5 (h5py.get_config().mpi is True), and hpcgfmd itself.
+# OpenMPI, parallel HDF5 and SLURM (for the job script tests) from apt, a virtual environment
+# in .venv, h5py built against parallel HDF5 (h5py.get_config().mpi is True), and hpcgfmd.
 # Each step is skipped when what it provides is already there, so repeating is cheap.
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 venv="${HPCGFMD_VENV:-$repo/.venv}"
 python="${PYTHON:-python3}"
 
-apt_packages=(openmpi-bin libopenmpi-dev libhdf5-openmpi-dev pkg-config python3-venv python3-dev gcc)
+# slurm-wlm munge: a private single-node SLURM 22.05 for tests/test_slurm.py (the jobs/ scripts);
+# the tests start their own daemons, so the packages' system services are not used.
+apt_packages=(openmpi-bin libopenmpi-dev libhdf5-openmpi-dev pkg-config python3-venv python3-dev gcc
+              slurm-wlm munge)
 missing=()
 for p in "${apt_packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
