@@ -151,6 +151,18 @@ def read_checkpoint(path, comm, x_start, x_stop) -> tuple[dict, dict]:
     return fields, attrs
 
 
+def read_checkpoint_attrs(path) -> dict:
+    """The attributes of a checkpoint, read by one process (no communicator needed).
+
+    Raises ``ValueError`` if the file is not an hpcgfmd checkpoint, ``OSError`` if unreadable.
+    """
+    with h5py.File(os.fspath(path), "r") as f:
+        if f.attrs.get(_MARK) is None:
+            raise ValueError(f"{path} is not an hpcgfmd checkpoint")
+        return {key: (value.item() if isinstance(value, np.generic) else value)
+                for key, value in f.attrs.items() if key not in _RESERVED}
+
+
 def remove_checkpoint(path, comm):
     """Delete a checkpoint and any stale ``.tmp`` of it, if present (collective)."""
     path = os.fspath(path)

@@ -45,10 +45,28 @@ def _printer(comm):
     return lambda *line: None
 
 
-def _resume_wanted(case, output, restart, overwrite):
-    """Whether to continue from the checkpoint next to ``output`` (checked, same case)."""
-    from .checkpoint import checkpoint_path
-    from .runner import checkpoint_case_identity
+def _resume_wanted(comm, case, output, restart, overwrite):
+    """Collective: whether to continue from the checkpoint next to ``output``.
+
+    Rank 0 reads the files and broadcasts its verdict, so every rank decides alike even on a
+    file system whose caches differ between nodes.
+    """
+    verdict = None
+    if comm.Get_rank() == 0:
+        try:
+            verdict = (_check_resume(case, output, restart, overwrite), None)
+        except UsageError as err:
+            verdict = (False, str(err))
+    resume, error = comm.bcast(verdict, root=0)
+    if error:
+        raise UsageError(error)
+    return resume
+
+
+def _check_resume(case, output, restart, overwrite):
+    import h5py
+
+    from .checkpoint import checkpoint_path, read_checkpoint_attrs
 
     checkpoint = checkpoint_path(output)
     have_output, have_checkpoint = os.path.exists(output), os.path.exists(checkpoint)
@@ -60,28 +78,42 @@ def _resume_wanted(case, output, restart, overwrite):
         raise UsageError(f"--restart: checkpoint {checkpoint} exists but its output {output}"
                          " does not")
     try:
-        identity = checkpoint_case_identity(checkpoint)
-    except (OSError, KeyError) as err:
+        saved = read_checkpoint_attrs(checkpoint)
+        identity = str(saved["case_identity"])
+    except (OSError, KeyError, ValueError) as err:
         raise UsageError(f"{checkpoint}: not an hpcgfmd checkpoint ({err})") from None
     if identity != case.identity():
         raise UsageError(f"{checkpoint}: checkpoint of a different case (identity {identity},"
                          f" this case {case.identity()}); choose another -o or remove it")
+    try:
+        with h5py.File(output, "r") as f:
+            written = (str(f.attrs["case_identity"]), int(f.attrs["steps_complete"]),
+                       int(f["snapshots"].attrs["complete"]))
+    except (OSError, KeyError) as err:
+        raise UsageError(f"-o {output}: not the output of this checkpoint ({err})") from None
+    needed = (identity, int(saved["step_index"]) + 1, int(saved["snapshots_written"]))
+    if written[0] != needed[0] or written[1] < needed[1] or written[2] < needed[2]:
+        raise UsageError(f"-o {output}: does not match checkpoint {checkpoint} (case"
+                         f" {written[0]}, {written[1]} steps, {written[2]} snapshots written;"
+                         f" the checkpoint needs case {needed[0]}, {needed[1]} steps,"
+                         f" {needed[2]} snapshots)")
     return True
 
 
-def _run(comm, case, output, overwrite, dry_run, restart=False):
+def _run(comm, case, output, overwrite, dry_run, restart=False, stop=None):
     from .runner import Interrupted, describe, run_case
 
     say = _printer(comm)
     say(describe(case))
     if dry_run:
         return EXIT_OK
-    resume = _resume_wanted(case, output, restart, overwrite)
+    resume = _resume_wanted(comm, case, output, restart, overwrite)
     if not resume:
         _check_output_path(output, overwrite)
     say(f"{'resuming' if resume else 'writing'} {output} on {comm.Get_size()} rank(s)")
     try:
-        summary = run_case(case, output, comm, printer=say, overwrite=overwrite, resume=resume)
+        summary = run_case(case, output, comm, printer=say, overwrite=overwrite, resume=resume,
+                           stop=stop)
     except CaseError as err:  # found by the preload, before the file was created
         raise UsageError(str(err)) from None
     except Interrupted as err:
@@ -97,7 +129,7 @@ def cmd_run(comm, args):
         case = load_case(args.case)
     except CaseError as err:
         raise UsageError(f"{args.case}: {err}") from None
-    return _run(comm, case, args.output, args.overwrite, args.dry_run, args.restart)
+    return _run(comm, case, args.output, args.overwrite, args.dry_run, args.restart, args.stop)
 
 
 def cmd_default(comm, args):
@@ -108,7 +140,7 @@ def cmd_default(comm, args):
     say = _printer(comm)
     say("running the embedded default case (paper Fig. 5, V_z = 0.45); case file:")
     say(text.strip())
-    return _run(comm, case, output, False, False)
+    return _run(comm, case, output, False, False, stop=args.stop)
 
 
 def cmd_farm(comm, args):
@@ -125,10 +157,15 @@ def cmd_farm(comm, args):
         out_dir = os.path.join(os.path.dirname(os.path.abspath(args.sweep)), sweep.output)
     else:
         out_dir = os.path.splitext(args.sweep)[0]
-    ranks = args.ranks_per_case or sweep.ranks_per_case
-    if ranks < 1 or ranks > comm.Get_size():
-        raise UsageError(f"--ranks-per-case {ranks}: expected 1 to {comm.Get_size()}"
-                         " (the number of ranks)")
+    if args.ranks_per_case is not None:
+        ranks, source = args.ranks_per_case, "--ranks-per-case"
+    else:
+        ranks, source = sweep.ranks_per_case, f"{args.sweep}: [farm] ranks_per_case ="
+    size = comm.Get_size()
+    if args.case is None and (ranks < 1 or size % ranks):  # --case runs on all ranks
+        divisors = [d for d in range(1, size + 1) if size % d == 0]
+        raise UsageError(f"{source} {ranks}: expected a divisor of the {size} ranks"
+                         f" ({', '.join(map(str, divisors))})")
     if args.case is not None and not 0 <= args.case < len(sweep.cases):
         raise UsageError(f"--case {args.case}: expected 0 to {len(sweep.cases) - 1}"
                          " (see --dry-run)")
@@ -142,7 +179,8 @@ def cmd_farm(comm, args):
         f" {ranks} per case")
     # each group's leader prints its own cases' lines
     return run_farm(sweep, comm, out_dir, ranks_per_case=ranks,
-                    printer=lambda line: print(line, flush=True), only=args.case)
+                    printer=lambda line: print(line, flush=True), only=args.case,
+                    stop=args.stop)
 
 
 def _farm_table(sweep, out_dir, groups, case_file, file_status):
@@ -269,8 +307,10 @@ def build_parser():
     return parser
 
 
-def main(comm, argv=None):
+def main(comm, argv=None, stop=None):
     """Entry point on all ranks of ``comm``; returns the exit status.
+
+    ``stop`` is the process's :class:`~hpcgfmd.signals.StopSignals`, if the caller has one.
 
     Failures that every rank detects alike (bad input, non-convergence) return 2 or 1 on all
     ranks; anything else propagates, and with more than one rank the caller aborts the job.
@@ -284,6 +324,7 @@ def main(comm, argv=None):
     if getattr(args, "command", None) == "run" and args.output is None:
         args.output = os.path.splitext(args.case)[0] + ".h5"
     func = getattr(args, "func", cmd_default)
+    args.stop = stop
     alike = (CaseFailure, FloatingPointError)
     if comm.Get_size() == 1:  # one process: any runtime failure is reported the same way
         alike += (RuntimeError, MemoryError)

@@ -14,6 +14,12 @@ real space is pointwise on the block, except:
 
 Every method that communicates says "Collective" in its first line and must be called by all
 ranks of ``comm`` in the same order. With one rank no MPI call is made.
+
+The solver's branches compare reduced floats (``mu_new == mu``, ``rd <= 0``, energies), so
+they rely on ``Allreduce`` returning the same bits on every rank. MPI does not promise it,
+but Open MPI's and MPICH's reductions of a few doubles over one communicator do (every rank
+combines the same partial results; floating addition is commutative); the rank-independence
+tests would hang, not pass, if it failed.
 """
 from __future__ import annotations
 

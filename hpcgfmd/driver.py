@@ -167,14 +167,20 @@ class Retraction:
         linear = 2.0 * self.u - self.u_previous
         np.copyto(linear, self.wall, where=contact)
         m = self.domain.local_n
-        candidates = [project_feasible(self.domain, linear, self.wall, np.empty(m))]
-        moving = self._moving_edges(linear, gap_before)
-        if moving is not None:
-            candidates.append(project_feasible(self.domain, moving, self.wall, np.empty(m)))
+        candidates = {}
+        for kind, guess in enumerate((linear, self._moving_edges(linear, gap_before))):
+            if guess is None:
+                continue
+            try:
+                candidates[kind] = project_feasible(self.domain, guess, self.wall, np.empty(m))
+            except FloatingPointError:  # no feasible point of that form (tiny grids): skip it
+                pass
         self.u_previous[:] = self.u
-        energies = [self.solver.energy(c, self.wall, ops, self.history) for c in candidates]
-        best = int(np.argmin(energies))
-        if energies[best] <= self.solver.energy(self.u, self.wall, ops, self.history):
+        energies = {kind: self.solver.energy(c, self.wall, ops, self.history)
+                    for kind, c in candidates.items()}
+        best = min(energies, key=energies.get) if energies else None
+        if best is not None and energies[best] <= self.solver.energy(self.u, self.wall, ops,
+                                                                      self.history):
             self.u[:] = candidates[best]
             self.predictor_choice[best] += 1
         else:

@@ -7,7 +7,8 @@ are tiny and OpenBLAS's spinning threads made them 10x slower on a loaded 2-core
 This is the only place that names ``MPI.COMM_WORLD``: the command line receives it as its
 communicator. Under MPI with more than one rank an uncaught exception on one rank aborts all
 of them (COMM_WORLD.Abort, non-zero status) instead of leaving the others waiting in a
-collective; SystemExit passes through.
+collective; SystemExit passes through. SIGTERM and SIGUSR1 are recorded from the first
+moment (:mod:`hpcgfmd.signals`) and handed to the run or the farm, which stop cleanly.
 """
 import os
 import sys
@@ -15,6 +16,13 @@ import sys
 
 def main():
     """Run the command line on COMM_WORLD; returns the exit status."""
+    from .signals import StopSignals
+
+    with StopSignals() as stop:  # first: a signal during start-up asks for a clean stop
+        return _main(stop)
+
+
+def _main(stop):
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(var, "1")
     from mpi4py import MPI
@@ -23,7 +31,7 @@ def main():
 
     comm = MPI.COMM_WORLD
     try:
-        return cli_main(comm)
+        return cli_main(comm, stop=stop)
     except SystemExit:
         raise
     except BaseException:

@@ -37,7 +37,8 @@ from .analysis import read_series
 from .checkpoint import checkpoint_path
 from .config import CaseError
 from .driver import CaseFailure
-from .runner import Interrupted, StopSignals, run_case
+from .runner import Interrupted, run_case
+from .signals import StopSignals
 
 EXIT_INTERRUPTED = 75
 EXIT_FAILED_BASE = 100
@@ -69,10 +70,14 @@ def file_status(path, item) -> str:
 
 
 class _Counter:
-    """Collective construction: an atomic next-index counter in a window on rank 0."""
+    """Dynamic hand-out of ``order``: an atomic next-position counter in a window on rank 0.
 
-    def __init__(self, comm):
+    Built by :meth:`create` (collective); :meth:`next` is called by group leaders only.
+    """
+
+    def __init__(self, comm, order):
         itemsize = MPI.INT64_T.Get_size()
+        self.order = order
         self.window = MPI.Win.Allocate(itemsize if comm.Get_rank() == 0 else 0, itemsize,
                                        comm=comm)
         if comm.Get_rank() == 0:
@@ -83,25 +88,55 @@ class _Counter:
         self._one = np.ones(1, dtype=np.int64)
         self._value = np.zeros(1, dtype=np.int64)
 
-    def next(self) -> int:
-        """The next index (0, 1, 2, ... over all callers); one atomic operation."""
+    @classmethod
+    def create(cls, comm, order, group_index, n_groups, say):
+        """Collective: the window, or a static longest-first split where windows fail."""
+        try:
+            made = cls(comm, order)
+            ok = True
+        except MPI.Exception:  # e.g. Open MPI's osc/pt2pt under MPI_THREAD_MULTIPLE
+            made, ok = None, False
+        if comm.allreduce(ok, op=MPI.LAND):
+            return made
+        if made is not None:
+            made.free()
+        say("farm: no MPI window here; cases are split statically (longest first)")
+        return _StaticQueue(order, group_index, n_groups)
+
+    def next(self):
+        """The next case index, or None when all are handed out; one atomic operation."""
         self.window.Lock(0)
         self.window.Fetch_and_op(self._one, self._value, 0, op=MPI.SUM)
         self.window.Unlock(0)
-        return int(self._value[0])
+        position = int(self._value[0])
+        return self.order[position] if position < len(self.order) else None
 
     def free(self):
         self.window.Free()
 
 
-def _run_one(item, out_dir, group, say):
-    """Run (or resume, or skip) one case on ``group``; returns its record."""
+class _StaticQueue:
+    """Fallback: the longest-first order dealt round-robin to the groups (no messages)."""
+
+    def __init__(self, order, group_index, n_groups):
+        self.mine = [i for k, i in enumerate(order) if k % n_groups == group_index]
+
+    def next(self):
+        return self.mine.pop(0) if self.mine else None
+
+    def free(self):
+        pass
+
+
+def _run_one(item, out_dir, group, say, stop):
+    """Collective on ``group``: run (or resume, or skip) one case; returns its record."""
     path = case_file(out_dir, item)
     record = {"index": item.index, "name": item.name, "file": os.path.basename(path),
               "ranks": group.Get_size(), "error": ""}
     if item.case is None:
         return dict(record, status="failed", error=item.error)
-    status = file_status(path, item)
+    # one reading of the file system for the whole group (caches may differ between nodes)
+    status = group.bcast(file_status(path, item) if group.Get_rank() == 0 else None, root=0)
     if status == "finished":
         say(f"[{item.index}] {item.name}: finished before, skipped")
         return dict(record, status="finished")
@@ -116,7 +151,8 @@ def _run_one(item, out_dir, group, say):
     started = time.monotonic()
     try:
         summary = run_case(item.case, path, group, printer=lambda *a: None,
-                           overwrite=status == "unfinished", resume=status == "resumable")
+                           overwrite=status == "unfinished", resume=status == "resumable",
+                           stop=stop)
     except Interrupted:
         say(f"[{item.index}] {item.name}: interrupted, checkpointed")
         return dict(record, status="interrupted")
@@ -128,11 +164,16 @@ def _run_one(item, out_dir, group, say):
     return dict(record, status="finished")
 
 
-def run_farm(sweep, comm, out_dir, ranks_per_case=1, printer=print, only=None) -> int:
+def run_farm(sweep, comm, out_dir, ranks_per_case=1, printer=print, only=None,
+             stop=None) -> int:
     """Collective: run the cases of ``sweep`` on ``comm``; returns the exit status.
 
     ``only`` runs just that case index on all of ``comm`` (one element of a job array).
+    ``stop``: the process's :class:`StopSignals` (else the farm installs its own).
     """
+    if stop is None:
+        with StopSignals() as own:
+            return run_farm(sweep, comm, out_dir, ranks_per_case, printer, only, own)
     rank = comm.Get_rank()
     if rank == 0:
         os.makedirs(out_dir, exist_ok=True)
@@ -144,44 +185,42 @@ def run_farm(sweep, comm, out_dir, ranks_per_case=1, printer=print, only=None) -
         order = sorted(range(len(sweep.cases)), key=lambda i: -sweep.cases[i].cost())
     leader = group.Get_rank() == 0
     say = printer if leader else (lambda line: None)  # each group's leader reports its cases
-    counter = _Counter(comm)
+    n_groups = comm.Get_size() // group.Get_size() if only is None else 1
+    queue = _Counter.create(comm, order, rank // group.Get_size(), n_groups, say)
     records = []
-    stopped = False
-    with StopSignals() as stop:
-        while True:
-            # a signal between cases: the group agrees, then takes no new case
-            if group.allreduce(stop.received is not None, op=MPI.LOR):
-                stopped = True
-                break
-            position = counter.next() if leader else None
-            position = group.bcast(position, root=0)
-            if only is not None and position > 0 or position >= len(order):
-                break
-            record = _run_one(sweep.cases[order[position]], out_dir, group, say)
-            if leader:
-                records.append(record)
-            if record["status"] == "interrupted":
-                stopped = True
-                break
-    counter.free()
+    while True:
+        # a signal between cases: the group agrees, then takes no new case
+        if group.allreduce(stop.received is not None, op=MPI.LOR):
+            break
+        index = queue.next() if leader else None
+        index = group.bcast(index, root=0)
+        if index is None:
+            break
+        record = _run_one(sweep.cases[index], out_dir, group, say, stop)
+        if leader:
+            records.append(record)
+        if record["status"] == "interrupted":
+            break
+    queue.free()
     gathered = comm.gather(records, root=0)
-    stopped = comm.allreduce(stopped, op=MPI.LOR)
-    failed = 0
+    status = 0
     if rank == 0:
         done = {r["index"]: r for part in gathered for r in part}
         rows = write_summary(sweep, out_dir, done)
-        failed = sum(r["status"] == "failed" for r in rows)
         counts = {s: sum(r["status"] == s for r in rows) for s in
                   ("finished", "failed", "interrupted", "pending")}
         printer(f"farm: {counts['finished']} finished, {counts['failed']} failed,"
                 f" {counts['interrupted']} interrupted, {counts['pending']} pending; summary in"
                 f" {os.path.join(out_dir, 'summary.csv')}")
-    failed = comm.bcast(failed, root=0)
+        mine = [r for r in rows if r["index"] in set(order)]  # --case: just that one
+        failed = sum(r["status"] == "failed" for r in mine)
+        if any(r["status"] in ("interrupted", "pending") for r in mine):
+            status = EXIT_INTERRUPTED  # only a signal leaves cases undone
+        elif failed:
+            status = EXIT_FAILED_BASE + min(failed, 99)
     if group is not comm:
         group.Free()
-    if stopped:
-        return EXIT_INTERRUPTED
-    return EXIT_FAILED_BASE + min(failed, 99) if failed else 0
+    return comm.bcast(status, root=0)
 
 
 def _case_results(path):
@@ -251,9 +290,14 @@ def _write_tables(out_dir, rows, swept):
     with h5py.File(h5_path + private, "w") as f:
         for column in columns:
             values = [row.get(column, "") for row in rows]
-            if all(isinstance(v, (int, float, np.integer, np.floating)) and
-                   not isinstance(v, bool) for v in values) and values:
-                f.create_dataset(column, data=np.asarray(values, dtype=float))
+            numbers = [v for v in values if v != ""]
+            if column == "index":
+                f.create_dataset(column, data=np.asarray(values, dtype=np.int64))
+            elif all(isinstance(v, (int, float, np.integer, np.floating))
+                     and not isinstance(v, bool) for v in numbers):
+                # missing values (a failed case has no pull-off) are NaN: plottable columns
+                f.create_dataset(column, data=np.asarray(
+                    [np.nan if v == "" else v for v in values], dtype=float))
             else:
                 f.create_dataset(column, data=np.asarray([str(v) for v in values], dtype=object),
                                  dtype=h5py.string_dtype())

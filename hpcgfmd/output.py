@@ -23,9 +23,12 @@ entries (series, snapshot times); attributes and dataset extents are set by all 
 
 Crash safety: the file is created after the preload, every step is appended, the root
 attribute ``steps_complete`` is then raised, and the file is flushed (H5Fflush writes all
-metadata), so a killed run leaves a file with every step done so far; a kill between two
-datasets' appends can leave some series one entry longer, and readers truncate the series to
-``steps_complete`` (``/snapshots`` to its ``complete``). ``finished`` is set last.
+metadata), so a run killed between two steps leaves a file with every step done so far
+(tested with SIGKILL); a kill between two datasets' appends can leave some series one entry
+longer, and readers truncate the series to ``steps_complete`` (``/snapshots`` to its
+``complete``). HDF5 without SWMR is not journaled: a kill in the middle of a flush can still
+damage the file, which is why the checkpoint (written aside and renamed) is the restart
+point, not this file. ``finished`` is set last.
 :meth:`CaseFile.reopen` resumes such a file from a checkpoint's step and snapshot counts.
 """
 from __future__ import annotations

@@ -10,20 +10,19 @@ checkpoint on any number of ranks, appending to the same output file.
 from __future__ import annotations
 
 import json
-import signal
 import time
 
 from .checkpoint import checkpoint_path, read_checkpoint, remove_checkpoint, write_checkpoint
 from .config import TARGET_ZONE_POINTS, Case, CaseError
 from .driver import CaseFailure, Progress, Retraction
 from .output import CaseFile
+from .signals import StopSignals
 
 # The indenter must have left the surface long before it is one radius above it.
 MAX_INDENTER_HEIGHT = 1.0
 # After the preload the cohesive zone must stay within a quarter of the cell: beyond that the
 # periodic images change the load by more than about 10 % (physics.md numerical notes).
 MAX_ZONE_PER_CELL = 0.25
-STOP_SIGNALS = (signal.SIGTERM, signal.SIGUSR1)
 
 
 class Interrupted(Exception):
@@ -62,27 +61,6 @@ class SnapshotSchedule:
                                                    saved["zero_load"])
 
 
-class StopSignals:
-    """Context manager that records SIGTERM/SIGUSR1 instead of dying on them.
-
-    The handler only sets a flag; the run acts on it at the end of the current step, after
-    the ranks agreed on it (one reduction), so all of them stop at the same step.
-    """
-
-    def __enter__(self):
-        self.received = None
-        self._previous = {s: signal.signal(s, self._handle) for s in STOP_SIGNALS}
-        return self
-
-    def _handle(self, signum, frame):
-        self.received = signum
-
-    def __exit__(self, *exc):
-        for s, handler in self._previous.items():
-            signal.signal(s, handler)
-        return False
-
-
 def describe(case: Case) -> str:
     """The derived groups and numerics, printed at start."""
     g = case.groups()
@@ -98,16 +76,8 @@ def describe(case: Case) -> str:
     return "\n".join(lines)
 
 
-def checkpoint_case_identity(path) -> str:
-    """The case identity stored in a checkpoint file (serial read; any rank may call it)."""
-    import h5py
-
-    with h5py.File(path, "r") as f:
-        return str(f.attrs["case_identity"])
-
-
 def run_case(case: Case, path, comm, printer=print, overwrite=False, resume=False,
-             planner_effort="FFTW_MEASURE") -> dict:
+             planner_effort="FFTW_MEASURE", stop=None) -> dict:
     """Collective: run (or resume) the retraction of ``case`` into the HDF5 file ``path``.
 
     A new run solves the preload before the file is created: a contact too large for the
@@ -115,7 +85,12 @@ def run_case(case: Case, path, comm, printer=print, overwrite=False, resume=Fals
     existing file (only once the preload succeeded). ``resume`` continues from the
     checkpoint next to ``path`` (the caller checked that it belongs to this case).
     Returns the summary stored in the file; raises :class:`Interrupted` after a signal.
+    ``stop`` is the caller's :class:`StopSignals` (the farm's, shared by its cases); without
+    one, the run installs its own from the start, so a signal during the set-up counts too.
     """
+    if stop is None:
+        with StopSignals() as own:
+            return run_case(case, path, comm, printer, overwrite, resume, planner_effort, own)
     start = time.monotonic()
     sim = Retraction(case, comm, planner_effort=planner_effort)
     dom = sim.domain
@@ -127,8 +102,13 @@ def run_case(case: Case, path, comm, printer=print, overwrite=False, resume=Fals
         schedule.restore(attrs["snapshot_schedule"])
         snapshots = int(attrs["snapshots_written"])
         wall_before = float(attrs["wall_time"])
-        out = CaseFile.reopen(path, case, comm, dom.x_start, sim.n,
-                              steps=sim.step_index + 1, snapshots=snapshots)
+        if dom.max(float(stop.received is not None)):  # the checkpoint is still the latest
+            raise Interrupted(f"stopped by a signal while resuming; checkpoint {checkpoint}")
+        try:
+            out = CaseFile.reopen(path, case, comm, dom.x_start, sim.n,
+                                  steps=sim.step_index + 1, snapshots=snapshots)
+        except (ValueError, KeyError) as err:  # alike on every rank: the same file
+            raise CaseError(f"{path} does not match its checkpoint {checkpoint}: {err}") from None
         printer(f"resuming from {checkpoint} at step {sim.step_index}"
                 f" (t = {sim.time * case.units.time:.6g}) on {comm.Get_size()} rank(s)")
     else:
@@ -140,6 +120,8 @@ def run_case(case: Case, path, comm, printer=print, overwrite=False, resume=Fals
                             f" a_a = {record.cohesive_half_width * case.units.length:.4g}, more"
                             f" than {MAX_ZONE_PER_CELL:g} L; need L >="
                             f" {need * case.units.length:.4g}")
+        if dom.max(float(stop.received is not None)):
+            raise Interrupted("stopped by a signal before the first step; nothing was written")
         wall_before = 0.0
         remove_checkpoint(checkpoint, comm)  # a stale one would pair with the new file
         out = CaseFile(path, case, sim.x, comm, dom.x_start, sim.n, overwrite=overwrite)
@@ -159,28 +141,27 @@ def run_case(case: Case, path, comm, printer=print, overwrite=False, resume=Fals
 
     try:
         progress = Progress(case.output.progress_interval, printer)
-        with StopSignals() as stop:
-            while not sim.detached():
-                record = sim.step()
-                out.append_step(record.as_dict())
-                if schedule.due(record):
-                    out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
-                    snapshots += 1
-                progress.update(sim.step_index, record, case.units)
-                if sim.indenter > MAX_INDENTER_HEIGHT:
-                    raise CaseFailure(f"no complete detachment by u_z = {MAX_INDENTER_HEIGHT} R")
-                # One reduction decides for all ranks: a signal on any rank, or rank 0's clock.
-                by_time = (comm.Get_rank() == 0
-                           and time.monotonic() - last_checkpoint >= case.output.checkpoint_interval)
-                by_step = every > 0 and sim.step_index % every == 0
-                signalled, timed = dom.maxes(float(stop.received is not None), float(by_time))
-                if signalled or timed or by_step:
-                    save()
-                    last_checkpoint = time.monotonic()
-                if signalled:
-                    raise Interrupted(f"stopped by a signal at step {sim.step_index}"
-                                      f" (t = {sim.time * case.units.time:.6g}); checkpoint"
-                                      f" {checkpoint}")
+        while not sim.detached():
+            record = sim.step()
+            out.append_step(record.as_dict())
+            if schedule.due(record):
+                out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
+                snapshots += 1
+            progress.update(sim.step_index, record, case.units)
+            if sim.indenter > MAX_INDENTER_HEIGHT:
+                raise CaseFailure(f"no complete detachment by u_z = {MAX_INDENTER_HEIGHT} R")
+            # One reduction decides for all ranks: a signal on any rank, or rank 0's clock.
+            by_time = (comm.Get_rank() == 0
+                       and time.monotonic() - last_checkpoint >= case.output.checkpoint_interval)
+            by_step = every > 0 and sim.step_index % every == 0
+            signalled, timed = dom.maxes(float(stop.received is not None), float(by_time))
+            if signalled or timed or by_step:
+                save()
+                last_checkpoint = time.monotonic()
+            if signalled:
+                raise Interrupted(f"stopped by a signal at step {sim.step_index}"
+                                  f" (t = {sim.time * case.units.time:.6g}); checkpoint"
+                                  f" {checkpoint}")
         out.add_snapshot(sim.time, sim.u, sim.traction, sim.gap())
         summary = {"steps": sim.step_index, "iterations": sim.total_iterations,
                    "fft_pairs": sim.fft.pairs,

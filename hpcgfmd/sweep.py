@@ -182,6 +182,8 @@ def parse_sweep(text: str, directory: str = ".", path: str = "") -> Sweep:
     entries = doc.get("cases", [{}])
     if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
         raise SweepError("cases: expected [[cases]] tables")
+    if not entries:
+        raise SweepError("cases = []: expected at least one [[cases]] table (or none at all)")
     grid = _flatten(grid)
     entries = [_flatten(e) for e in entries]
     axes = []
@@ -206,6 +208,8 @@ def parse_sweep(text: str, directory: str = ".", path: str = "") -> Sweep:
         for key, value in entry.items():
             values[".".join(_resolve(key, base))] = value
         for ((section, name), _), value in zip(axes, point):
+            if f"{section}.{name}" in values:
+                raise SweepError(f"{name}: in both [grid] and [[cases]]; give it in one of them")
             values[f"{section}.{name}"] = value
         for key in values:
             if key not in swept:
@@ -225,6 +229,8 @@ def parse_sweep(text: str, directory: str = ".", path: str = "") -> Sweep:
         except CaseError as err:
             item.error = str(err)
         cases.append(item)
+    if all(c.case is None for c in cases):  # the base itself is wrong: say so at once
+        raise SweepError(f"no valid case; the first one: {cases[0].error}")
     return Sweep(cases=cases, swept=swept, ranks_per_case=ranks, output=output, path=path)
 
 

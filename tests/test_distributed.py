@@ -141,12 +141,14 @@ def test_interrupted_run_resumes_to_the_uninterrupted_series(serial_run, tmp_pat
     assert "run the same command again to continue" in stdout
     with h5py.File(tmp_path / "out.h5", "r") as f:
         assert not f.attrs["finished"]
-        stopped_at = int(f.attrs["steps_complete"])
-    assert 5 < stopped_at < reference[0]["time"].size  # interrupted mid-run
-    # the same command continues (automatic resume), here on another rank count
+        stopped_at = int(f.attrs["steps_complete"]) - 1  # the preload is entry 0
+    assert stopped_at < reference[0]["time"].size - 1  # interrupted mid-run
+    assert f"stopped by a signal at step {stopped_at} " in stdout
+    # the same command continues (automatic resume), here on another rank count, from the
+    # checkpoint the signal wrote (not the last scheduled one)
     done = run(second, "run", "case.toml", "-o", "out.h5", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
-    assert "resuming from" in done.stdout
+    assert f"at step {stopped_at} " in done.stdout
     assert not (tmp_path / "out.checkpoint.h5").exists()  # removed once finished
     resumed = read(tmp_path / "out.h5")
     # Measured across 1, 2 and 3 ranks for this case: 8.5e-13 in the load, 2.6e-12 in the
@@ -176,7 +178,7 @@ def test_failure_on_one_rank_stops_all_ranks(tmp_path):
     script.write_text(
         "from mpi4py import MPI\n"
         "import hpcgfmd.entry as entry, hpcgfmd.cli as cli\n"
-        "def boom(comm, argv=None):\n"
+        "def boom(comm, argv=None, stop=None):\n"
         "    if comm.Get_rank() == 1:\n"
         "        raise OSError('disk gone on rank 1')\n"
         "    comm.Barrier()\n"
@@ -203,3 +205,33 @@ def test_non_convergence_stops_every_rank_with_status_1(tmp_path):
     lines = [line for line in done.stderr.splitlines() if line.startswith("hpcgfmd:")]
     assert len(lines) == 1 and "NonConvergenceError" in lines[0], done.stderr
     assert not (tmp_path / "out.h5").exists()
+
+
+def test_ranks_that_own_no_nodes(tmp_path):
+    # nx = 64 is split as 8 rows of 8 nodes (and 5 mode rows): on 10 ranks, ranks 8 and 9 own
+    # no nodes and ranks 5 to 9 no modes; they take part in every collective, halo and write.
+    text = CASE.format(nx=64, checkpoint_steps=0).replace("maugis = 3.5", "maugis = 1.0")
+    (tmp_path / "case.toml").write_text(text)
+    serial = run(0, "run", "case.toml", "-o", "serial.h5", cwd=tmp_path)
+    assert serial.returncode == 0, serial.stderr
+    done = run(10, "run", "case.toml", "-o", "ten.h5", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert_same(read(tmp_path / "serial.h5"), read(tmp_path / "ten.h5"), 1e-10)
+
+
+def test_signal_during_set_up_exits_75_with_nothing_written(tmp_path):
+    # FFTW planning and the preload at 2^16 take seconds: a signal then must not kill the run
+    # (SLURM's warning can come at any moment); nothing was computed, so nothing is written.
+    text = CASE.format(nx=65536, checkpoint_steps=0).replace("1e-13", "1e-7")
+    (tmp_path / "case.toml").write_text(text)
+    process = subprocess.Popen(command(2, "run", "case.toml", "-o", "out.h5"), cwd=tmp_path,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               env=environment())
+    for line in process.stdout:  # the run starts planning right after this line
+        if line.startswith("writing out.h5"):
+            break
+    process.send_signal(signal.SIGUSR1)
+    stdout, stderr = process.communicate(timeout=120)
+    assert process.returncode == 75, stdout + stderr
+    assert "before the first step" in stdout
+    assert not (tmp_path / "out.h5").exists() and not (tmp_path / "out.checkpoint.h5").exists()

@@ -59,6 +59,10 @@ def test_an_invalid_case_is_kept_with_its_error():
     (BASE + "[sweep]\n", ["sweep", "unknown"]),
     ("[grid]\nvelocity = [1.0]\n", ["base", "missing"]),
     (BASE + "[[cases]]\nvelocity = 1.0\n[[cases]]\nvelocity = 1.0\n", ["same case"]),
+    ("cases = []\n" + BASE, ["cases = []", "at least one"]),
+    (BASE + "[grid]\nvelocity = [1.0]\n[[cases]]\nvelocity = 3.0\n", ["velocity", "both"]),
+    (BASE.replace("maugis = 3.5", 'maugis = "x"') + "[grid]\nvelocity = [1.0, 2.0]\n",
+     ["no valid case", "maugis"]),
 ])
 def test_bad_sweep_files_are_rejected(text, words):
     with pytest.raises(SweepError) as err:
@@ -136,7 +140,8 @@ def test_farm_signal_checkpoints_and_the_same_command_finishes(tmp_path):
     stdout, stderr = process.communicate(timeout=120)
     assert process.returncode == 75, stdout + stderr
     rows = summary(tmp_path / "out" / "summary.csv")
-    assert "interrupted" in [r["status"] for r in rows.values()]
+    interrupted = [i for i, r in rows.items() if r["status"] == "interrupted"]
+    assert interrupted, rows
     done = subprocess.run(farm_command(2, "sweep.toml", "-o", "out", "--ranks-per-case", 2),
                           cwd=tmp_path, capture_output=True, text=True, timeout=300,
                           env=environment())
@@ -147,7 +152,7 @@ def test_farm_signal_checkpoints_and_the_same_command_finishes(tmp_path):
     assert not [p for p in os.listdir(tmp_path / "out") if p.endswith(".checkpoint.h5")]
     # the interrupted-and-resumed case against a direct serial run of the same case file
     sweep = parse_sweep(base + "[grid]\nvelocity = [0.6, 0.8, 1.0]\n")
-    item = sweep.cases[0]
+    item = sweep.cases[interrupted[0]]
     (tmp_path / "direct.toml").write_text(item.text)
     direct = subprocess.run([sys.executable, "-m", "hpcgfmd", "run", "direct.toml", "-o",
                              "direct.h5"], cwd=tmp_path, capture_output=True, text=True,
@@ -181,4 +186,20 @@ def test_dry_run_lists_cases_groups_and_cost(tmp_path):
     assert lines[0].startswith("3 cases")
     assert "chi_ve" in lines[1] and "cost" in lines[1]
     assert " 55.12 " in run.stdout  # chi_ve = V_z lambda0^2 = 4.5 * 3.5^2
+    assert not (tmp_path / "sweep").exists()  # nothing written
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--case", "5"], ["--case 5", "0 to 1"]),
+    (["--ranks-per-case", "0"], ["--ranks-per-case 0", "divisor"]),
+    (["--ranks-per-case", "3"], ["--ranks-per-case 3", "divisor", "1, 2"]),
+])
+def test_bad_farm_arguments_one_line_status_2(tmp_path, args, words):
+    (tmp_path / "sweep.toml").write_text(BASE + "[grid]\nvelocity = [1.0, 2.0]\n")
+    run = subprocess.run([MPIRUN, "-n", "2", sys.executable, "-m", "hpcgfmd", "farm",
+                          "sweep.toml", *args], cwd=tmp_path, capture_output=True, text=True,
+                         timeout=60, env=environment())
+    assert run.returncode == 2
+    lines = [line for line in run.stderr.splitlines() if line.startswith("hpcgfmd:")]
+    assert len(lines) == 1 and all(w in lines[0] for w in words), run.stderr
     assert not (tmp_path / "sweep").exists()  # nothing written

@@ -12,7 +12,6 @@ The reference for the results is the same case run directly (serial, no SLURM). 
 test_distributed.py); the bounds here (1e-10, contact half-width 1e-9) leave room for that.
 """
 import csv
-import functools
 import os
 import re
 import subprocess
@@ -60,19 +59,6 @@ SERIES = ("time", "indenter", "load", "contact_half_width", "cohesive_half_width
 # minutes; SLURM's own signals come 3 (case, farm, array) or 5 (chain) minutes before the
 # limit, so with 10 they cannot arrive during a test (at 5 the chain would be signalled at once)
 TIME_LIMIT = "10"
-
-
-@functools.lru_cache(maxsize=None)
-def farm_available():
-    """Whether this checkout has the `farm` command."""
-    done = subprocess.run([sys.executable, "-m", "hpcgfmd", "farm", "--help"],
-                          capture_output=True, text=True, timeout=60)
-    return done.returncode == 0
-
-
-# A string condition is evaluated when the test is set up, not at collection: the farm command
-# is being added to the CLI, and these tests run as soon as it is there.
-needs_farm = pytest.mark.skipif("not farm_available()", reason="farm command not available")
 
 
 @pytest.fixture(scope="module")
@@ -273,7 +259,6 @@ def read_summary(path):
         return list(csv.DictReader(fh))
 
 
-@needs_farm
 def test_farm_job_runs_every_case(slurm, tmp_path):
     (tmp_path / "sweep.toml").write_text(SWEEP)
     job = submit(slurm, tmp_path, "farm.sbatch", "sweep.toml", "study", options=["--ntasks=2"])
@@ -287,7 +272,6 @@ def test_farm_job_runs_every_case(slurm, tmp_path):
         assert_sane(tmp_path / "study" / row["file"], context)
 
 
-@needs_farm
 def test_array_job_runs_one_case_per_element(slurm, tmp_path):
     (tmp_path / "sweep.toml").write_text(SWEEP)
     job = submit(slurm, tmp_path, "array.sbatch", "sweep.toml", "study", options=["--array=0-1"])
