@@ -37,22 +37,100 @@ of the stored ones, exactly what c2r assumes.
 Layout of rank r (``block_range`` blocks: contiguous, balanced, uneven allowed)
     * real space: rows ``n1`` in ``block_range(N1, P, r)``, i.e. the contiguous node block
       ``x[x_start:x_stop]`` with ``x_start = N2 * row_start``;
-    * between the stages: all N1 rows of the columns ``n2`` in ``block_range(N2, P, r)``;
-    * spectrum: the mode rows ``k1`` in ``block_range(N1/2 + 1, P, r)`` for all ``k2``, a
-      ``(M, N2)`` array whose entry ``[i, k2]`` is mode ``k1 + N1*k2`` (``wavenumber`` gives
-      its signed index m in (-n/2, n/2]). A rank may own no rows, columns or mode rows when P
-      is large; it then skips its local FFTs but still takes part in every collective.
+    * stages A and C (column transforms): the columns ``n2`` in ``block_range(N2, P, r)``;
+    * spectrum and stage B (row transforms): the mode rows ``k1`` in
+      ``block_range(N1/2 + 1, P, r)`` for all ``k2``, a ``(M, N2)`` array whose entry
+      ``[i, k2]`` is mode ``k1 + N1*k2`` (``wavenumber`` gives its signed index m in
+      (-n/2, n/2]). A rank may own no rows, columns or mode rows when P is large; it then
+      skips its local work but still takes part in every synchronisation.
 
-Communication per ``apply_diagonal`` (all on ``comm``): four ``Alltoallv``: rows -> columns
-(float64), columns -> mode rows (complex128), and the same two backwards. Each rank sends
-(and receives) about ``8 n / P`` bytes in each real transpose and ``8 (n + 2 N2) / P`` bytes
-in each complex one, about ``32 n / P`` bytes in all, a fraction 1/P of which stays local.
-(Each column block row also carries under 64 bytes of padding, see ``_padded_width``.)
+One application, on each rank (``apply_diagonal``)
+    1. copy the columns of ``field`` that each other rank transforms to a block for that rank;
+    2. stage A, in chunks of columns: gather the chunk's column segments of all ranks into a
+       cache-sized ``(chunk, N1)`` work array (the transposition happens in this copy), rfft
+       along its contiguous rows, multiply by the twiddle while writing the rows of the
+       ``xt[n2, k1]`` blocks (one block per rank, holding that rank's mode rows ``k1``);
+    3. stage B, in chunks of mode rows: gather these mode rows from every rank's ``xt`` block
+       for this rank into a ``(chunk, N2)`` work array, complex FFT, ``*= diag``, inverse FFT,
+       write the rows of the ``z[k1, n2]`` blocks (one per rank: its columns ``n2``);
+    4. stage C, in chunks of columns: gather from every rank's ``z`` block for this rank,
+       conjugate twiddle, c2r, write the rows of the ``h[n2, n1]`` blocks (one per rank: its
+       rows ``n1``);
+    5. gather this rank's rows from every rank's ``h`` block for this rank into ``out``.
 
-Why this variant: every rank keeps only its own x-block (the solver's contact and CG work
-stays local) and the FFT work is split P ways. Allgathering the field and transforming it
-on every rank would be simpler, but would move ``8 n`` bytes to every rank and repeat the
-whole FFT redundantly P times.
+    Every FFT runs on a contiguous, cache-resident work array (batched along axis 1, FFTW's
+    best case), every large array is written sequentially, and each transposition is done by
+    the reads of a gather: strided reads of rows padded to an odd number of cache lines (see
+    :func:`_padded_width`) cost about as much as sequential ones, whereas strided writes cost
+    about twice as much. What a rank reads from another rank is always one contiguous block.
+    The ranks synchronise between steps 1-2, 2-3, 3-4 and 4-5.
+
+Transport (``transport``) and communication per call
+    ``"shared"`` (default when all ranks share a node): the blocks of steps 1-4 live in an
+    MPI-3 shared-memory window (``MPI.Win.Allocate_shared``) and the gathers read the other
+    ranks' blocks in place; the four synchronisations are ``Win.Sync`` + ``Barrier`` and no
+    message is sent. Data cross between ranks inside copies that are needed anyway: each rank
+    reads about ``8 n (P - 1) / P**2`` bytes of other ranks' memory in steps 2 and 5 and
+    ``8 (n + 2 N2) (P - 1) / P**2`` bytes in steps 3 and 4, ``32 n (P - 1) / P**2`` in all.
+    ``"messages"`` (ranks on several nodes, or no shared window): the same blocks are sent by
+    four ``Alltoallv`` (no packing: each block is contiguous) into receive blocks that the
+    gathers read instead; each rank sends and receives the same ``32 n (P - 1) / P**2`` bytes
+    per call (plus the row padding, under 64 bytes a row). The two transports give bitwise
+    equal results.
+
+Why this variant
+    Measured with ``scripts/bench_fft.py`` (and variants of it with per-stage timers) on the
+    2-core development VM (2 MB L2 per core), 2 ranks, shared transport; times per call, the
+    serial pair on rank 0 alone timed in the same run; ranges over three runs at load
+    average about 1 (the benchmark's own ranks included):
+
+    =====  =========  ==========  =========  ==========  ===========
+    n      serial ms  T x 1 ms    T x 2 ms   T x 2 /     T x 2 comm
+                                             serial      share
+    =====  =========  ==========  =========  ==========  ===========
+    2**17  0.91-1.06  1.39-1.48   0.82-0.98  0.87-0.98   5-6 %
+    2**20  12.6-12.9  17.3-18.4   9.1-9.5    0.73-0.74   3-8 %
+    2**22  81-87      78-82       44-46      0.51-0.57   3-8 %
+    =====  =========  ==========  =========  ==========  ===========
+
+    A run that started at load 2.5 gave 0.89, 0.84 and 0.59 (comm share 7-14 %: a rank that
+    is descheduled makes the other wait at the next synchronisation). ``T x 1``, the
+    transposed class on one rank, is only a test configuration.
+
+    The previous version of this class (strided FFTW plans down axis 0 of whole column blocks,
+    separate pack and twiddle passes, four ``Alltoallv``) ran at 1.02-1.12 (2**20), 1.13-1.18
+    (2**17) and 1.11 (2**22) of the serial pair in the same kind of runs. Contiguous chunked
+    FFTs with the transpositions in numpy gathers and the twiddle fused into a copy brought
+    2**20 to 0.80-0.87 with ``Alltoallv`` (a quarter of the time in the four exchanges);
+    sequential writes plus reading the other rank's blocks in shared memory brought it to
+    0.71-0.74. The ``"messages"`` transport of this version runs at 0.90-0.92 (2**20) and
+    1.03-1.04 (2**17). Planning takes 0.3-1.1 s (FFTW_MEASURE, n = 2**17..2**22) against
+    4-180 s for the serial pair.
+
+    At 2**20 every stage is bound by memory traffic: a pass that reads and writes a rank's
+    4 MB costs 0.5-1 ms and a complex multiply over it about 0.5 ms, against 2.3 ms for all
+    the FFTs; the 9.3 ms per call are the four transposing gathers (~1 ms each), three
+    output writes (~0.5 ms each), the three complex multiplies and the FFTs. At 2**17 the
+    per-rank working set (~5 MB with the twiddle tables) still exceeds L2, so the same
+    passes dominate, plus ~60 numpy calls.
+
+    Tried and dropped (2**20, 2 ranks unless noted): FFTW plans reading strided columns,
+    whole or in chunks (stage A 1.6-1.7 ms against 1.3 ms for gather + contiguous FFT, one
+    core); FFTW writing transposed output (stage C + step 5: 3.5 ms against 2.3 ms); FFTW
+    writing straight into the stage outputs with both twiddles moved into stage B (0.71-0.77
+    vs 0.71-0.72: a multiply with a transposed operand costs 2.3 copies); factored twiddles
+    (a small table times one row per chunk instead of full tables: 0.75-0.76 vs 0.72-0.74,
+    the extra multiply costs what the table read saves); FFTW_PATIENT for the local plans
+    (same FFT times within 3 %, 8.5 s of planning instead of 0.1-0.6 s); N1 = 256, 512, 2048,
+    4096 instead of 1024 (0.73, 0.73, 0.76, 0.79 vs 0.72); ``Alltoallw`` with vector
+    datatypes reading and writing the strided sub-blocks in place instead of per-rank
+    contiguous blocks and ``Alltoallv`` (messages transport 0.92-1.01 vs 0.90 at 2**20,
+    1.03-1.4 vs 1.04 at 2**17); copying this rank's own field columns to a padded array
+    before stage A (equal to reading them from ``field`` in blocks of 64 rows, which are
+    kept); chunks of 16-256 columns and 8-65 mode rows (within 3 %); prebuilt views against
+    per-call slicing (below the noise, kept). Not tried: the real-as-complex packing of
+    length n/2 and the P = 2 even/odd (binary exchange) split: both add elementwise passes
+    for the post-processing, and passes are what every stage here is bound by.
 """
 from __future__ import annotations
 
@@ -65,12 +143,24 @@ from mpi4py import MPI
 
 from .parallel import block_range
 
+TRANSPORTS = ("auto", "shared", "messages")
+
+# Work-array sizes of the chunked stages, in elements: a stage-A/C chunk of columns holds
+# about _COLUMN_CHUNK reals (plus its half spectrum), a stage-B chunk about _ROW_CHUNK complex
+# values, so that input, output and FFT stay in the 2 MB L2 cache (tuned at n = 2**17..2**22).
+_COLUMN_CHUNK = 2 ** 16
+_MAX_COLUMNS = 128
+_ROW_CHUNK = 2 ** 14
+# Rows per call of the transposing copies from and to the caller's (power-of-two strided)
+# arrays.
+_ROW_BLOCK = 64
+
 
 def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
     """Make the real FFT suited to ``comm``.
 
-    Every rank of ``comm`` must call it with the same arguments (it makes no MPI call itself,
-    but the object's ``apply_diagonal`` is collective).
+    Every rank of ``comm`` must call it with the same arguments (collective: the transposed
+    class allocates its shared buffers on ``comm``).
 
     Parameters
     ----------
@@ -111,7 +201,8 @@ def split_length(n):
     -------
     n1, n2 : int
         ``n1`` is the even divisor of ``n`` closest to ``sqrt(n)`` (the smaller one on a tie),
-        which balances the two FFT stages and the two transposes.
+        which balances the two FFT stages and the two transposes (other splits were measured
+        no faster at n = 2**20 on 2 ranks, see the module docstring).
     """
     if n < 2 or n % 2:
         raise ValueError(f"the transform length must be even and >= 2, got {n}")
@@ -123,13 +214,70 @@ def split_length(n):
 def _padded_width(count, itemsize):
     """Row length in elements, >= count, whose size in bytes is an odd multiple of 64.
 
-    Why: the column FFTs stride down the rows of an (N1, C) array. With a power-of-two row
-    stride (C = 1024 at n = 2**20) a column maps onto a few cache sets and the strided FFTs
-    ran 2-3 times slower; an odd number of 64-byte lines spreads it over all of them and
-    keeps every row aligned for SIMD.
+    Why: the gathers read a few elements from each of many rows. With a power-of-two row
+    stride (e.g. 1024 doubles at n = 2**20) those rows map onto a few cache sets and the reads
+    ran 2-3 times slower; an odd number of 64-byte lines spreads them over all sets and keeps
+    every row aligned for SIMD.
     """
     lines = -(-count * itemsize // 64)
     return (lines + (lines % 2 == 0)) * 64 // itemsize if count else 0
+
+
+def _chunks(count, size):
+    """Split ``range(count)`` into balanced ``(start, stop)`` chunks of at most ``size``."""
+    if count == 0:
+        return []
+    number = -(-count // max(1, size))
+    return [block_range(count, number, i) for i in range(number)]
+
+
+_DTYPES = {"pack": np.dtype(np.float64), "xt": np.dtype(np.complex128),
+           "z": np.dtype(np.complex128), "h": np.dtype(np.float64)}
+_MPI_TYPES = {np.dtype(np.float64): MPI.DOUBLE, np.dtype(np.complex128): MPI.C_DOUBLE_COMPLEX}
+
+
+class _BlockArray:
+    """A sequence of 2-D blocks stored one after the other in one flat array.
+
+    Block ``t`` is what rank ``t`` reads (or what was received from rank ``t``), so the flat
+    array with :attr:`counts` and :attr:`displacements` is directly an ``Alltoallv`` buffer.
+
+    Parameters
+    ----------
+    shapes : list of (int, int)
+        ``(rows, width)`` of each block, ``width`` padded (:func:`_padded_width`) so that every
+        block is a whole number of cache lines and stays 64-byte aligned.
+    dtype : numpy.dtype
+    memory : ndarray of uint8, optional
+        ``nbytes(shapes, dtype)`` bytes to use (e.g. in a shared window), 64-byte aligned;
+        default: a new zeroed aligned array.
+
+    Attributes
+    ----------
+    flat : ndarray, 1-D
+    blocks : list of ndarray
+        The ``(rows, width)`` views.
+    counts, displacements : list of int
+        Elements and offsets (in elements) of the blocks in ``flat``.
+    """
+
+    def __init__(self, shapes, dtype, memory=None):
+        total = max(1, sum(rows * width for rows, width in shapes))  # MPI wants a buffer
+        if memory is None:
+            self.flat = pyfftw.zeros_aligned(total, dtype=dtype)
+        else:
+            self.flat = memory[:total * dtype.itemsize].view(dtype)
+        self.counts = [rows * width for rows, width in shapes]
+        self.displacements = [int(d) for d in np.cumsum([0] + self.counts[:-1])]
+        self.blocks = [self.flat[d:d + c].reshape(shape)
+                       for d, c, shape in zip(self.displacements, self.counts, shapes)]
+        self.mpi_type = _MPI_TYPES[np.dtype(dtype)]
+
+    @staticmethod
+    def nbytes(shapes, dtype):
+        """Bytes to reserve for the blocks, rounded up to whole cache lines."""
+        total = max(1, sum(rows * width for rows, width in shapes)) * dtype.itemsize
+        return -(-total // 64) * 64
 
 
 class SerialRealFFT:
@@ -212,9 +360,9 @@ RealFFT = SerialRealFFT  # old name, kept while the callers move to plan_real_ff
 class TransposedRealFFT:
     """Length-n real FFT distributed over ``comm`` by the four-step algorithm.
 
-    See the module docstring for the algorithm, the layout and the communication volume.
-    Construction makes local FFTW plans only (no MPI call), but every rank of ``comm`` must
-    build one; ``apply_diagonal`` is collective.
+    See the module docstring for the algorithm, the layout, the transports and the
+    communication volume. Construction is collective on ``comm`` (it decides the transport and
+    allocates the shared window), and so is ``apply_diagonal``.
 
     Parameters
     ----------
@@ -224,6 +372,11 @@ class TransposedRealFFT:
         Number of grid nodes (even).
     planner_effort : str
         FFTW planner flag.
+    transport : {"auto", "shared", "messages"}
+        How the ranks see each other's data: ``"shared"`` reads it in an MPI shared-memory
+        window (all ranks must be on one node), ``"messages"`` moves it with ``Alltoallv``;
+        ``"auto"`` takes ``"shared"`` when all ranks of ``comm`` share a node and the window can
+        be allocated, ``"messages"`` otherwise. Every rank must pass the same value.
 
     Attributes
     ----------
@@ -240,23 +393,29 @@ class TransposedRealFFT:
     wavenumber : ndarray of int64, shape spectrum_shape
         Signed mode index m in (-n/2, n/2] of each local spectrum entry (q = 2 pi m / L).
         Rows ``0 < k1 < n1/2`` also stand for the conjugate modes -m.
+    transport : str
+        ``"shared"``, ``"messages"``, or ``"none"`` on a one-rank communicator.
     pairs : int
         Number of forward+backward pairs done.
     communication_time : float
-        Seconds spent in ``Alltoallv`` by this rank (including waiting for the others).
+        Seconds spent in the four synchronisations per call (``Barrier`` or ``Alltoallv``),
+        including waiting for the other ranks.
     """
 
-    def __init__(self, comm, n: int, planner_effort: str = "FFTW_MEASURE"):
+    def __init__(self, comm, n: int, planner_effort: str = "FFTW_MEASURE",
+                 transport: str = "auto"):
+        if transport not in TRANSPORTS:
+            raise ValueError(f"transport must be one of {TRANSPORTS}, got {transport!r}")
         self.comm, self.n = comm, n
         self.n1, self.n2 = n1, n2 = split_length(n)
         size, rank = comm.Get_size(), comm.Get_rank()
-        rows = [block_range(n1, size, r) for r in range(size)]
-        cols = [block_range(n2, size, r) for r in range(size)]
-        modes = [block_range(n1 // 2 + 1, size, r) for r in range(size)]
-        nrow = [b - a for a, b in rows]
-        ncol = [b - a for a, b in cols]
-        nmode = [b - a for a, b in modes]
-        R, C, M = nrow[rank], ncol[rank], nmode[rank]
+        k1_count = n1 // 2 + 1
+        self._rows = rows = [block_range(n1, size, r) for r in range(size)]
+        self._cols = cols = [block_range(n2, size, r) for r in range(size)]
+        self._modes = modes = [block_range(k1_count, size, r) for r in range(size)]
+        R, C, M = (b - a for a, b in (rows[rank], cols[rank], modes[rank]))
+        self._R, self._C, self._M = R, C, M
+        self._peers = [s for s in range(size) if s != rank]
 
         self.x_blocks = [(n2 * a, n2 * b) for a, b in rows]
         self.x_start, self.x_stop = self.x_blocks[rank]
@@ -264,85 +423,221 @@ class TransposedRealFFT:
         k = np.arange(*modes[rank])[:, None] + n1 * np.arange(n2)[None, :]
         self.wavenumber = np.where(k <= n // 2, k, k - n).astype(np.int64)
 
-        # Column arrays are stored with padded rows (see _padded_width) and the padding
-        # travels inside the packed blocks, so that plain Alltoallv on contiguous buffers
-        # still lands every block in place. wr, wc: padded real / complex row lengths.
-        wr = [_padded_width(c, 8) for c in ncol]
-        wc = [_padded_width(c, 16) for c in ncol]
-        offr, offc = np.cumsum([0] + wr), np.cumsum([0] + wc)
+        # Outputs of step 1 and stages A, B, C of rank s, each split into one block per
+        # destination rank t (rows padded, see _padded_width), so that what t reads is one
+        # contiguous block: "pack" (R_s, C_t) field columns (none for t = s), "xt" (C_s, M_t)
+        # stage A, "z" (M_s, C_t) stage B, "h" (C_s, R_t) stage C, each [rows, columns].
+        nrows, ncols, nmodes = ([b - a for a, b in blocks] for blocks in (rows, cols, modes))
 
-        # Buffers. _packed_x holds this rank's real block packed by column block (send of
-        # the first transpose, receive of the last); _cols is the (N1, C) column block;
-        # _colspec its rfft; _packed_modes the mode rows packed by column block (receive of
-        # the second transpose, send of the third); _rowspec the (M, N2) spectrum rows.
-        f8, c16 = "float64", "complex128"
-        self._packed_x = pyfftw.empty_aligned(R * offr[-1], dtype=f8)
-        cols_full = pyfftw.empty_aligned((n1, wr[rank]), dtype=f8)
-        colspec_full = pyfftw.empty_aligned((n1 // 2 + 1, wc[rank]), dtype=c16)
-        self._cols, self._colspec = cols_full[:, :C], colspec_full[:, :C]
-        self._packed_modes = pyfftw.empty_aligned(M * offc[-1], dtype=c16)
-        self._rowspec = pyfftw.empty_aligned((M, n2), dtype=c16)
+        def outputs(s):
+            Rs, Cs, Ms = (b - a for a, b in (rows[s], cols[s], modes[s]))
+            return {"pack": [(Rs if t != s else 0, _padded_width(ncols[t], 8))
+                             for t in range(size)],
+                    "xt": [(Cs, _padded_width(nmodes[t], 16)) for t in range(size)],
+                    "z": [(Ms, _padded_width(ncols[t], 16)) for t in range(size)],
+                    "h": [(Cs, _padded_width(nrows[t], 8)) for t in range(size)]}
 
-        # Column block s of a packed buffer is a (rows, padded C_s) array: packing is one copy
-        # per rank, and the receiving side's concatenation in rank order is directly the
-        # padded (N1, C) or (N1/2+1, C) array that the column FFT wants.
-        self._col_slices = [slice(a, b) for a, b in cols]
-        self._x_views = [
-            self._packed_x[R * offr[s]:R * offr[s + 1]].reshape(R, wr[s])[:, :ncol[s]]
-            for s in range(size)]
-        self._mode_views = [
-            self._packed_modes[M * offc[s]:M * offc[s + 1]].reshape(M, wc[s])[:, :ncol[s]]
-            for s in range(size)]
+        self._window = None
+        if size == 1:
+            self.transport = "none"
+        else:
+            self.transport = self._choose_transport(transport)
+        if self.transport == "shared":
+            mine, theirs = self._shared_buffers(outputs)
+        if self.transport != "shared":
+            mine = {stage: _BlockArray(shapes, _DTYPES[stage])
+                    for stage, shapes in outputs(rank).items()}
+        self._out = mine
 
-        # Alltoallv message specs, built once (counts and displacements in elements).
-        def spec(buf, counts, displs, mpitype):
-            return [buf, ([int(c) for c in counts], [int(d) for d in displs]), mpitype]
+        # The blocks of the other ranks that the gathers read, as (rows, columns) views:
+        # A: peer s's field rows in my columns (nr_s, C); B: peer s's columns in my mode rows
+        # (nc_s, M); C: peer s's mode rows in my columns (nm_s, C); F: peer s's columns in my
+        # rows (nc_s, R). Shared: the peers' own output blocks; messages: receive blocks.
+        if self.transport == "shared":
+            self._from = {stage: {s: theirs[s][stage].blocks[rank][:, :width]
+                                  for s in self._peers}
+                          for stage, width in (("pack", C), ("xt", M), ("z", C), ("h", R))}
+        else:
+            self._receive = {
+                stage: _BlockArray([(count[s] if s != rank else 0,
+                                     _padded_width(width, _DTYPES[stage].itemsize))
+                                    for s in range(size)], _DTYPES[stage])
+                for stage, count, width in (("pack", nrows, C), ("xt", ncols, M),
+                                            ("z", nmodes, C), ("h", ncols, R))}
+            self._from = {stage: {s: self._receive[stage].blocks[s][:, :width]
+                                  for s in self._peers}
+                          for stage, width in (("pack", C), ("xt", M), ("z", C), ("h", R))}
 
-        dbl, cpx = MPI.DOUBLE, MPI.C_DOUBLE_COMPLEX
-        x_spec = spec(self._packed_x, [R * w for w in wr], R * offr[:-1], dbl)
-        cols_spec = spec(cols_full, [r * wr[rank] for r in nrow],
-                         [a * wr[rank] for a, _ in rows], dbl)
-        colspec_spec = spec(colspec_full, [m * wc[rank] for m in nmode],
-                            [a * wc[rank] for a, _ in modes], cpx)
-        modes_spec = spec(self._packed_modes, [M * w for w in wc], M * offc[:-1], cpx)
-        self._to_cols = (x_spec, cols_spec)
-        self._to_modes = (colspec_spec, modes_spec)
-        self._from_modes = (modes_spec, colspec_spec)
-        self._from_cols = (cols_spec, x_spec)
-
-        # Twiddles w**(n2*k1) for the local columns; the integer product is reduced mod n
-        # before the float division so that the angle is exact for any n.
-        k1 = np.arange(n1 // 2 + 1, dtype=np.int64)[:, None]
-        col = np.arange(*cols[rank], dtype=np.int64)[None, :]
-        angle = (-2.0 * np.pi / n) * ((col * k1) % n)
-        self._twiddle = np.exp(1j * angle)
+        # Twiddles w**(n2*k1) for the local columns, [n2, k1]; the integer product is reduced
+        # mod n before the float division so that the angle is exact for any n.
+        k1 = np.arange(k1_count, dtype=np.int64)[None, :]
+        col = np.arange(*cols[rank], dtype=np.int64)[:, None]
+        self._twiddle = np.exp((-2j * np.pi / n) * ((col * k1) % n))
         self._twiddle_conj = self._twiddle.conj()
 
-        # pyfftw refuses zero-size arrays: a rank owning no columns or mode rows has no plans.
+        # Chunks, work arrays and FFTW plans (one pair per distinct chunk height; pyfftw
+        # refuses zero-size arrays, so a rank without columns or mode rows has none).
+        col_chunks = _chunks(C, min(_MAX_COLUMNS, max(1, _COLUMN_CHUNK // n1)))
+        row_chunks = _chunks(M, max(1, _ROW_CHUNK // n2))
+        self._row_blocks = _chunks(R, _ROW_BLOCK)
+        tall = max((b - a for a, b in col_chunks), default=1)
+        high = max((b - a for a, b in row_chunks), default=1)
+        f8, c16 = np.dtype(np.float64), np.dtype(np.complex128)
+        work_real = pyfftw.zeros_aligned((tall, n1), dtype=f8)
+        work_half = pyfftw.zeros_aligned((tall, k1_count), dtype=c16)
+        work_rows = pyfftw.zeros_aligned((high, n2), dtype=c16)
         flags = (planner_effort, "FFTW_DESTROY_INPUT")
-        self._col_forward = self._col_backward = self._row_forward = self._row_backward = None
-        if C:
-            self._col_forward = pyfftw.FFTW(self._cols, self._colspec, axes=(0,), flags=flags,
-                                            threads=1)
-            self._col_backward = pyfftw.FFTW(self._colspec, self._cols, axes=(0,),
-                                             direction="FFTW_BACKWARD", flags=flags, threads=1)
-        if M:
-            self._row_forward = pyfftw.FFTW(self._rowspec, self._rowspec, axes=(1,),
-                                            flags=flags, threads=1)
-            self._row_backward = pyfftw.FFTW(self._rowspec, self._rowspec, axes=(1,),
-                                             direction="FFTW_BACKWARD", flags=flags, threads=1)
+        column_plans, row_plans = {}, {}
+        for h in {b - a for a, b in col_chunks}:
+            real, half = work_real[:h], work_half[:h]
+            column_plans[h] = (
+                pyfftw.FFTW(real, half, axes=(1,), flags=flags, threads=1),
+                pyfftw.FFTW(half, real, axes=(1,), direction="FFTW_BACKWARD", flags=flags,
+                            threads=1))
+        for h in {b - a for a, b in row_chunks}:
+            work = work_rows[:h]
+            row_plans[h] = (
+                pyfftw.FFTW(work, work, axes=(1,), flags=flags, threads=1),
+                pyfftw.FFTW(work, work, axes=(1,), direction="FFTW_BACKWARD", flags=flags,
+                            threads=1))
+        self._build_steps(col_chunks, row_chunks, column_plans, row_plans,
+                          work_real, work_half, work_rows)
         self.pairs = 0
         self.communication_time = 0.0
 
-    def _alltoallv(self, specs):
+    def _build_steps(self, col_chunks, row_chunks, column_plans, row_plans, work_real,
+                     work_half, work_rows):
+        """Prebuild the views the stages copy between; a call only slices the caller's arrays.
+
+        (Less Python work per call; the gain was below the noise at n = 2**17.)
+        """
+        rank, size = self.comm.Get_rank(), self.comm.Get_size()
+        rows, cols, modes = self._rows, self._cols, self._modes
+        row0, col0, mode0 = rows[rank][0], cols[rank][0], modes[rank][0]
+        C, M, R = self._C, self._M, self._R
+        out, read = self._out, self._from
+        blocks = {stage: out[stage].blocks for stage in out}
+        self._packs = [(blocks["pack"][s][:, :cols[s][1] - cols[s][0]], slice(*cols[s]))
+                       for s in self._peers]
+        self._stage_a, self._stage_b, self._stage_c = [], [], []
+        for a, b in col_chunks:
+            real, half = work_real[:b - a], work_half[:b - a]
+            forward, backward = column_plans[b - a]
+            # A: peers' rows of these columns, then (per call) this rank's rows from field;
+            # rfft; twiddle while writing each destination's mode block.
+            self._stage_a.append((
+                [(real[:, slice(*rows[s])], part[:, a:b].T) for s, part in read["pack"].items()],
+                [(real[:, row0 + p:row0 + q], slice(p, q)) for p, q in self._row_blocks],
+                slice(col0 + a, col0 + b), forward,
+                [(half[:, slice(*modes[t])], self._twiddle[a:b, slice(*modes[t])],
+                  blocks["xt"][t][a:b, :modes[t][1] - modes[t][0]]) for t in range(size)]))
+            # C: every rank's mode rows of these columns, conjugate twiddle, c2r, then each
+            # destination's row block.
+            self._stage_c.append((
+                [(half[:, slice(*modes[s])], part[:, a:b].T) for s, part in read["z"].items()]
+                + [(half[:, mode0:mode0 + M], blocks["z"][rank][:, a:b].T)],
+                half, self._twiddle_conj[a:b], backward,
+                [(blocks["h"][t][a:b, :rows[t][1] - rows[t][0]], real[:, slice(*rows[t])])
+                 for t in range(size)]))
+        for a, b in row_chunks:
+            work = work_rows[:b - a]
+            forward, backward = row_plans[b - a]
+            # B: every rank's columns of these mode rows, FFT, multiplier, inverse FFT, then
+            # each destination's column block.
+            self._stage_b.append((
+                [(work[:, slice(*cols[s])], part[:, a:b].T) for s, part in read["xt"].items()]
+                + [(work[:, col0:col0 + C], blocks["xt"][rank][:, a:b].T)],
+                forward, work, slice(a, b), backward,
+                [(blocks["z"][t][a:b, :cols[t][1] - cols[t][0]], work[:, slice(*cols[t])])
+                 for t in range(size)]))
+        # Final gather: this rank's rows from every rank's h (own part first, see
+        # apply_diagonal), as (rows slice, columns slice, source view).
+        own_h = blocks["h"][rank][:, :R]
+        self._final_own = [(slice(p, q), slice(col0, col0 + C), own_h[:, p:q].T)
+                           for p, q in self._row_blocks]
+        self._final_peers = [(slice(p, q), slice(*cols[s]), part[:, p:q].T)
+                             for s, part in read["h"].items() for p, q in self._row_blocks]
+
+    def _choose_transport(self, transport):
+        """Collective: ``"shared"`` or ``"messages"``, the same on every rank."""
+        if transport == "messages":
+            return transport
+        node = self.comm.Split_type(MPI.COMM_TYPE_SHARED)
+        on_one_node = node.Get_size() == self.comm.Get_size()
+        node.Free()
+        on_one_node = self.comm.allreduce(on_one_node, op=MPI.LAND)
+        if transport == "shared" and not on_one_node:
+            raise ValueError("transport='shared' needs all ranks of comm on one node")
+        return "shared" if on_one_node else "messages"
+
+    def _shared_buffers(self, outputs):
+        """Allocate the stage outputs in a shared window; return mine and the peers'.
+
+        Returns ``(mine, theirs)``: a dict stage -> :class:`_BlockArray` for this rank and
+        one such dict per peer. Falls back to ``transport = "messages"`` (on every rank) if
+        the window cannot be made, e.g. where the MPI library has no shared-memory one-sided
+        component; then returns ``(None, None)``.
+        """
+        comm, rank = self.comm, self.comm.Get_rank()
+
+        def nbytes(s):
+            return sum(_BlockArray.nbytes(shapes, _DTYPES[stage])
+                       for stage, shapes in outputs(s).items())
+
+        try:
+            window = MPI.Win.Allocate_shared(nbytes(rank) + 64, 1, comm=comm)
+            ok = True
+        except MPI.Exception:
+            window, ok = None, False
+        if not comm.allreduce(ok, op=MPI.LAND):
+            if window is not None:
+                window.Free()
+            self.transport = "messages"
+            return None, None
+        self._window = window
+
+        def arrays(s):
+            memory = np.frombuffer(window.Shared_query(s)[0], dtype=np.uint8)
+            start = -memory.ctypes.data % 64  # align every block to a cache line
+            found = {}
+            for stage, shapes in outputs(s).items():
+                size = _BlockArray.nbytes(shapes, _DTYPES[stage])
+                found[stage] = _BlockArray(shapes, _DTYPES[stage],
+                                           memory[start:start + size])
+                start += size
+            return found
+
+        mine = arrays(rank)
+        for stage in mine.values():
+            stage.flat[...] = 0
+        window.Lock_all(MPI.MODE_NOCHECK)
+        self._synchronise()
+        return mine, {s: arrays(s) for s in self._peers}
+
+    def _synchronise(self):
+        """Make every rank's writes to the shared window visible to all ranks."""
+        self._window.Sync()
+        self.comm.Barrier()
+        self._window.Sync()
+
+    def _exchange(self, stage):
+        """Make the peers' blocks of ``stage`` readable (collective on ``comm``)."""
         start = time.perf_counter()
-        self.comm.Alltoallv(*specs)
+        if self.transport == "shared":
+            self._synchronise()
+        elif self.transport == "messages":
+            send, receive = self._out[stage], self._receive[stage]
+            rank = self.comm.Get_rank()
+            counts = [0 if t == rank else c for t, c in enumerate(send.counts)]
+            self.comm.Alltoallv([send.flat, (counts, send.displacements), send.mpi_type],
+                                [receive.flat, (receive.counts, receive.displacements),
+                                 receive.mpi_type])
         self.communication_time += time.perf_counter() - start
 
     def apply_diagonal(self, field, diagonal, out):
         """out = irfft(diagonal * rfft(field)) on the distributed field, without the 1/n.
 
-        Collective on ``comm`` (four ``Alltoallv``): every rank must call it, also ranks
+        Collective on ``comm`` (four synchronisations): every rank must call it, also ranks
         owning no nodes or no modes.
 
         Parameters
@@ -360,28 +655,63 @@ class TransposedRealFFT:
         out : ndarray
         """
         source = field.reshape(-1, self.n2)
-        for view, cs in zip(self._x_views, self._col_slices):
-            np.copyto(view, source[:, cs])
-        self._alltoallv(self._to_cols)
-        if self._col_forward is not None:
-            self._col_forward.execute()
-            self._colspec *= self._twiddle
-        self._alltoallv(self._to_modes)
-        if self._row_forward is not None:
-            for view, cs in zip(self._mode_views, self._col_slices):
-                np.copyto(self._rowspec[:, cs], view)
-            self._row_forward.execute()
-            self._rowspec *= diagonal
-            self._row_backward.execute()
-            for view, cs in zip(self._mode_views, self._col_slices):
-                np.copyto(view, self._rowspec[:, cs])
-        self._alltoallv(self._from_modes)
-        if self._col_backward is not None:
-            self._colspec *= self._twiddle_conj
-            self._col_backward.execute()
-        self._alltoallv(self._from_cols)
         target = out.reshape(-1, self.n2)
-        for view, cs in zip(self._x_views, self._col_slices):
-            np.copyto(target[:, cs], view)
+        copy, multiply = np.copyto, np.multiply
+
+        # 1. The columns of the field that the peers transform.
+        for block, columns in self._packs:
+            copy(block, source[:, columns])
+        self._exchange("pack")
+
+        # 2. Stage A: rfft down the columns, twiddle, rows of the xt blocks.
+        for peers, own, columns, forward, writes in self._stage_a:
+            for to, part in peers:
+                copy(to, part)
+            for to, block in own:
+                copy(to, source[block, columns].T)
+            forward.execute()
+            for half, twiddle, to in writes:
+                multiply(half, twiddle, out=to)
+        self._exchange("xt")
+
+        # 3. Stage B: FFT along the rows, multiplier, inverse FFT, rows of the z blocks.
+        for gathers, forward, work, chunk, backward, writes in self._stage_b:
+            for to, part in gathers:
+                copy(to, part)
+            forward.execute()
+            multiply(work, diagonal[chunk], out=work)
+            backward.execute()
+            for to, part in writes:
+                copy(to, part)
+        self._exchange("z")
+
+        # 4. Stage C: conjugate twiddle, c2r down the columns, rows of the h blocks.
+        for gathers, half, twiddle, backward, writes in self._stage_c:
+            for to, part in gathers:
+                copy(to, part)
+            multiply(half, twiddle, out=half)
+            backward.execute()
+            for to, part in writes:
+                copy(to, part)
+        # 5. This rank's rows from every rank's h: the own columns need no other rank, so
+        # they are copied before the synchronisation (a rank that arrives early waits less).
+        for block, columns, part in self._final_own:
+            copy(target[block, columns], part)
+        self._exchange("h")
+        for block, columns, part in self._final_peers:
+            copy(target[block, columns], part)
         self.pairs += 1
         return out
+
+    def close(self):
+        """Free the shared window (collective; the object is unusable afterwards).
+
+        Optional: without it the window lives until ``MPI.Finalize``.
+        """
+        if self._window is not None:
+            self._out = self._from = {}
+            self._packs = self._stage_a = self._stage_b = self._stage_c = []
+            self._final_own = self._final_peers = []
+            self._window.Unlock_all()
+            self._window.Free()
+            self._window = None

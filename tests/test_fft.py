@@ -75,6 +75,19 @@ def test_split_length():
         split_length(15)
 
 
+@pytest.mark.parametrize("transport", ["auto", "shared", "messages"])
+def test_transport_on_one_rank(transport):
+    fft = TransposedRealFFT(MPI.COMM_SELF, 64, "FFTW_ESTIMATE", transport=transport)
+    assert fft.transport == "none"  # nothing to exchange
+    field = np.random.default_rng(0).standard_normal(64)
+    out = fft.apply_diagonal(field, np.ones(fft.spectrum_shape) / 64, np.empty(64))
+    np.testing.assert_allclose(out, field, atol=1e-14)
+    assert fft.communication_time >= 0.0
+    fft.close()
+    with pytest.raises(ValueError):
+        TransposedRealFFT(MPI.COMM_SELF, 64, "FFTW_ESTIMATE", transport="carrier pigeon")
+
+
 def test_factory_and_alias():
     assert RealFFT is SerialRealFFT
     assert isinstance(plan_real_fft(MPI.COMM_SELF, 16, "FFTW_ESTIMATE"), SerialRealFFT)

@@ -5,8 +5,10 @@ Run under mpirun with any number of ranks, e.g.::
     mpirun --oversubscribe -n 3 python tests/mpi/check_fft.py [n ...]
 
 Every rank builds the same global field and even multiplier (same seed), applies the
-distributed operator to its own block and compares with numpy. Exit status 0 on every rank
-when all checks pass; on failure rank 0 prints the reasons and all ranks exit with 1.
+distributed operator to its own block and compares with numpy, with each transport (the
+automatic choice, shared memory on one node, and ``Alltoallw`` messages); the transports only
+move data, so their results must agree bitwise. Exit status 0 on every rank when all checks
+pass; on failure rank 0 prints the reasons and all ranks exit with 1.
 """
 import os
 import sys
@@ -19,12 +21,19 @@ from mpi4py import MPI  # noqa: E402
 from hpcgfmd.fft import TransposedRealFFT  # noqa: E402
 
 DEFAULT_SIZES = (2, 16, 30, 64, 96, 1000, 4096)
+TRANSPORTS = ("auto", "messages")
 
 
-def check(comm, n):
-    """Return a list of failure messages for length n (empty when all is well)."""
+def check(comm, n, transport="auto", results=None):
+    """Return a list of failure messages for length n (empty when all is well).
+
+    ``results`` (dict) collects the output per transport to compare them bitwise.
+    """
     errors = []
-    fft = TransposedRealFFT(comm, n, planner_effort="FFTW_ESTIMATE")
+    fft = TransposedRealFFT(comm, n, planner_effort="FFTW_ESTIMATE", transport=transport)
+    expected_transport = "none" if comm.Get_size() == 1 else transport
+    if transport != "auto" and fft.transport != expected_transport:
+        errors.append(f"n={n}: transport {fft.transport!r}, asked for {transport!r}")
     starts = [a for a, _ in fft.x_blocks]
     stops = [b for _, b in fft.x_blocks]
     if starts[0] != 0 or stops[-1] != n or starts[1:] != stops[:-1] or \
@@ -47,7 +56,14 @@ def check(comm, n):
     fft.apply_diagonal(field[block], diagonal, out)
     error = np.abs(out - expected[block]).max(initial=0.0) / scale
     if error > 1e-12:
-        errors.append(f"n={n}: relative error {error:.3e} on rank {comm.Get_rank()}")
+        errors.append(f"n={n} {fft.transport}: relative error {error:.3e} on rank "
+                      f"{comm.Get_rank()}")
+    if results is not None:
+        for other, other_out in results.items():
+            if not np.array_equal(out, other_out):
+                errors.append(f"n={n}: {fft.transport} and {other} differ on rank "
+                              f"{comm.Get_rank()}")
+        results[fft.transport] = out
 
     in_place = field[block].copy()
     fft.apply_diagonal(in_place, diagonal, in_place)
@@ -55,6 +71,7 @@ def check(comm, n):
         errors.append(f"n={n}: out is field differs on rank {comm.Get_rank()}")
     if fft.pairs != 2:
         errors.append(f"n={n}: pairs = {fft.pairs}")
+    fft.close()
     return errors
 
 
@@ -63,8 +80,10 @@ def main():
     sizes = [int(a) for a in sys.argv[1:]] or DEFAULT_SIZES
     errors = []
     for n in sizes:
+        results = {}
         try:
-            errors += check(comm, n)
+            for transport in TRANSPORTS:
+                errors += check(comm, n, transport, results)
         except Exception as exc:  # the other ranks may hang in a collective: abort them all
             print(f"FAIL n={n}: {type(exc).__name__}: {exc} on rank {comm.Get_rank()}",
                   file=sys.stderr, flush=True)
@@ -75,7 +94,8 @@ def main():
         for message in (m for rank_errors in all_errors for m in rank_errors):
             print("FAIL", message, flush=True)
         if not failed:
-            print(f"ok: {len(sizes)} sizes on {comm.Get_size()} ranks", flush=True)
+            print(f"ok: {len(sizes)} sizes x {len(TRANSPORTS)} transports on "
+                  f"{comm.Get_size()} ranks", flush=True)
     return 1 if failed else 0
 
 
