@@ -8,8 +8,8 @@ What is measured (one row per grid size and rank count, appended to a CSV file)
     the per-step cost), then times ``--steps`` retraction steps exactly as the production loop
     does them (a detachment test and one step each, no output file), between two barriers.
     Times are the maximum over the ranks. Communication shares are the seconds spent in the
-    FFT's ``Alltoallv`` and in the Domain's collectives (reductions, halo exchanges, segments)
-    during the timed steps, maximum over the ranks, as fractions of the timed wall time; they
+    FFT's exchanges (shared-memory barriers or ``Alltoallv``) and in the Domain's collectives
+    (reductions, halo exchanges, segments) during the timed steps, maximum over the ranks, as fractions of the timed wall time; they
     include the time a rank waits for the other one (load imbalance shows up there).
     ``load`` is the load of the last timed step: runs on different rank counts agree to about
     1e-8 relative (the solver tolerance; transforms and sums round differently).
