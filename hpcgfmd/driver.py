@@ -213,6 +213,12 @@ class Retraction:
         """Collective: True when no node is within the interaction range (complete detachment)."""
         return self.domain.all(self.wall - self.u > self.case.dmax)
 
+    def close(self):
+        """Collective: release the transform's resources (its shared-memory window)."""
+        close = getattr(self.fft, "close", None)
+        if close is not None:
+            close()
+
     def gap(self):
         """This rank's block of the gap g = h + u_z - u (length)."""
         return self.wall - self.u

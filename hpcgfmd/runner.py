@@ -93,6 +93,19 @@ def run_case(case: Case, path, comm, printer=print, overwrite=False, resume=Fals
             return run_case(case, path, comm, printer, overwrite, resume, planner_effort, own)
     start = time.monotonic()
     sim = Retraction(case, comm, planner_effort=planner_effort)
+    # Free the transform's shared-memory window (collective) when every rank stops alike; on
+    # any other error the job aborts and a collective here would hang the failing rank.
+    try:
+        summary = _run(sim, case, path, comm, printer, overwrite, resume, stop, start)
+    except (CaseError, CaseFailure, FloatingPointError, Interrupted):
+        sim.close()
+        raise
+    sim.close()
+    return summary
+
+
+def _run(sim, case, path, comm, printer, overwrite, resume, stop, start):
+    """The body of :func:`run_case` on a built :class:`Retraction`."""
     dom = sim.domain
     checkpoint = checkpoint_path(path)
     schedule = SnapshotSchedule(case.output)
