@@ -18,26 +18,15 @@ import time
 import h5py
 import numpy as np
 import pytest
+from cases import case_text
 
 MPIRUN = shutil.which("mpirun")
 pytestmark = [pytest.mark.mpi,
               pytest.mark.skipif(MPIRUN is None, reason="OpenMPI's mpirun is not installed")]
 
-CASE = """[case]
-maugis = 3.5
-modulus_ratio = 0.1
-velocity = 1.0
-depth = 0.03
-cell = 2.0
-adhesion = 1e-4
-[numerics]
-nx = {nx}
-tolerance = 1e-13
-[output]
-snapshot_times = [0.0, 3.0, 8.0, 12.0]
-snapshot_zero_load = true
-checkpoint_steps = {checkpoint_steps}
-"""
+CASE = case_text("nx = {nx}\ntolerance = 1e-13",
+                 "snapshot_times = [0.0, 3.0, 8.0, 12.0]\nsnapshot_zero_load = true\n"
+                 "checkpoint_steps = {checkpoint_steps}")
 SERIES = ("time", "indenter", "load", "contact_half_width", "cohesive_half_width")
 
 
@@ -174,8 +163,9 @@ def test_checkpoint_of_another_case_is_refused(serial_run, tmp_path):
 
 
 def test_failure_on_one_rank_stops_all_ranks(tmp_path):
-    # An unexpected error on rank 1 only (its block of the case file cannot be read as a
-    # checkpoint) must abort the job with a message, not hang rank 0 in a collective.
+    # An unexpected error on rank 1 only (an OSError raised by a stand-in for the command
+    # line, while rank 0 waits in a barrier) must make hpcgfmd's entry point abort the job
+    # with a message, not hang rank 0 in the collective.
     script = tmp_path / "fail.py"
     script.write_text(
         "from mpi4py import MPI\n"

@@ -14,18 +14,10 @@ import pytest
 from hpcgfmd.analysis import read_series
 from hpcgfmd.config import parse_case
 from hpcgfmd.sweep import SweepError, parse_sweep
+from cases import case_text
 
 MPIRUN = shutil.which("mpirun")
-BASE = """[base.case]
-maugis = 3.5
-modulus_ratio = 0.1
-velocity = 1.0
-depth = 0.03
-cell = 2.0
-adhesion = 1e-4
-[base.numerics]
-nx = 1024
-"""
+BASE = case_text("nx = 1024", prefix="base.")
 
 
 def test_grid_times_cases_and_overrides():

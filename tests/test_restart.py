@@ -12,20 +12,9 @@ from mpi4py import MPI
 from hpcgfmd.analysis import read_series
 from hpcgfmd.config import parse_case
 from hpcgfmd.runner import Interrupted, run_case
+from cases import case_text
 
-CASE = """[case]
-maugis = 3.5
-modulus_ratio = 0.1
-velocity = 1.0
-depth = 0.03
-cell = 2.0
-adhesion = 1e-4
-[numerics]
-nx = 2048
-[output]
-snapshot_times = [0.0, 3.0, 8.0]
-snapshot_zero_load = true
-"""
+CASE = case_text("nx = 2048", "snapshot_times = [0.0, 3.0, 8.0]\nsnapshot_zero_load = true")
 
 
 class StopAtStep:

@@ -25,36 +25,14 @@ import pytest
 
 import slurm_cluster
 from slurm_cluster import ClusterError
+from cases import case_text
 
 REPO = Path(__file__).resolve().parents[1]
 JOBS = REPO / "jobs"
 # nx = 8192 makes one serial run last about 6 s here: long enough to signal the chain's first
 # part after its first checkpoint (step 5 of 217) and well before it ends.
-CASE = """[case]
-maugis = 3.5
-modulus_ratio = 0.1
-velocity = 1.0
-depth = 0.03
-cell = 2.0
-adhesion = 1e-4
-[numerics]
-nx = 8192
-tolerance = 1e-13
-[output]
-checkpoint_steps = 5
-"""
-SWEEP = """[base.case]
-maugis = 3.5
-modulus_ratio = 0.1
-velocity = 1.0
-depth = 0.03
-cell = 2.0
-adhesion = 1e-4
-[base.numerics]
-nx = 1024
-[grid]
-velocity = [1.0, 2.0]
-"""
+CASE = case_text("nx = 8192\ntolerance = 1e-13", "checkpoint_steps = 5")
+SWEEP = case_text("nx = 1024", prefix="base.") + "[grid]\nvelocity = [1.0, 2.0]\n"
 SERIES = ("time", "indenter", "load", "contact_half_width", "cohesive_half_width")
 # minutes; SLURM's own signals come 3 (case, farm, array) or 5 (chain) minutes before the
 # limit, so with 10 they cannot arrive during a test (at 5 the chain would be signalled at once)
