@@ -304,6 +304,9 @@ def build_parser():
     plot.add_argument("file")
     plot.add_argument("-o", "--output", default=None, help="PNG path (default: file name .png)")
     plot.set_defaults(func=cmd_plot)
+    sub.add_parser("bench", add_help=False,
+                   help="speed against error of the fast solver and the paper's method"
+                        " (python -m hpcgfmd bench --help)")
     return parser
 
 
@@ -315,6 +318,10 @@ def main(comm, argv=None, stop=None):
     Failures that every rank detects alike (bad input, non-convergence) return 2 or 1 on all
     ranks; anything else propagates, and with more than one rank the caller aborts the job.
     """
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["bench"]:  # its own options (hpcgfmd.benchmark)
+        from .benchmark import main as bench_main
+        return bench_main(comm, argv[1:])
     if comm.Get_rank() == 0:
         args = build_parser().parse_args(argv)
     else:  # usage errors, --help and --version are printed once, by rank 0

@@ -9,7 +9,11 @@ Two equivalent forms, exactly one per file (physics.md, "Scales and dimensionles
     radius, modulus_relaxed, modulus_instantaneous (plane-strain moduli E*), relaxation_time,
     work_of_adhesion, interaction_range, velocity, depth, cell_length.
 
-``[numerics]`` (optional): nx, dt, tolerance, max_iterations.
+``[numerics]`` (optional): nx, dt, tolerance, max_iterations; solver ("cg", the default, or
+"paper": the paper's damped Verlet GFMD with equilibration_steps pseudo steps per step);
+step_control ("adaptive", the default: error-controlled steps starting from dt, within
+[dt_min, dt_max], with edge_fraction and load_tolerance, see ``hpcgfmd.stepping``; or
+"fixed": every step dt).
 ``[output]`` (optional): snapshot_times, snapshot_contact_widths, snapshot_zero_load,
 progress_interval, checkpoint_interval (wall seconds), checkpoint_steps. Times and lengths there are in the case's units (tau and R with ``[case]``,
 seconds and metres with ``[physical]``).
@@ -37,8 +41,18 @@ TARGET_ZONE_POINTS = 3.0   # the automatic nx is the smallest power of two reach
 # image correction pi^2 a^2 / (6 L^2) to the load stays below 5 %.
 MIN_CELL_PER_CONTACT = 6.0
 DEFAULT_STEP_PER_RANGE = 0.25  # default dt: the indenter moves this fraction of dmax per step
-DEFAULT_TOLERANCE = 1e-7
+DEFAULT_TOLERANCE = 1e-6
 DEFAULT_MAX_ITERATIONS = 5000
+# Adaptive steps (hpcgfmd.stepping): contact-edge motion per step in relaxed cohesive-zone
+# widths, load deviation from linear extrapolation in load scales, bounds of the step.
+DEFAULT_EDGE_FRACTION = 0.5
+DEFAULT_LOAD_TOLERANCE = 1e-2
+DT_MIN_PER_DEFAULT = 1.0 / 64.0     # dt_min: this fraction of the default (or given) dt
+FIRST_STEP_PER_DEFAULT = 1.0 / 16.0  # adaptive: the first step, doubling while errors allow
+DT_MAX_DEPTH_FRACTION = 0.02        # dt_max: the indenter rises by this fraction of h0
+PAPER_EQUILIBRATION_PER_ROOT_N = 1024  # the paper authors' code: 256 * 4 * sqrt(nx) steps
+SOLVERS = ("cg", "paper")
+STEP_CONTROLS = ("adaptive", "fixed")
 MIN_TOLERANCE = 1e-13      # the residual's round-off floor (max norm relative to sigma_a)
 BYTES_PER_POINT = 320      # about 40 float64 work arrays per grid point (measured layout)
 
@@ -69,13 +83,26 @@ class Units:
 
 @dataclass(frozen=True)
 class Numerics:
-    """Discretisation: grid points, time step (internal units of tau), solver tolerance."""
+    """Discretisation: grid points, time steps (internal units of tau), solver and its tolerance.
+
+    With ``step_control = "adaptive"`` ``dt`` is the first step; ``edge_fraction`` (of the
+    relaxed cohesive-zone width) and ``load_tolerance`` (in load scales) are the error
+    targets of :mod:`hpcgfmd.stepping`. ``equilibration_steps`` is the paper solver's fixed
+    number of pseudo time steps per time step.
+    """
 
     nx: int
     nx_automatic: bool
     dt: float
     tolerance: float
     max_iterations: int
+    solver: str = "cg"
+    step_control: str = "adaptive"
+    dt_min: float = 0.0
+    dt_max: float = math.inf
+    edge_fraction: float = DEFAULT_EDGE_FRACTION
+    load_tolerance: float = DEFAULT_LOAD_TOLERANCE
+    equilibration_steps: int = 0
 
 
 @dataclass(frozen=True)
@@ -175,7 +202,11 @@ class Case:
         content = {"groups": [self.lambda0, self.k, self.Vz, self.depth, self.cell, self.alpha],
                    "units": [self.units.length, self.units.stress, self.units.time],
                    "numerics": [self.numerics.nx, self.numerics.dt, self.numerics.tolerance,
-                                self.numerics.max_iterations]}
+                                self.numerics.max_iterations, self.numerics.solver,
+                                self.numerics.step_control, self.numerics.dt_min,
+                                self.numerics.dt_max, self.numerics.edge_fraction,
+                                self.numerics.load_tolerance,
+                                self.numerics.equilibration_steps]}
         return hashlib.sha256(json.dumps(content).encode()).hexdigest()[:16]
 
     def groups(self) -> dict:
@@ -189,7 +220,8 @@ class Case:
 CASE_KEYS = ("maugis", "modulus_ratio", "velocity", "depth", "cell", "adhesion")
 PHYSICAL_KEYS = ("radius", "modulus_relaxed", "modulus_instantaneous", "relaxation_time",
                  "work_of_adhesion", "interaction_range", "velocity", "depth", "cell_length")
-NUMERICS_KEYS = ("nx", "dt", "tolerance", "max_iterations")
+NUMERICS_KEYS = ("nx", "dt", "tolerance", "max_iterations", "solver", "step_control", "dt_min",
+                 "dt_max", "edge_fraction", "load_tolerance", "equilibration_steps")
 OUTPUT_KEYS = ("snapshot_times", "snapshot_contact_widths", "snapshot_zero_load",
                "progress_interval", "checkpoint_interval", "checkpoint_steps")
 
@@ -311,8 +343,30 @@ def parse_case(text: str) -> Case:
                         f" {memory / 2**30:.1f} GiB of this machine")
     velocity = groups["Vz"] * groups["alpha"] ** (2.0 / 3.0)
     dmax = groups["alpha"] ** (2.0 / 3.0) / groups["lambda0"]
+    solver = _choice(num, "numerics", "solver", SOLVERS)
+    step_control = _choice(num, "numerics", "step_control", STEP_CONTROLS)
+    # adaptive steps start short: the retraction starts with the steepest load change
     dt = (_number(num, "numerics", "dt") / units.time if "dt" in num
-          else DEFAULT_STEP_PER_RANGE * dmax / velocity)
+          else DEFAULT_STEP_PER_RANGE * dmax / velocity
+          * (1.0 if step_control == "fixed" else FIRST_STEP_PER_DEFAULT))
+    dt_min = (_number(num, "numerics", "dt_min") / units.time if "dt_min" in num
+              else DT_MIN_PER_DEFAULT * min(dt, DEFAULT_STEP_PER_RANGE * dmax / velocity))
+    dt_max = (_number(num, "numerics", "dt_max") / units.time if "dt_max" in num
+              else max(DT_MAX_DEPTH_FRACTION * groups["depth"] / velocity, dt))
+    if dt_min > dt_max:
+        raise CaseError(f"[numerics] dt_min = {dt_min * units.time:g}: must not exceed dt_max ="
+                        f" {dt_max * units.time:g}")
+    edge_fraction = (_number(num, "numerics", "edge_fraction") if "edge_fraction" in num
+                     else DEFAULT_EDGE_FRACTION)
+    load_tolerance = (_number(num, "numerics", "load_tolerance") if "load_tolerance" in num
+                      else DEFAULT_LOAD_TOLERANCE)
+    if "equilibration_steps" in num:
+        equilibration = num["equilibration_steps"]
+        if isinstance(equilibration, bool) or not isinstance(equilibration, int) or equilibration < 1:
+            raise CaseError(f"[numerics] equilibration_steps = {_fmt(equilibration)}: expected"
+                            " an integer >= 1")
+    else:
+        equilibration = round(PAPER_EQUILIBRATION_PER_ROOT_N * math.sqrt(nx))
     tolerance = _number(num, "numerics", "tolerance") if "tolerance" in num else DEFAULT_TOLERANCE
     if not MIN_TOLERANCE <= tolerance < 1e-2:
         raise CaseError(f"[numerics] tolerance = {tolerance}: expected a number in"
@@ -337,8 +391,19 @@ def parse_case(text: str) -> Case:
                              if "checkpoint_interval" in out else Output.checkpoint_interval),
         checkpoint_steps=_count(out, "output", "checkpoint_steps"))
     return Case(numerics=Numerics(nx=nx, nx_automatic=automatic, dt=dt, tolerance=tolerance,
-                                  max_iterations=max_it),
+                                  max_iterations=max_it, solver=solver,
+                                  step_control=step_control, dt_min=dt_min, dt_max=dt_max,
+                                  edge_fraction=edge_fraction, load_tolerance=load_tolerance,
+                                  equilibration_steps=equilibration),
                 output=output, units=units, text=text, form=form, **groups)
+
+
+def _choice(table, section, key, accepted):
+    value = table.get(key, accepted[0])
+    if value not in accepted:
+        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected one of"
+                        f" {', '.join(repr(a) for a in accepted)}")
+    return value
 
 
 def _count(table, section, key):

@@ -114,8 +114,8 @@ class Domain:
         return -self.max(-value)
 
     def max_abs(self, a) -> float:
-        """Collective: max |a| over all blocks (0 when no rank owns nodes)."""
-        return self.max(float(np.abs(a).max()) if a.size else 0.0)
+        """Collective: max |a| over all blocks (0 when no rank owns nodes); no temporary."""
+        return self.max(max(float(a.max()), -float(a.min())) if a.size else 0.0)
 
     def any(self, mask) -> bool:
         """Collective: True when any entry of any block is True."""

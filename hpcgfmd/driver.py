@@ -27,6 +27,7 @@ from .fft import plan_real_fft
 from .interface import DugdaleMaugis, edge_positions
 from .material import StandardLinearSolid, ViscoelasticHalfSpace
 from .solver import ConstrainedCG, project_feasible
+from .stepping import AdaptiveSteps, FixedSteps
 
 logger = logging.getLogger(__name__)
 
@@ -56,6 +57,27 @@ class StepRecord:
         return dict(self.__dict__)
 
 
+def make_solver(case, domain, fft, law, half_q):
+    """The equilibrium solver of ``[numerics] solver``: "cg" (default) or "paper"."""
+    numerics = case.numerics
+    if numerics.solver == "paper":
+        from .gfmd import DampedVerletGFMD
+        return DampedVerletGFMD(domain, fft, law, half_q, 1.0, numerics.equilibration_steps,
+                                case.sigma_a)
+    return ConstrainedCG(domain, fft, law, numerics.tolerance, numerics.max_iterations,
+                         case.sigma_a)
+
+
+def make_step_control(case):
+    """Fixed steps of [numerics] dt, or adaptive steps starting from it (``stepping``)."""
+    numerics = case.numerics
+    if numerics.step_control == "fixed":
+        return FixedSteps(numerics.dt)
+    return AdaptiveSteps(numerics.dt, numerics.dt_min, numerics.dt_max,
+                         numerics.edge_fraction * case.zone_width,
+                         numerics.load_tolerance * case.load_scale)
+
+
 class Retraction:
     """State and stepping of one case on the ranks of ``comm``.
 
@@ -82,8 +104,14 @@ class Retraction:
         self.substrate = ViscoelasticHalfSpace(StandardLinearSolid(1.0, 1.0 / case.k, 1.0),
                                                self.half_q, n)
         self.law = DugdaleMaugis(case.sigma_a, case.dmax)
-        self.solver = ConstrainedCG(self.domain, self.fft, self.law, case.numerics.tolerance,
-                                    case.numerics.max_iterations, case.sigma_a)
+        self.solver = make_solver(case, self.domain, self.fft, self.law, self.half_q)
+        # The preload is the same loading-branch equilibrium for every solver: CG solves it
+        # to the tolerance (the paper's method would need its own loading phase).
+        self.preload_solver = (self.solver if isinstance(self.solver, ConstrainedCG) else
+                               ConstrainedCG(self.domain, self.fft, self.law,
+                                             case.numerics.tolerance,
+                                             case.numerics.max_iterations, case.sigma_a))
+        self.steps = make_step_control(case)
         n = self.domain.local_n  # from here on: this rank's block
         self.u = np.zeros(n)  # surface displacement, upward positive
         self.u_previous = None  # displacement of the step before, for the predictor
@@ -95,15 +123,21 @@ class Retraction:
         self.indenter = -case.depth
         self.step_index = 0
         self.total_iterations = 0
+        self.rejected_steps = 0  # adaptive steps repeated with a shorter dt
+        self.preload_iterations = 0
+        self.dt_previous = None  # length of the last accepted step (None after the preload)
+        self._saved = {name: np.empty(n) for name in ("u", "u_previous", "substrate_traction",
+                                                       "traction")}
         self.rejected_predictions = 0
         self.predictor_choice = [0, 0]  # steps started from (linear, moving-edge) guesses
         self._edges = (np.nan, np.nan)  # contact edges of the last step
         self._edges_previous = None
 
     # --- one equilibrium -------------------------------------------------------------
-    def _equilibrate(self, ops, dt):
+    def _equilibrate(self, ops, dt, solver=None):
+        solver = self.solver if solver is None else solver
         np.add(self.profile, self.indenter, out=self.wall)
-        result = self.solver.solve(self.u, self.wall, ops, self.history)
+        result = solver.solve(self.u, self.wall, ops, self.history)
         if not math.isfinite(result.residual):
             raise FloatingPointError(f"solver produced a non-finite residual at t = {self.time}")
         if not result.converged:
@@ -111,10 +145,10 @@ class Retraction:
                 f"step {self.step_index} (t = {self.time:.6g}): residual {result.residual:.3g}"
                 f" above tolerance {self.case.numerics.tolerance:g} after"
                 f" {result.iterations} iterations; raise [numerics] max_iterations or reduce dt")
-        self.solver.interface_traction(self.u, self.wall, self.history, result.mean_traction,
-                                       self.traction)
+        solver.interface_traction(self.u, self.wall, self.history, result.mean_traction,
+                                  self.traction)
         # Substrate traction of the new state, p_{n+1} = K u + H (zero mean).
-        np.add(self.solver.elastic_traction(), self.history, out=self.substrate_traction)
+        np.add(solver.elastic_traction(), self.history, out=self.substrate_traction)
         self.total_iterations += result.iterations
         return self._record(result, dt)
 
@@ -133,26 +167,93 @@ class Retraction:
     def preload(self) -> StepRecord:
         """Relaxed adhesive indentation to u_z = -h0 (the t = 0 state)."""
         self.history[:] = 0.0
-        return self._equilibrate(self.substrate.operators(math.inf), 0.0)
+        record = self._equilibrate(self.substrate.operators(math.inf), 0.0, self.preload_solver)
+        self.preload_iterations = record.iterations
+        self.steps.accept(record.time, record.load)
+        return record
 
     def step(self) -> StepRecord:
-        """Advance one retraction time step of length [numerics] dt."""
-        dt = self.case.numerics.dt
+        """Advance one accepted retraction time step (fixed or error-controlled length).
+
+        An adaptive step whose error ratios exceed the rejection bounds (``stepping``) is
+        undone and repeated with the shorter step the controller proposes; the iterations of
+        the rejected attempts count in ``total_iterations``.
+        """
+        dt = self.steps.dt
+        while True:
+            self._save()
+            record = self._advance(dt)
+            decision = self.steps.judge(dt, record.time, record.load, self._edge_motion())
+            if decision.accepted:
+                break
+            self.rejected_steps += 1
+            self._revert()
+            dt = decision.next_dt
+        self.steps.accept(record.time, record.load)
+        self.dt_previous = dt
+        return record
+
+    def _advance(self, dt) -> StepRecord:
+        """One SLS step of length dt from the current state (paper Eq. 14, physics.md)."""
         self.substrate.history(self.fft, self.u, self.substrate_traction, dt, self.history)
         contact = self.wall - self.u <= 0.0
         self.step_index += 1
-        self.time = self.step_index * dt
+        if self.steps.adaptive:
+            self.time += dt
+        else:  # no accumulated round-off over many equal steps
+            self.time = self.step_index * dt
         self.indenter = -self.case.depth + self.case.velocity * self.time
         ops = self.substrate.operators(dt)
-        self._predict(self.case.velocity * dt, contact, ops)
+        if self.case.numerics.solver == "cg":  # the paper's method starts from u_n itself
+            ratio = 1.0 if self.dt_previous is None else dt / self.dt_previous
+            self._predict(self.case.velocity * dt, contact, ops, ratio)
+        else:
+            np.add(self.profile, self.indenter, out=self.wall)
         return self._equilibrate(ops, dt)
 
-    def _predict(self, rise, contact, ops):
+    def _edge_motion(self):
+        """Largest contact-edge displacement of the last step; inf if the contact (dis)appeared."""
+        if self._edges_previous is None:
+            return math.nan
+        before = np.isfinite(self._edges_previous)
+        after = np.isfinite(self._edges)
+        if not before.any() and not after.any():
+            return math.nan
+        if not (before.all() and after.all()):
+            return math.inf
+        return float(np.max(np.abs(np.subtract(self._edges, self._edges_previous))))
+
+    def _save(self):
+        """Keep the state before a step, to undo a rejected one."""
+        saved = self._saved
+        saved["u"][:] = self.u
+        saved["substrate_traction"][:] = self.substrate_traction
+        saved["traction"][:] = self.traction
+        if self.u_previous is not None:
+            saved["u_previous"][:] = self.u_previous
+        self._saved_scalars = (self.time, self.indenter, self.step_index, self._edges,
+                               self._edges_previous, self.u_previous is not None)
+
+    def _revert(self):
+        saved = self._saved
+        self.u[:] = saved["u"]
+        self.substrate_traction[:] = saved["substrate_traction"]
+        self.traction[:] = saved["traction"]
+        (self.time, self.indenter, self.step_index, self._edges, self._edges_previous,
+         had_previous) = self._saved_scalars
+        if had_previous:
+            self.u_previous[:] = saved["u_previous"]
+        else:
+            self.u_previous = None
+        np.add(self.profile, self.indenter, out=self.wall)
+
+    def _predict(self, rise, contact, ops, ratio):
         """Start the step from the lowest-energy of three feasible guesses.
 
         The path is defined by descent from the previous equilibrium u_n (feasible for the
         new step, the wall having risen); a guess replaces it only if its energy is lower:
-        - linear extrapolation u_n + (u_n - u_{n-1}), with the contact nodes of step n put
+        - linear extrapolation u_n + r (u_n - u_{n-1}) (r = dt_n+1 / dt_n), with the contact
+          nodes of step n put
           exactly on the new wall (extrapolation lands there only to round-off, and a gap of
           1e-18 would free the whole patch);
         - the same with the gap profile around each contact edge translated by the edge's
@@ -164,11 +265,12 @@ class Retraction:
         np.add(self.profile, self.indenter, out=self.wall)
         if self.u_previous is None:
             self.u_previous = self.u - rise * contact
-        linear = 2.0 * self.u - self.u_previous
+            ratio = 1.0
+        linear = self.u + ratio * (self.u - self.u_previous)
         np.copyto(linear, self.wall, where=contact)
         m = self.domain.local_n
         candidates = {}
-        for kind, guess in enumerate((linear, self._moving_edges(linear, gap_before))):
+        for kind, guess in enumerate((linear, self._moving_edges(linear, gap_before, ratio))):
             if guess is None:
                 continue
             try:
@@ -186,7 +288,7 @@ class Retraction:
         else:
             self.rejected_predictions += 1
 
-    def _moving_edges(self, linear, gap_before):
+    def _moving_edges(self, linear, gap_before, ratio):
         """Guess with the gap near each contact edge translated by the edge's last motion."""
         if self._edges_previous is None or not np.all(np.isfinite(self._edges)):
             return None
@@ -194,7 +296,7 @@ class Retraction:
         gap = self.wall - linear
         dom = self.domain
         for edge, previous in zip(self._edges, self._edges_previous):
-            shift = edge - previous
+            shift = ratio * (edge - previous)
             if not np.isfinite(shift) or shift == 0.0:
                 continue
             near = np.abs(self.x - edge) < window + abs(shift)
@@ -245,8 +347,11 @@ class Retraction:
                  "has_previous": has_previous,
                  "has_edges_previous": self._edges_previous is not None,
                  "fft_pairs": self.fft.pairs, "projections": self.solver.projections,
+                 "rejected_steps": self.rejected_steps,
+                 "dt_previous": math.nan if self.dt_previous is None else self.dt_previous,
                  "cut_steps": self.solver.cut_steps,
                  "residual_steps": self.solver.residual_steps}
+        attrs.update(self.steps.state())
         return fields, attrs
 
     def restore(self, fields, attrs):
@@ -268,6 +373,10 @@ class Retraction:
         self.solver.projections = int(attrs["projections"])
         self.solver.cut_steps = int(attrs["cut_steps"])
         self.solver.residual_steps = int(attrs["residual_steps"])
+        self.rejected_steps = int(attrs["rejected_steps"])
+        dt_previous = float(attrs["dt_previous"])
+        self.dt_previous = None if math.isnan(dt_previous) else dt_previous
+        self.steps.restore(attrs)
         np.add(self.profile, self.indenter, out=self.wall)
 
 

@@ -9,7 +9,11 @@ backward transform. Plans are made once on aligned buffers and nothing is alloca
 
 Two classes share one interface (``comm``, ``n``, ``x_start``, ``x_stop``, ``x_blocks``,
 ``spectrum_shape``, ``wavenumber``, ``apply_diagonal``, ``pairs``, ``communication_time``);
-:func:`plan_real_fft` picks one for a communicator.
+:func:`plan_real_fft` picks one for a communicator. For solvers that must keep or combine
+spectra between transforms (the damped-dynamics baseline, :mod:`hpcgfmd.gfmd`), both also
+split the pair: ``forward(field, spectrum_out)`` and ``inverse(spectrum, field_out)``, with
+``inverse(d * forward(f))`` equal to ``apply_diagonal(f, d)``, and a persistent ``spectrum``
+buffer of ``spectrum_shape`` to pass to them.
 
 * :class:`SerialRealFFT`: one rank, a pyfftw rfft/irfft pair of length n.
 * :class:`TransposedRealFFT`: a single length-n transform split over the P ranks of ``comm``
@@ -305,8 +309,12 @@ class SerialRealFFT:
         ``(n//2 + 1,)``.
     wavenumber : ndarray of int64, shape (n//2 + 1,)
         Mode index m of each spectrum entry, ``arange(n//2 + 1)`` (q = 2 pi m / L).
+    spectrum : ndarray of complex128, shape spectrum_shape
+        The transforms' own spectrum buffer; passing it to :meth:`forward` or
+        :meth:`inverse` saves a copy (contents valid until the next transform call).
     pairs : int
-        Number of forward+backward pairs done, for the statistics.
+        Number of forward+backward pairs done, for the statistics (``apply_diagonal`` and
+        ``inverse`` count one each).
     communication_time : float
         Seconds spent in MPI calls, always 0.
     """
@@ -353,6 +361,55 @@ class SerialRealFFT:
         self.pairs += 1
         return out
 
+    def forward(self, field, spectrum_out):
+        """spectrum_out = rfft(field): the local modes of the real field (no normalisation).
+
+        Local. Half of a pair: ``inverse(d * forward(f))`` equals ``apply_diagonal(f, d)``
+        bitwise (same plans, same operations); ``pairs`` is counted in :meth:`inverse`.
+
+        Parameters
+        ----------
+        field : ndarray of float64, shape (n,)
+            Real input field.
+        spectrum_out : ndarray of complex128, shape spectrum_shape
+            Output; may be :attr:`spectrum`, the transform's own buffer, which saves one
+            copy (it then stays valid only until the next call of any transform method).
+
+        Returns
+        -------
+        spectrum_out : ndarray
+        """
+        self.real[:] = field
+        self._forward.execute()
+        if spectrum_out is not self.spectrum:
+            spectrum_out[:] = self.spectrum
+        return spectrum_out
+
+    def inverse(self, spectrum, field_out):
+        """field_out = irfft(spectrum) without the 1/n (unnormalised, like apply_diagonal).
+
+        Local. Counts one pair in ``pairs`` (the forward transform of the pair counts none).
+        ``spectrum`` must be the half spectrum of a real field (modes 0 and n/2 real, their
+        imaginary parts are ignored, as by numpy's irfft).
+
+        Parameters
+        ----------
+        spectrum : ndarray of complex128, shape spectrum_shape
+            Input modes; left unchanged unless it is :attr:`spectrum` itself, which the c2r
+            transform overwrites (that saves one copy).
+        field_out : ndarray of float64, shape (n,)
+
+        Returns
+        -------
+        field_out : ndarray
+        """
+        if spectrum is not self.spectrum:
+            self.spectrum[:] = spectrum
+        self._backward.execute()
+        field_out[:] = self.real
+        self.pairs += 1
+        return field_out
+
 
 RealFFT = SerialRealFFT  # old name, kept while the callers move to plan_real_fft
 
@@ -395,8 +452,12 @@ class TransposedRealFFT:
         Rows ``0 < k1 < n1/2`` also stand for the conjugate modes -m.
     transport : str
         ``"shared"``, ``"messages"``, or ``"none"`` on a one-rank communicator.
+    spectrum : ndarray of complex128, shape spectrum_shape
+        A spectrum buffer for :meth:`forward` and :meth:`inverse` callers (unused by
+        ``apply_diagonal``).
     pairs : int
-        Number of forward+backward pairs done.
+        Number of forward+backward pairs done (``apply_diagonal`` and ``inverse`` count one
+        each).
     communication_time : float
         Seconds spent in the four synchronisations per call (``Barrier`` or ``Alltoallv``),
         including waiting for the other ranks.
@@ -502,6 +563,8 @@ class TransposedRealFFT:
                             threads=1))
         self._build_steps(col_chunks, row_chunks, column_plans, row_plans,
                           work_real, work_half, work_rows)
+        # Spectrum buffer for forward/inverse callers (same role as SerialRealFFT.spectrum).
+        self.spectrum = pyfftw.zeros_aligned(self.spectrum_shape, dtype=c16)
         self.pairs = 0
         self.communication_time = 0.0
 
@@ -702,6 +765,98 @@ class TransposedRealFFT:
             copy(target[block, columns], part)
         self.pairs += 1
         return out
+
+    def forward(self, field, spectrum_out):
+        """spectrum_out = rfft(field) on this rank's mode rows (steps 1-2 and the forward
+        half of stage B of :meth:`apply_diagonal`).
+
+        Collective on ``comm`` (two synchronisations). Half of a pair:
+        ``inverse(d * forward(f))`` equals ``apply_diagonal(f, d)`` bitwise (same plans and
+        operations; the multiply moves to the caller); ``pairs`` is counted in
+        :meth:`inverse`.
+
+        Parameters
+        ----------
+        field : ndarray of float64, shape (x_stop - x_start,)
+            This rank's block of the real field.
+        spectrum_out : ndarray of complex128, shape spectrum_shape
+            This rank's modes, entry ``[i, k2]`` being mode ``k1 + n1*k2`` (see
+            ``wavenumber``); may be :attr:`spectrum`.
+
+        Returns
+        -------
+        spectrum_out : ndarray
+        """
+        self._to_rows(field)
+        copy = np.copyto
+        for gathers, forward, work, chunk, _, _ in self._stage_b:
+            for to, part in gathers:
+                copy(to, part)
+            forward.execute()
+            copy(spectrum_out[chunk], work)
+        return spectrum_out
+
+    def inverse(self, spectrum, field_out):
+        """field_out = irfft(spectrum) without the 1/n, from this rank's mode rows.
+
+        Collective on ``comm`` (two synchronisations); counts one pair in ``pairs``.
+        ``spectrum`` must be the spectrum of a real field times a multiplier even in m, as
+        ``forward`` gives it (the rows k1 = 0 and n1/2 hold both m and -m); it is left
+        unchanged.
+
+        Parameters
+        ----------
+        spectrum : ndarray of complex128, shape spectrum_shape
+        field_out : ndarray of float64, shape (x_stop - x_start,)
+
+        Returns
+        -------
+        field_out : ndarray
+        """
+        copy = np.copyto
+        for _, _, work, chunk, backward, writes in self._stage_b:
+            copy(work, spectrum[chunk])
+            backward.execute()
+            for to, part in writes:
+                copy(to, part)
+        self._exchange("z")
+        self._from_rows(field_out)
+        self.pairs += 1
+        return field_out
+
+    def _to_rows(self, field):
+        """Steps 1 and 2 of :meth:`apply_diagonal`: field columns to the xt blocks."""
+        source = field.reshape(-1, self.n2)
+        copy, multiply = np.copyto, np.multiply
+        for block, columns in self._packs:
+            copy(block, source[:, columns])
+        self._exchange("pack")
+        for peers, own, columns, forward, writes in self._stage_a:
+            for to, part in peers:
+                copy(to, part)
+            for to, block in own:
+                copy(to, source[block, columns].T)
+            forward.execute()
+            for half, twiddle, to in writes:
+                multiply(half, twiddle, out=to)
+        self._exchange("xt")
+
+    def _from_rows(self, out):
+        """Steps 4 and 5 of :meth:`apply_diagonal`: the z blocks to this rank's block of out."""
+        target = out.reshape(-1, self.n2)
+        copy, multiply = np.copyto, np.multiply
+        for gathers, half, twiddle, backward, writes in self._stage_c:
+            for to, part in gathers:
+                copy(to, part)
+            multiply(half, twiddle, out=half)
+            backward.execute()
+            for to, part in writes:
+                copy(to, part)
+        for block, columns, part in self._final_own:
+            copy(target[block, columns], part)
+        self._exchange("h")
+        for block, columns, part in self._final_peers:
+            copy(target[block, columns], part)
 
     def close(self):
         """Free the shared window (collective; the object is unusable afterwards).

@@ -47,6 +47,11 @@ class DugdaleMaugis:
         i - 1 and i + 1, so the block comes with one ghost node on each side
         (:meth:`hpcgfmd.domain.Domain.fill_halo`).
 
+        Cost: one comparison pass over the block finds the span of nodes in the zone; the
+        law is evaluated on that span (and its two neighbours each side, which a straddling
+        element reaches), the rest of ``out`` is set to zero. Same values as evaluating every
+        element: outside the span no element has an end in the zone.
+
         Parameters
         ----------
         gap_ext : ndarray, shape (m + 2,)
@@ -65,8 +70,20 @@ class DugdaleMaugis:
             return out
         if work is None:
             work = np.empty((3, m + 2), dtype=bool)
-        inside, both, straddle = work
-        np.less(gap_ext, self.dmax, out=inside)  # node in the zone: ramp > 0
+        inside_ext = work[0]
+        np.less(gap_ext, self.dmax, out=inside_ext)  # node in the zone: ramp > 0
+        span = true_span(inside_ext)
+        if span is None:
+            out[:] = 0.0
+            return out
+        # Nodes gap_ext[first - 1 .. last + 1] can get traction; evaluate on the extended
+        # block gap_ext[a:b], whose inner nodes are out[a:b - 2].
+        a, b = max(span[0] - 2, 0), min(span[1] + 3, m + 2)
+        out[:a] = 0.0
+        out[b - 2:] = 0.0
+        gap_ext, inside, out_all, out = gap_ext[a:b], inside_ext[a:b], out, out[a:b - 2]
+        m = b - a - 2
+        both, straddle = work[1][:m + 2], work[2][:m + 2]
         # Element j joins gap_ext[j] and gap_ext[j + 1]; node i (gap_ext[i + 1]) gets the
         # elements i and i + 1. Elements with both ends inside (trapezoid rule) give
         # sigma_a / 2 to each end.
@@ -86,24 +103,50 @@ class DugdaleMaugis:
             np.add.at(out, element[left] - 1, (-self.sigma_a * (mean - ra) / dg)[left])
             right = element < m  # its right node is in the block
             np.add.at(out, element[right], (-self.sigma_a * (rb - mean) / dg)[right])
-        return out
+        return out_all
 
     def energy(self, gap_ext, dx):
         """Interface energy of the block's elements, sum_e -sigma_a dx M_e (energy/length).
 
         The block owns the elements from each of its nodes to the next one, so summing over
-        the blocks counts every element once; ``gap_ext`` as in :meth:`traction`.
+        the blocks counts every element once; ``gap_ext`` as in :meth:`traction`. Only the
+        elements with an end in the zone are evaluated (the others have M = 0).
         """
         if self.sigma_a == 0.0 or gap_ext.shape[0] <= 2:
             return 0.0
-        ramp_ext = np.maximum(self.dmax - gap_ext[1:], 0.0)
+        gaps = gap_ext[1:]  # the block's nodes and the one after: element i joins i, i + 1
+        span = true_span(gaps < self.dmax)
+        if span is None:
+            return -self.sigma_a * dx * 0.0
+        first, last = max(span[0] - 1, 0), min(span[1], gaps.shape[0] - 2)  # elements
+        gaps = gaps[first:last + 2]
+        ramp_ext = np.maximum(self.dmax - gaps, 0.0)
         ramp, ramp_next = ramp_ext[:-1], ramp_ext[1:]
-        dg = np.diff(gap_ext[1:])
+        dg = np.diff(gaps)
         straddle = (ramp > 0.0) != (ramp_next > 0.0)
         mean = 0.5 * (ramp + ramp_next)
         mean[straddle] = ((ramp[straddle] ** 2 - ramp_next[straddle] ** 2)
                           / (2.0 * dg[straddle]))
         return -self.sigma_a * dx * float(mean.sum())
+
+
+def true_span(mask):
+    """(first, last) index of the True entries of a 1-D bool array, or None if there is none.
+
+    Fast (a few microseconds at 2^17 entries, no allocation) when the True entries form one
+    run, as the cohesive zone and the contact of one indenter do; otherwise one
+    ``flatnonzero``.
+    """
+    if mask.size == 0:
+        return None
+    first = int(mask.argmax())  # stops at the first True
+    if not mask[first]:
+        return None
+    last = first + int(np.count_nonzero(mask)) - 1
+    if mask[first:last + 1].all():
+        return first, last
+    where = np.flatnonzero(mask)
+    return int(where[0]), int(where[-1])
 
 
 def edge_positions(domain, gap, level, shape_exponent):

@@ -173,6 +173,14 @@ class CaseFile:
         attrs["nx"] = case.numerics.nx
         attrs["dt"] = case.numerics.dt * case.units.time
         attrs["tolerance"] = case.numerics.tolerance
+        num = case.numerics
+        attrs["solver"] = num.solver
+        attrs["step_control"] = num.step_control
+        attrs["dt_min"] = num.dt_min * case.units.time
+        attrs["dt_max"] = num.dt_max * case.units.time
+        attrs["edge_fraction"] = num.edge_fraction
+        attrs["load_tolerance"] = num.load_tolerance
+        attrs["equilibration_steps"] = num.equilibration_steps
         attrs["beta"] = case.beta * case.units.length
         attrs["load_scale"] = case.load_scale * case.units.load
         attrs["length_unit"] = case.units.length

@@ -72,8 +72,20 @@ def describe(case: Case) -> str:
              f"h0/R = {g['depth']:.6g}   L/R = {g['cell']:.6g}   beta = {case.beta * u.length:.6g}"
              f"   load scale = {case.load_scale * u.load:.6g}   w/dx = {g['zone_points']:.3g}",
              f"nx = {case.numerics.nx}{auto}"
-             f"   dt = {case.numerics.dt * u.time:.6g}   tolerance = {case.numerics.tolerance:g}"]
+             f"   dt = {case.numerics.dt * u.time:.6g}   tolerance = {case.numerics.tolerance:g}",
+             _stepping_line(case)]
     return "\n".join(lines)
+
+
+def _stepping_line(case: Case) -> str:
+    num, u = case.numerics, case.units
+    solver = ("solver: active-set CG" if num.solver == "cg" else
+              f"solver: paper (damped Verlet, {num.equilibration_steps} pseudo steps per step)")
+    if num.step_control == "fixed":
+        return f"{solver}; fixed steps dt"
+    return (f"{solver}; adaptive steps from dt in [{num.dt_min * u.time:.4g},"
+            f" {num.dt_max * u.time:.4g}], edge motion <= {num.edge_fraction:g} w,"
+            f" load deviation <= {num.load_tolerance:g} load scales")
 
 
 def run_case(case: Case, path, comm, printer=print, overwrite=False, resume=False,
@@ -184,6 +196,7 @@ def _run(sim, case, path, comm, printer, overwrite, resume, stop, start):
                    "residual_steps": sim.solver.residual_steps,
                    "cut_steps": sim.solver.cut_steps,
                    "rejected_predictions": sim.rejected_predictions,
+                   "rejected_steps": sim.rejected_steps,
                    "moving_edge_predictions": sim.predictor_choice[1],
                    "detachment_indenter": sim.indenter * case.units.length,
                    "detachment_time": sim.time * case.units.time}

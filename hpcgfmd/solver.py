@@ -24,24 +24,48 @@ along the projected residual instead, whose first contact is at a positive lengt
 iteration lowers E: the solver goes downhill from its start, the previous step's equilibrium
 or a guess of lower energy, and ends in the local minimum of that basin, the physical branch.
 
-Cost per iteration: two FFT pairs (preconditioner and K d); one more when the direction is
-projected off the wall, one per backtracking trial when a step reaches it. K u is updated
-incrementally.
+Cost per iteration. Two FFT pairs, both intrinsic: the preconditioner K^-1 r and K d. Between
+them the direction is projected in real space (pressed nodes zeroed, mean removed, nodes the
+direction pushes into the wall held), so K d is not K K^-1 r = r and needs its own pair
+whenever a node is pressed, i.e. while there is contact. One more pair per projected
+backtracking trial and for the residual direction when a step reaches the wall (rare: 2
+projections in 100 steps of the default case). Per solve, one pair at the end (exact K u of
+the solution) and one at the start unless the driver's predictor evaluated the start
+(:meth:`ConstrainedCG._recall`). K u is updated incrementally. The elementwise work is about
+15 passes over the block: r = t - (K u + H - p_applied), its sum and extrema, the mean of z,
+one pass for the three CG dot products (a 2 x 2 matmul of the stacked r, r_old and z, d_old),
+one axpy for d, d.Kd, the trial point's gaps, the secant point (axpy on u and its gaps) and
+the axpy on K u + H - p_applied. Everything about the wall, the active set and the cohesive
+law works on the span of nodes with gap < dmax (the contact and its cohesive zone, a few % of
+the cell), and the traction of a trial point that is taken is not evaluated again. Buffers
+are swapped, not copied, and no array of the block's size is allocated in an iteration
+(``tracemalloc``: 134 KiB peak in a solve at 2^17 nodes and 136 KiB at 2^18, i.e.
+independent of n: numpy's internal buffers and the few straddling elements of the law).
+Measured with ``scripts/bench_iteration.py --n 17 --steps 20`` (default case, one rank, on a
+2-core machine shared with other jobs, load average 8-10; two runs of each version,
+alternated): 4.0-4.2 ms per iteration = 4.6-4.9 bare pairs of time (a bare pair:
+``apply_diagonal`` timed in the same run, 0.86-0.88 ms), 2.18 pairs per iteration, of which
+the FFTs take 55 % (in the solve a pair costs 1.15 bare pairs: its data come from memory,
+not cache) and the elementwise passes and the interpreter about 2 bare pairs; before this
+layout 6.2-6.8 ms = 7.8 bare pairs, 2.32 pairs per iteration, FFTs 37 %.
 
 Parallel layout. Every real-space vector is this rank's block of nodes
 (:class:`hpcgfmd.domain.Domain`); the transforms inside ``fft.apply_diagonal`` are the only
-bulk communication. Each iteration adds about ten ``Allreduce`` calls of one to five doubles
-(dot products, counts, the residual's maximum) and one ghost-node exchange for the
-interface law; every branch is decided on those reduced values, so all ranks take it.
+bulk communication. Each iteration adds about eight ``Allreduce`` calls of one to three
+doubles (dot products, counts, the residual's maximum with the restart test, the wall tests
+with the secant's slope) and one ghost-node exchange per traction evaluation (the trial
+point and the secant point); every branch is decided on those reduced values, so all ranks
+take it.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg.blas import daxpy
 
 from .domain import Domain
-from .interface import DugdaleMaugis
+from .interface import DugdaleMaugis, true_span
 from .material import StepOperators
 
 
@@ -67,17 +91,32 @@ class SolveResult:
     mean_traction: float
 
 
-def project_feasible(domain, u, wall, out):
+def project_feasible(domain, u, wall, out, work=None, wall_scale=None):
     """Collective: closest displacement with zero mean and u <= wall of the form min(u - c, wall).
 
     Finds the shift c with sum(min(u - c, wall)) = 0 by Newton's method on this concave,
     decreasing, piecewise-linear function of c (finite, monotone convergence).
+
+    Parameters
+    ----------
+    domain : Domain
+    u, wall : ndarray, shape (local_n,)
+        This rank's blocks of the displacement and of the wall (length).
+    out : ndarray, shape (local_n,)
+        Result (may not be ``u``).
+    work : ndarray of bool, shape (local_n,), optional
+        Scratch mask (allocated when not given).
+    wall_scale : float, optional
+        ``domain.max_abs(wall)`` when the caller has it (saves a reduction).
     """
     c = 0.0
-    wall_scale = domain.max_abs(wall) + 1e-300
+    if wall_scale is None:
+        wall_scale = domain.max_abs(wall)
+    wall_scale += 1e-300
+    free = np.empty(u.shape, dtype=bool) if work is None else work
     for _ in range(100):
         np.subtract(u, c, out=out)
-        free = out < wall
+        np.less(out, wall, out=free)
         np.minimum(out, wall, out=out)
         total, count = domain.sums(out.sum(), np.count_nonzero(free))
         if count == 0:
@@ -87,6 +126,25 @@ def project_feasible(domain, u, wall, out):
             break
         c += step
     return out
+
+
+class _Point:
+    """Gaps of one displacement (ghost node each side), its cohesive traction and spans.
+
+    ``near`` is the node range [lo, hi) holding every node with gap < level (the zone of
+    interaction, which contains every node on or below the wall); ``traction_span`` the
+    range outside which ``traction`` is zero; ``ready`` says both match ``gap``.
+    """
+
+    __slots__ = ("gap_ext", "gap", "traction", "traction_span", "near", "ready")
+
+    def __init__(self, n):
+        self.gap_ext = np.zeros(n + 2)
+        self.gap = self.gap_ext[1:-1]
+        self.traction = np.zeros(n)
+        self.traction_span = (0, 0)
+        self.near = (0, 0)
+        self.ready = False
 
 
 class ConstrainedCG:
@@ -117,32 +175,47 @@ class ConstrainedCG:
         self.max_iterations = max_iterations
         self.traction_scale = traction_scale
         n = domain.local_n
-        self._k_u = np.empty(n)
+        self._n = n
+        # Every buffer of a solve is made here: an iteration allocates nothing of size n.
+        self._k_u = np.empty(n)       # K u; exact at the end of a solve (elastic_traction)
+        self._load = np.empty(n)      # K u + H - p_applied during a solve (updated by steps)
+        self._linear = np.empty(n)    # H - p_applied when a traction is applied
         self._k_d = np.empty(n)
-        self._gap_ext = np.empty(n + 2)  # the block's gaps with a ghost node each side
-        self._gap = self._gap_ext[1:-1]
-        self._traction = np.empty(n)
-        self._residual = np.empty(n)
-        self._residual_old = np.zeros(n)
-        self._z = np.empty(n)
-        self._d = np.zeros(n)
+        self._points = (_Point(n), _Point(n))  # the current point and the trial point
+        self._residuals = np.zeros((2, n))   # r and the previous r (rows swap roles)
+        self._directions = np.zeros((2, n))  # z and d (rows swap roles)
+        self._dots = np.empty((2, 2))
         self._trial = np.empty(n)
-        self._work = np.empty((3, n + 2), dtype=bool)
-        self._free = np.empty(n, dtype=bool)
-        self._free_previous = np.empty(n, dtype=bool)
-        self._pressed = np.empty(n, dtype=bool)
-        self._held = np.empty(n, dtype=bool)
-        self._on_wall = np.empty(n, dtype=bool)
-        self._free_weight = np.empty(n)
         self._scratch = np.empty(n)
         self._projected = np.empty(n)
         self._k_projected = np.empty(n)
         self._gap_energy_ext = np.empty(n + 2)
+        self._work = np.empty((3, n + 2), dtype=bool)
+        self._near = np.empty(n + 2, dtype=bool)
+        self._mask = np.empty(n, dtype=bool)
+        # Masks over the near span of the current point (views of their first entries).
+        self._on_wall = np.empty(n, dtype=bool)
+        self._pressed = np.empty(n, dtype=bool)
+        self._pushed = np.empty(n, dtype=bool)
+        self._held = np.empty(n, dtype=bool)
+        self._excluded = np.empty(n, dtype=bool)
+        self._pressed_before = np.zeros(n, dtype=bool)  # active set of the last iteration
+        # The lowest-energy vector passed to energy() since the last solve began (the
+        # driver's start of the next solve) and its K: see _recall.
+        self._guess = np.empty(n)
+        self._k_guess = np.empty(n)
+        self._guess_stiffness = None
+        self._guess_energy = np.inf
+        self._spectrum_mask = None
+        self._wall_scale = 0.0
+        self._level = 0.0
         # Statistics: projections accepted (each lowered the energy), steps cut at the first
         # wall contact.
         self.projections = 0
         self.cut_steps = 0
         self.residual_steps = 0  # cut steps along the residual (d pressed on the wall)
+        self.held_steps = 0      # iterations whose direction held on-wall nodes
+        self.recalled = 0        # transforms saved by _recall
 
     def solve(self, u, wall, ops: StepOperators, history, applied=None) -> SolveResult:
         """Collective: relax ``u`` in place to the equilibrium of the step (module docstring).
@@ -161,132 +234,242 @@ class ConstrainedCG:
         applied : ndarray, optional
             Prescribed external traction on the surface, positive upward (stress); tests only.
         """
-        fft, law, dom = self.fft, self.law, self.domain
-        k_u, k_d, gap, traction = self._k_u, self._k_d, self._gap, self._traction
-        r, r_old, z, d = self._residual, self._residual_old, self._z, self._d
-        project_feasible(dom, u, wall, self._trial)
-        u[:] = self._trial
-        fft.apply_diagonal(u, ops.stiffness, k_u)
+        fft, dom, n = self.fft, self.domain, self._n
+        adhesive = self.law.sigma_a > 0.0
+        self._wall_scale = dom.max_abs(wall)
+        project_feasible(dom, u, wall, self._trial, work=self._mask,
+                         wall_scale=self._wall_scale)
+        np.copyto(u, self._trial)
+        linear = history if applied is None else np.subtract(history, applied, out=self._linear)
+        k_u, load = self._k_u, self._load
+        if self._recall(u, ops.stiffness, k_u):
+            self.recalled += 1
+        else:
+            fft.apply_diagonal(u, ops.stiffness, k_u)
+        self._guess_energy = np.inf  # forget the guess: the cache lives within one step
+        np.add(k_u, linear, out=load)
+        # Gaps within round-off of the wall count as contact (left by sums of steps).
+        on_wall_tolerance = 1e-14 * self._wall_scale
+        # Nodes that matter for the wall and the law: gap < level (see _evaluate).
+        self._level = max(self.law.dmax if adhesive else 0.0,
+                          np.nextafter(on_wall_tolerance, np.inf))
+        # The current and the trial point (gaps and tractions), swapped when the trial is
+        # taken; u is the current point's displacement.
+        cur, trial = self._points
+        np.subtract(wall, u, out=cur.gap)
+        cur.ready = False
+        R, Z, dots = self._residuals, self._directions, self._dots
+        ir, iz = 0, 0  # rows of r and z in R and Z; r_old and d are the other rows
+        k_d, on_wall, pressed_before = self._k_d, self._on_wall, self._pressed_before
+        pressed_before[:] = False
+        before = (0, 0)
         restart = True
         first_pass = True
-        # Gaps within round-off of the wall count as contact (left by sums of steps).
-        on_wall_tolerance = 1e-14 * dom.max_abs(wall)
         rz_old = 1.0
         residual = np.inf
         mu = 0.0
         iteration = 0
         while True:
-            # Residual traction on every node: cohesive + applied - elastic - history.
-            np.subtract(wall, u, out=gap)
-            dom.fill_halo(self._gap_ext)
-            law.traction(self._gap_ext, out=traction, work=self._work)
-            np.subtract(traction, k_u, out=r)
-            r -= history
-            if applied is not None:
-                r += applied
+            if not cur.ready:
+                self._evaluate(cur)
+            lo, hi = cur.near
+            p, q = cur.traction_span
+            # Residual traction on every node: cohesive + applied - elastic - history
+            # (the cohesive part is zero outside its span).
+            r, r_old = R[ir], R[1 - ir]
+            np.negative(load, out=r)
+            r[p:q] += cur.traction[p:q]
             # Active set: nodes on the wall pushed into it once the uniform traction mu (the
             # multiplier of zero mean displacement) is removed; mu depends on the set, so
-            # iterate the pair to a fixed point (2-3 passes).
-            on_wall, pressed, free, weight = self._on_wall, self._pressed, self._free, self._free_weight
-            np.less_equal(gap, on_wall_tolerance, out=on_wall)
+            # iterate the pair to a fixed point (2-3 passes). Only the near span [lo, hi)
+            # holds on-wall nodes: the sum over the free nodes is the total minus the
+            # pressed ones.
+            on_s, r_s = on_wall[:hi - lo], r[lo:hi]
+            np.less_equal(cur.gap[lo:hi], on_wall_tolerance, out=on_s)
+            pressed_s = self._pressed[:hi - lo]
+            total = r.sum()
             for _ in range(10):
-                np.greater(r, mu, out=pressed)
-                pressed &= on_wall
-                np.logical_not(pressed, out=free)
-                np.copyto(weight, free)
-                r_free, n_free = dom.sums(r @ weight, np.count_nonzero(free))
+                np.greater(r_s, mu, out=pressed_s)
+                pressed_s &= on_s
+                count = np.count_nonzero(pressed_s)
+                r_free, n_free = dom.sums(total - r_s.sum(where=pressed_s) if count else total,
+                                          n - count)
                 mu_new = r_free / n_free
                 if mu_new == mu:
                     break
                 mu = mu_new
-            r -= mu
-            r *= weight
-            residual = dom.max_abs(r) / self.traction_scale
-            if residual <= self.tolerance or iteration >= self.max_iterations:
-                break
+            # The projected residual is r - mu on the free nodes, 0 on the pressed ones. It
+            # is kept as r_raw = (projected residual) + mu, i.e. r with the pressed nodes set
+            # to mu: K^-1 ignores the uniform part, and so do the dot products with the
+            # zero-mean vectors z and d.
+            if count:
+                np.copyto(r_s, mu, where=pressed_s)
             # Restart CG when nodes join the active set (the search space shrinks). Nodes that
             # leave it only enlarge the space: the old direction stays admissible (zero on
             # the released nodes), so conjugacy is kept, which matters when the contact edge
-            # recedes by several nodes per step.
-            if first_pass or dom.any(np.logical_and(self._free_previous, pressed, out=pressed)):
+            # recedes by several nodes per step. (One reduction with the residual's maximum.)
+            joined = self._pushed[:hi - lo]
+            np.greater(pressed_s, pressed_before[lo:hi], out=joined)
+            local_max = max(r.max() - mu, mu - r.min()) if n else 0.0
+            r_max, joined_any = dom.maxes(local_max, 1.0 if joined.any() else 0.0)
+            residual = r_max / self.traction_scale
+            if residual <= self.tolerance or iteration >= self.max_iterations:
+                break
+            if first_pass or joined_any > 0.0:
                 restart = True
             first_pass = False
-            self._free_previous[:] = free
-            # Preconditioned residual, projected on the free nodes with zero mean.
+            pressed_before[before[0]:before[1]] = False
+            pressed_before[lo:hi] = pressed_s
+            before = (lo, hi)
+            # Preconditioned residual, projected on the free nodes with zero mean (z has
+            # zero sum: K^-1 has no q = 0 mode).
+            z = Z[iz]
             fft.apply_diagonal(r, ops.compliance, z)
-            z -= dom.dot(z, weight) / n_free
-            z *= weight
-            rz, r_old_z = dom.sums(r @ z, r_old @ z)
+            z_s = z[lo:hi]
+            z -= dom.sum(-z_s.sum(where=pressed_s) if count else 0.0) / n_free
+            if count:
+                np.copyto(z_s, 0.0, where=pressed_s)
+            # Direction d = z + beta d_old (Polak-Ribiere+), formed in z's row by one axpy
+            # once r.d = r.z + beta r.d_old says it descends; else d = z (steepest descent).
             if restart:
-                d[:] = z
+                rz = rd = dom.sum(r @ z)
             else:
-                beta = max(0.0, (rz - r_old_z) / rz_old)  # Polak-Ribiere+
-                d *= beta
-                d += z
-            rd = dom.dot(r, d)
-            if rd <= 0.0:  # not a descent direction any more: steepest (preconditioned) descent
-                d[:] = z
-                rd = rz
+                np.matmul(R, Z.T, out=dots)  # r.z, r.d_old, r_old.z in one pass
+                rz, r_old_z, r_d = dom.sums(dots[ir, iz], dots[1 - ir, iz], dots[ir, 1 - iz])
+                beta = max(0.0, (rz - r_old_z) / rz_old)
+                rd = beta * r_d + rz
+                if rd <= 0.0 or beta == 0.0:  # not a descent direction any more: steepest
+                    rd = rz
+                elif n:
+                    daxpy(Z[1 - iz], z, a=beta)
+            iz = 1 - iz
+            d = z
             # Nodes on the wall that the (smoothed) direction pushes into it cannot move: hold
             # them this iteration and keep the zero mean on the others (projected direction).
-            np.greater(d, 0.0, out=pressed)
-            pressed &= on_wall
-            if dom.any(pressed):
-                held = self._held
-                held[:] = False
-                while dom.any(pressed):  # removing the mean can push another node in
-                    held |= pressed
-                    np.logical_not(held, out=pressed)
-                    pressed &= free
-                    np.copyto(self._scratch, pressed)
-                    d_keep, n_keep = dom.sums(d @ self._scratch, np.count_nonzero(pressed))
-                    if n_keep == 0:  # every free node held: fall back to the residual below
-                        d[:] = 0.0
-                        break
-                    d -= d_keep / n_keep
-                    d *= self._scratch
-                    np.greater(d, 0.0, out=pressed)
-                    pressed &= on_wall
-                rd = dom.dot(r, d)
-                if rd <= 0.0:  # the projected residual lifts on-wall nodes off: descent
-                    d[:] = r
-                    rd = dom.dot(r, r)
+            d_s = d[lo:hi]
+            pushed_s = self._pushed[:hi - lo]
+            np.greater(d_s, 0.0, out=pushed_s)
+            pushed_s &= on_s
+            if dom.any(pushed_s):
+                rd = self._hold(r, mu, d, d_s, pushed_s, pressed_s, on_s)
             fft.apply_diagonal(d, ops.stiffness, k_d)
-            alpha = rd / dom.dot(d, k_d)  # minimiser of the quadratic upper bound
-            np.multiply(d, alpha, out=self._trial)
-            self._trial += u
-            if not self._reaches_wall(wall):
-                if law.sigma_a > 0.0:
-                    secant = self._secant_step(u, wall, d, k_d, history, applied, alpha, rd)
-                    np.multiply(d, secant, out=self._trial)
-                    self._trial += u
-                    if self._reaches_wall(wall):  # the longer step would reach the wall
-                        np.multiply(d, alpha, out=self._trial)
-                        self._trial += u
-                    else:
-                        alpha = secant
-                u[:] = self._trial
-                k_d *= alpha
-                k_u += k_d
+            d_kd = dom.dot(d, k_d)
+            alpha = rd / d_kd  # minimiser of the quadratic upper bound
+            # Trial point u + alpha d: only its gaps (u follows if it is taken).
+            np.multiply(d, -alpha, out=trial.gap)
+            trial.gap += cur.gap
+            below = self._evaluate(trial) < 0.0  # trial point beyond the wall
+            if adhesive:
+                # phi'(alpha) = -(t(u + alpha d) - K(u + alpha d) - H + applied) . d
+                #             = -((t(u + alpha d) - t(u)) . d + r.d - alpha d.K d)
+                # (r.d = (t(u) - K u - H + applied) . d, mean d = 0): two dots on the spans
+                # of the tractions.
+                a, b = trial.traction_span
+                t_d = trial.traction[a:b] @ d[a:b] - cur.traction[p:q] @ d[p:q]
+                t_d, reaching = dom.sums(t_d, 1.0 if below else 0.0)
+            else:
+                reaching = dom.max(1.0 if below else 0.0)
+            if reaching == 0.0:
+                step = secant = alpha
+                if adhesive:
+                    secant = self._secant_length(alpha, rd, -(t_d + rd - alpha * d_kd))
+                    if secant != alpha:  # the current point becomes u + secant d
+                        if n:
+                            daxpy(d, u, a=secant)
+                        np.subtract(wall, u, out=cur.gap)
+                        below = self._evaluate(cur) < 0.0
+                        if dom.max(1.0 if below else 0.0) == 0.0:
+                            step = secant
+                        elif n:  # the longer step would reach the wall: back to alpha
+                            daxpy(d, u, a=alpha - secant)
+                if step == alpha:
+                    if secant == alpha and n:
+                        daxpy(d, u, a=alpha)
+                    cur, trial = trial, cur
+                if n:
+                    daxpy(k_d, load, a=step)
                 restart = False
             else:
-                self._constrained_step(u, wall, d, k_d, alpha, ops, history, applied)
+                self._constrained_step(u, cur, wall, r, mu, d, k_d, alpha, ops, linear)
                 restart = True
-            r_old[:] = r
+            ir = 1 - ir
             rz_old = rz
             iteration += 1
         # Put the nodes counted as contact exactly on the wall, so that every later use of
         # the state (reaction, load, contact width, predictor) sees the same contact set.
-        np.less_equal(gap, on_wall_tolerance, out=on_wall)
-        np.copyto(u, wall, where=on_wall)
+        np.copyto(u[lo:hi], wall[lo:hi], where=on_wall[:hi - lo])
+        self._points = (cur, trial)
         fft.apply_diagonal(u, ops.stiffness, k_u)
         return SolveResult(iterations=iteration, residual=residual,
                            converged=residual <= self.tolerance, mean_traction=mu)
 
-    def _reaches_wall(self, wall):
-        return self.domain.any(np.greater(self._trial, wall, out=self._pressed))
+    def _evaluate(self, point):
+        """Collective (one ghost exchange): spans and cohesive traction of ``point.gap``.
 
-    def _constrained_step(self, u, wall, d, k_d, alpha, ops, history, applied):
+        One comparison pass finds the node range ``near`` holding every node with
+        gap < level (level = dmax, or just above the on-wall tolerance without adhesion);
+        the law is evaluated on that range and one node more each side (a straddling
+        element reaches them), the ghosts included, and the rest of the traction buffer is
+        zeroed where it was not zero. Returns this rank's smallest gap on ``near`` (+inf if
+        empty): negative when the point is beyond the wall.
+        """
+        m = self._n
+        self.domain.fill_halo(point.gap_ext)
+        near = self._near
+        np.less(point.gap_ext, self._level, out=near)
+        span = true_span(near) if m else None
+        if span is None:
+            lo = hi = p = q = 0
+        else:  # near[e] is node e - 1
+            lo, hi = max(span[0] - 1, 0), min(span[1], m)
+            p, q = max(span[0] - 2, 0), min(span[1] + 1, m)
+        point.near = (lo, hi)
+        if self.law.sigma_a > 0.0:
+            t = point.traction
+            po, qo = point.traction_span
+            if p < q:
+                t[po:max(po, min(qo, p))] = 0.0
+                t[min(qo, max(q, po)):qo] = 0.0
+                self.law.traction(point.gap_ext[p:q + 2], out=t[p:q],
+                                  work=self._work[:, :q - p + 2])
+            else:
+                t[po:qo] = 0.0
+            point.traction_span = (p, q)
+        point.ready = True
+        return point.gap[lo:hi].min() if hi > lo else np.inf
+
+    def _hold(self, r, mu, d, d_s, pushed_s, pressed_s, on_s):
+        """Hold the on-wall nodes d pushes into the wall (d_s, ... on the near span).
+
+        Returns r.d of the projected direction; d becomes the projected residual
+        r - mu (zero on the pressed nodes) when that does not descend.
+        """
+        dom, n = self.domain, self._n
+        self.held_steps += 1
+        held_s = self._held[:d_s.size]
+        excluded_s = self._excluded[:d_s.size]
+        held_s[:] = False
+        while True:  # removing the mean can push another node in
+            held_s |= pushed_s
+            np.logical_or(held_s, pressed_s, out=excluded_s)
+            excluded = np.count_nonzero(excluded_s)
+            d_keep, n_keep = dom.sums(d.sum() - d_s.sum(where=excluded_s), n - excluded)
+            if n_keep == 0:  # every free node held: fall back to the residual below
+                d[:] = 0.0
+                break
+            d -= d_keep / n_keep
+            np.copyto(d_s, 0.0, where=excluded_s)
+            np.greater(d_s, 0.0, out=pushed_s)
+            pushed_s &= on_s
+            if not dom.any(pushed_s):
+                break
+        rd = dom.dot(r, d)
+        if rd <= 0.0:  # the projected residual lifts on-wall nodes off: descent
+            np.subtract(r, mu, out=d)
+            rd = dom.dot(d, d)
+        return rd
+
+    def _constrained_step(self, u, point, wall, r, mu, d, k_d, alpha, ops, linear):
         """A step u + alpha d that reaches the wall, taken so that the energy decreases.
 
         First choice: the Euclidean projection (zero mean, gap >= 0) of u + a d, which sets
@@ -295,85 +478,153 @@ class ConstrainedCG:
         retraction step a = alpha/512 was needed, 2451 nodes being pushed in by the full step).
         Otherwise the step is cut
         where the first node touches the wall: that length lies inside (0, alpha], where the
-        quadratic upper bound guarantees descent. All of them restart CG.
+        quadratic upper bound guarantees descent. All of them restart CG. ``point.gap`` is
+        wall - u; u and the running K u + H - p_applied (``_load``) are updated in place,
+        the point's gaps then recomputed; r - mu is the projected residual.
         """
-        energy = self.energy_with(u, self._k_u, wall, history, applied)
+        dom, fft, load, gap = self.domain, self.fft, self._load, point.gap
+        k_u = np.subtract(load, linear, out=self._scratch)
+        energy = self._energy(u, k_u, wall, linear)
+        spare = self._trial
         for trial in range(6):  # projected backtracking along the arc P(u + a d)
             step = alpha * 0.125**trial  # a full CG step can push thousands of nodes in
-            np.multiply(d, step, out=self._trial)
-            self._trial += u
-            project_feasible(self.domain, self._trial, wall, self._projected)
-            self.fft.apply_diagonal(self._projected, ops.stiffness, self._k_projected)
-            if self.energy_with(self._projected, self._k_projected, wall, history,
-                                applied) < energy:
-                u[:] = self._projected
-                self._k_u[:] = self._k_projected
+            np.multiply(d, step, out=spare)
+            spare += u
+            project_feasible(dom, spare, wall, self._projected, work=self._mask,
+                             wall_scale=self._wall_scale)
+            fft.apply_diagonal(self._projected, ops.stiffness, self._k_projected)
+            if self._energy(self._projected, self._k_projected, wall, linear) < energy:
+                np.copyto(u, self._projected)
+                np.subtract(wall, u, out=gap)
+                point.ready = False
+                np.add(self._k_projected, linear, out=load)
                 self.projections += 1
                 return
-        cut = self._first_contact(u, wall, d)
+        cut = self._first_contact(gap, d)
         if cut <= 0.0:
             # d presses on a node already on the wall (held nodes are excluded from d, so only
             # round-off gets here). The projected residual r moves every free node along its
             # own force, so on-wall nodes move away and its first contact is at a positive
             # length: a descent step.
-            d[:] = self._residual
-            self.fft.apply_diagonal(d, ops.stiffness, k_d)
-            rd, dkd = self.domain.sums(self._residual @ d, d @ k_d)
-            alpha = rd / dkd
-            cut = min(alpha, self._first_contact(u, wall, d))
+            np.subtract(r, mu, out=d)
+            fft.apply_diagonal(d, ops.stiffness, k_d)
+            rd, d_kd = dom.sums(d @ d, d @ k_d)
+            alpha = rd / d_kd
+            cut = min(alpha, self._first_contact(gap, d))
             self.residual_steps += 1
-        u += cut * d
+        np.multiply(d, cut, out=spare)
+        u += spare
         np.minimum(u, wall, out=u)  # the touching node lands on the wall exactly
-        k_d *= cut
-        self._k_u += k_d
+        np.subtract(wall, u, out=gap)
+        point.ready = False
+        if self._n:
+            daxpy(k_d, load, a=cut)
         self.cut_steps += 1
 
-    def _first_contact(self, u, wall, d):
-        """Collective: largest step length along d before a node reaches the wall."""
-        rising = d > 0.0
-        room = (wall[rising] - u[rising]) / d[rising]
-        return self.domain.min(float(room.min()) if room.size else np.inf)
+    def _first_contact(self, gap, d):
+        """Collective: largest step length along d before a node reaches the wall (gap / d)."""
+        rising, room = self._mask, self._projected
+        np.greater(d, 0.0, out=rising)
+        local = np.inf
+        if rising.any():
+            with np.errstate(divide="ignore", invalid="ignore"):
+                np.divide(gap, d, out=room)
+            np.logical_not(rising, out=rising)
+            np.copyto(room, np.inf, where=rising)
+            local = float(room.min())
+        return self.domain.min(local)
 
+    @staticmethod
+    def _secant_length(alpha, rd, slope):
+        """Step length along d from the slope of the true energy at the bound's minimiser.
+
+        phi(a) = E(u + a d) has phi'(0) = -rd and, the adhesion being concave, curvature at
+        most d.K d; so phi'(alpha) <= 0 at the bound's minimiser alpha and every step in
+        (0, 2 alpha) lowers E. The secant through phi'(0) and phi'(alpha) = ``slope``
+        accounts for the cohesive edge's negative stiffness; it is capped at 1.9 alpha to
+        keep the descent.
+        """
+        if slope >= -1e-300:
+            return alpha
+        if slope <= -rd:  # no positive curvature along d: go as far as the bound allows
+            return 1.9 * alpha
+        return min(alpha * rd / (rd + slope), 1.9 * alpha)
+
+    # --- K of vectors already transformed ------------------------------------------------
+    @staticmethod
+    def _keep(kept, stiffness):
+        """Copy of ``stiffness`` in the buffer ``kept`` (reallocated only on a shape change)."""
+        if kept is None or kept.shape != stiffness.shape:
+            kept = np.empty_like(stiffness)
+        np.copyto(kept, stiffness)
+        return kept
+
+    def _matches(self, u, kept_u, kept_stiffness, stiffness):
+        """Local: u and the stiffness are bitwise the kept ones (a sample of u first)."""
+        if kept_stiffness is None or kept_stiffness.shape != stiffness.shape:
+            return False
+        sample = max(1, self._n // 256)
+        if np.not_equal(u[::sample], kept_u[::sample]).any():
+            return False
+        if np.not_equal(u, kept_u, out=self._mask).any():
+            return False
+        if self._spectrum_mask is None or self._spectrum_mask.shape != stiffness.shape:
+            self._spectrum_mask = np.empty(stiffness.shape, dtype=bool)
+        return not np.not_equal(kept_stiffness, stiffness, out=self._spectrum_mask).any()
+
+    def _recall(self, u, stiffness, out):
+        """Collective: True (and K u in ``out``) when K u is known for these exact bits.
+
+        Kept: the lowest-energy vector passed to :meth:`energy` since the last solve began,
+        with its K. The driver's predictor evaluates its guesses and the previous solution
+        and starts the solve from the lowest, so the solve's first transform is saved. A
+        match needs the same stiffness values and the same bits of u on every rank, so the
+        result is bitwise the transform's. The cache is forgotten when a solve begins, so it
+        never carries over from one step to the next: a run resumed from a checkpoint does
+        the same transforms as an uninterrupted one. A miss costs a sample comparison, a
+        match a full one (~0.1 pair).
+        """
+        same = (self._guess_energy < np.inf
+                and self._matches(u, self._guess, self._guess_stiffness, stiffness))
+        if self.domain.max(0.0 if same else 1.0) > 0.0:
+            return False
+        np.copyto(out, self._k_guess)
+        return True
+
+    # --- energies and tractions ----------------------------------------------------------
     def energy(self, u, wall, ops, history, applied=None):
         """Collective: energy of the step per unit length, divided by dx (one FFT pair).
 
         E/dx = 1/2 u.K u + (H - p_applied).u - sigma_a sum_e M_e (see the module docstring).
+        The lowest-energy vector evaluated since the last solve began is kept with its K
+        (:meth:`_recall`: the next solve starts from it without a transform).
         """
-        self.fft.apply_diagonal(u, ops.stiffness, self._k_projected)
-        return self.energy_with(u, self._k_projected, wall, history, applied)
+        k_u = self._k_projected
+        self.fft.apply_diagonal(u, ops.stiffness, k_u)
+        value = self.energy_with(u, k_u, wall, history, applied)
+        if value < self._guess_energy:
+            np.copyto(self._guess, u)
+            np.copyto(self._k_guess, k_u)
+            self._guess_stiffness = self._keep(self._guess_stiffness, ops.stiffness)
+            self._guess_energy = value
+        return value
 
     def energy_with(self, u, k_u, wall, history, applied=None):
         """Collective: energy (per unit length, divided by dx) of u with K u given."""
         value = 0.5 * float(u @ k_u) + float(history @ u)
         if applied is not None:
             value -= float(applied @ u)
+        return self._interface_energy(u, wall, value)
+
+    def _energy(self, u, k_u, wall, linear):
+        """energy_with with the linear term H - p_applied given as one vector."""
+        return self._interface_energy(u, wall, 0.5 * float(u @ k_u) + float(linear @ u))
+
+    def _interface_energy(self, u, wall, value):
         gap_ext = self._gap_energy_ext
         np.subtract(wall, u, out=gap_ext[1:-1])
         self.domain.fill_halo(gap_ext)
         return self.domain.sum(value + self.law.energy(gap_ext, 1.0))
-
-    def _secant_step(self, u, wall, d, k_d, history, applied, alpha, rd):
-        """Step length along d from the slope of the true energy at the bound's minimiser.
-
-        phi(a) = E(u + a d) has phi'(0) = -rd and, the adhesion being concave, curvature at
-        most d.K d; so phi'(alpha) <= 0 at the bound's minimiser alpha and every step in
-        (0, 2 alpha) lowers E. The secant through phi'(0) and phi'(alpha) accounts for the
-        cohesive edge's negative stiffness; it is capped at 1.9 alpha to keep the descent.
-        """
-        gap, traction = self._gap, self._traction
-        np.subtract(wall, self._trial, out=gap)
-        self.domain.fill_halo(self._gap_ext)
-        self.law.traction(self._gap_ext, out=traction, work=self._work)
-        # phi'(alpha) = -(t - K(u + alpha d) - H + applied) . d; uniform parts drop (mean d = 0)
-        t_d, ku_d, kd_d, h_d, a_d = self.domain.sums(
-            traction @ d, self._k_u @ d, k_d @ d, history @ d,
-            applied @ d if applied is not None else 0.0)
-        slope = -(t_d - ku_d - alpha * kd_d - h_d + a_d)
-        if slope >= -1e-300:
-            return alpha
-        if slope <= -rd:  # no positive curvature along d: go as far as the bound allows
-            return 1.9 * alpha
-        return min(alpha * rd / (rd + slope), 1.9 * alpha)
 
     def elastic_traction(self):
         """K u of the last solve's displacement (stress units; a view, valid until the next solve)."""
@@ -385,12 +636,15 @@ class ConstrainedCG:
         Cohesive traction on free nodes; on the wall the total reaction
         K u + H + mean_traction - applied, which balances the substrate.
         """
-        np.subtract(wall, u, out=self._gap)
-        self.domain.fill_halo(self._gap_ext)
-        self.law.traction(self._gap_ext, out=out, work=self._work)
-        contact = self._gap <= 0.0
-        balance = self._k_u + history + mean_traction
+        gap_ext = self._gap_energy_ext
+        gap = gap_ext[1:-1]
+        np.subtract(wall, u, out=gap)
+        self.domain.fill_halo(gap_ext)
+        self.law.traction(gap_ext, out=out, work=self._work)
+        contact = np.less_equal(gap, 0.0, out=self._mask)
+        balance = np.add(self._k_u, history, out=self._scratch)
+        balance += mean_traction
         if applied is not None:
             balance -= applied
-        out[contact] = balance[contact]
+        np.copyto(out, balance, where=contact)
         return out

@@ -32,8 +32,8 @@ import re
 import tomllib
 from dataclasses import dataclass
 
-from .config import (CASE_KEYS, NUMERICS_KEYS, OUTPUT_KEYS, PHYSICAL_KEYS, Case, CaseError,
-                     parse_case)
+from .config import (CASE_KEYS, DT_MIN_PER_DEFAULT, NUMERICS_KEYS, OUTPUT_KEYS, PHYSICAL_KEYS,
+                     Case, CaseError, parse_case)
 
 SECTIONS = {"case": CASE_KEYS, "physical": PHYSICAL_KEYS, "numerics": NUMERICS_KEYS,
             "output": OUTPUT_KEYS}
@@ -82,8 +82,14 @@ class SweepCase:
         if self.case is None:
             return 0.0
         c = self.case
-        steps = TRAVEL_PER_DEPTH * c.depth / (c.velocity * c.numerics.dt)
-        return steps * ITERATIONS_PER_STEP * c.numerics.nx * SECONDS_PER_NODE_ITERATION
+        num = c.numerics
+        if num.step_control == "fixed":
+            steps = TRAVEL_PER_DEPTH * c.depth / (c.velocity * num.dt)
+        else:  # measured: about half the steps of the fixed default dt (= 64 dt_min)
+            default_dt = num.dt_min / DT_MIN_PER_DEFAULT
+            steps = 0.5 * TRAVEL_PER_DEPTH * c.depth / (c.velocity * default_dt)
+        per_step = ITERATIONS_PER_STEP if num.solver == "cg" else num.equilibration_steps
+        return steps * per_step * num.nx * SECONDS_PER_NODE_ITERATION
 
 
 @dataclass

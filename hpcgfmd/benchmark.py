@@ -1,0 +1,341 @@
+"""Speed against error: the fast solver and the paper's method on the paper's hard cases.
+
+``python -m hpcgfmd bench`` (or ``scripts/speed_vs_error.py``) runs, for each case
+(lambda0, V_z) at h0/R = 0.1, L/R = 10, alpha = 5e-5, k = 0.1 (physics.md, "The paper's cases"):
+
+1. A reference run: the fast solver with fine settings (edge motion <= w/4 per step, load
+   deviation <= 3e-3 load scales, residual 1e-7) at the largest grid of the sweep (on the
+   tests' small case it differs from w/8 by 1e-5 in the pull-off load).
+2. The fast solver (active-set CG, adaptive steps) over the accuracy knobs: n_x, the CG
+   tolerance, the step control (edge fraction; fixed steps for comparison).
+3. The paper's method (damped Verlet GFMD, fixed dt = tau/50, tau/100 for V_z >= 9, a fixed
+   number E of pseudo steps per step): far too slow to finish (its authors' E = 1024 sqrt(n_x)
+   is 370,000 pseudo steps per step at 2^17), so it runs a SHORTENED retraction of a few
+   steps for several E; its error is the largest load deviation over those steps from the
+   converged equilibria of the same steps (CG, tolerance 1e-10, same dt), relative to the
+   reference pull-off load, and its full-run time is the measured cost per pseudo step times
+   E times the number of steps of the whole retraction (the reference's duration / dt).
+   With dt = tau/50 its time-discretisation error is below the reference's, so this
+   equilibration error is its error (a lower bound: the lag can only grow near pull-off).
+
+Errors of a run against the reference: pull-off load (most tensile sample) relative error;
+curve error: the largest distance of the run's points (abar_c, Lbar) up to its pull-off to
+the (much denser) reference's polyline, both coordinates divided by the reference's (abar_c at
+t = 0, |Lbar| at pull-off).
+Wall times include set-up (FFTW planning) and preload. Everything is collective over
+``comm``; rank 0 writes the CSV and the PNG.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import os
+import sys
+import time
+
+import numpy as np
+
+from .config import parse_case
+from .driver import Retraction
+
+CASES = ("7:4.5", "7:9", "14:0.9", "7:0.045")
+GEOMETRY = {"modulus_ratio": 0.1, "depth": 0.1, "cell": 10.0, "adhesion": 5e-5}
+REFERENCE = {"edge_fraction": 0.25, "load_tolerance": 3e-3, "tolerance": 1e-7}
+# Fast-solver sweep at the largest grid: (label, numerics overrides).
+SWEEP = (("f=1 tol=1e-5", {"edge_fraction": 1.0, "tolerance": 1e-5}),
+         ("f=0.5 tol=1e-6 (default)", {}),
+         ("f=0.25 tol=1e-7", {"edge_fraction": 0.25, "tolerance": 1e-7}),
+         ("fixed dt=dmax/(4 v_z) tol=1e-7", {"step_control": "fixed", "tolerance": 1e-7}))
+PAPER_EQUILIBRATION = (250, 1000, 4000)
+PAPER_STEPS = 4
+COLUMNS = ("case", "lambda0", "Vz", "solver", "label", "nx", "tolerance", "step_control",
+           "edge_fraction", "equilibration_steps", "dt", "steps", "iterations", "fft_pairs",
+           "wall_s", "setup_s", "ms_per_iteration", "pulloff_Lbar", "pulloff_error",
+           "curve_error", "extrapolated", "ranks")
+
+
+def case_text(lambda0, vz, numerics, geometry=GEOMETRY):
+    lines = ["[case]", f"maugis = {lambda0!r}", f"velocity = {vz!r}"]
+    lines += [f"{key} = {value!r}" for key, value in geometry.items()]
+    lines.append("[numerics]")
+    lines += [f"{key} = {value!r}" if not isinstance(value, str) else f'{key} = "{value}"'
+              for key, value in numerics.items()]
+    return "\n".join(lines) + "\n"
+
+
+def run(text, comm, max_steps=None, progress=None):
+    """Collective: one retraction in memory; its cost and its (time, load, a_c) series."""
+    case = parse_case(text)
+    comm.Barrier()
+    start = time.perf_counter()
+    sim = Retraction(case, comm)
+    setup = time.perf_counter() - start
+    records = [sim.preload()]
+    preloaded = last = time.perf_counter()
+    while not sim.detached() and (max_steps is None or sim.step_index < max_steps):
+        records.append(sim.step())
+        if progress and time.perf_counter() - last > progress and comm.Get_rank() == 0:
+            last = time.perf_counter()
+            print(f"    ... step {sim.step_index}, t = {records[-1].time:.4g},"
+                  f" a_c/a_c(0) = {records[-1].contact_half_width / records[0].contact_half_width:.3f},"
+                  f" {last - start:.0f} s", flush=True)
+    wall = comm.allreduce(time.perf_counter() - start, op=_max())
+    retraction = comm.allreduce(time.perf_counter() - preloaded, op=_max())
+    result = {"case": case, "wall_s": wall, "setup_s": setup, "retraction_s": retraction,
+              "retraction_iterations": sim.total_iterations - sim.preload_iterations,
+              "steps": sim.step_index,
+              "iterations": sim.total_iterations, "fft_pairs": sim.fft.pairs,
+              "time": np.array([r.time for r in records]),
+              "lbar": np.array([r.load for r in records]) / case.load_scale,
+              "abar": np.array([r.contact_half_width for r in records]) / case.beta,
+              "dt": np.array([r.dt for r in records])}
+    sim.close()
+    return result
+
+
+def _max():
+    from mpi4py import MPI
+    return MPI.MAX
+
+
+def curve_error(reference, result):
+    """Largest distance of the run's points (abar, Lbar) to the reference's polyline (scaled).
+
+    The run's points up to its pull-off (after it the contact jumps; the pull-off error
+    measures where it came); the reference is sampled much more densely, so its polyline
+    stands for the exact curve and the distance is the error of the computed points, not
+    of interpolating between them. Both coordinates are divided by the reference's abar_c
+    at t = 0 and |Lbar| at pull-off.
+    """
+    end = int(np.argmin(result["lbar"])) + 1
+    a_scale = reference["abar"][0]
+    l_scale = abs(reference["lbar"].min())
+    keep_r = reference["abar"] > 0
+    keep = result["abar"][:end] > 0
+    line = np.stack([reference["abar"][keep_r] / a_scale, reference["lbar"][keep_r] / l_scale], 1)
+    points = np.stack([result["abar"][:end][keep] / a_scale,
+                       result["lbar"][:end][keep] / l_scale], 1)
+    if len(line) < 2 or len(points) == 0:
+        return math.nan
+    start, end_ = line[:-1], line[1:]
+    seg = end_ - start
+    length2 = np.maximum((seg**2).sum(1), 1e-300)
+    worst = 0.0
+    for chunk in np.array_split(points, max(1, len(points) // 256)):
+        rel = chunk[:, None, :] - start[None, :, :]
+        s = np.clip((rel * seg[None]).sum(2) / length2[None], 0.0, 1.0)
+        d = np.sqrt(((rel - s[..., None] * seg[None]) ** 2).sum(2)).min(1)
+        worst = max(worst, float(d.max()))
+    return worst
+
+
+def paper_dt(vz):
+    """The paper's fixed step (Appendix B): tau/50, tau/100 for its fastest case (V_z = 9)."""
+    return 1.0 / 100.0 if vz >= 9.0 else 1.0 / 50.0
+
+
+def measure_paper(lambda0, vz, nx, reference, comm, geometry, equilibrations, steps):
+    """Shortened retractions of the paper's method (module docstring, item 3): rows."""
+    dt = paper_dt(vz)
+    exact = run(case_text(lambda0, vz, {"nx": nx, "solver": "cg", "step_control": "fixed",
+                                        "dt": dt, "tolerance": 1e-10}, geometry),
+                comm, max_steps=steps)
+    duration = reference["time"][-1]
+    total_steps = math.ceil(duration / dt)
+    l_scale = abs(reference["lbar"].min())
+    rows = []
+    for equilibration in equilibrations:
+        text = case_text(lambda0, vz, {"nx": nx, "solver": "paper", "step_control": "fixed",
+                                       "dt": dt, "equilibration_steps": equilibration},
+                         geometry)
+        result = run(text, comm, max_steps=steps)
+        # cost of one pseudo step: the retraction's time (the preload is CG's) per pseudo step
+        per_pseudo = result["retraction_s"] / max(result["retraction_iterations"], 1)
+        error = float(np.abs(result["lbar"][1:] - exact["lbar"][1:]).max()) / l_scale
+        rows.append({"solver": "paper", "label": f"E={equilibration} (shortened: {steps} of"
+                     f" {total_steps} steps, extrapolated)", "nx": nx, "tolerance": math.nan,
+                     "step_control": "fixed", "edge_fraction": math.nan,
+                     "equilibration_steps": equilibration, "dt": dt,
+                     "steps": total_steps, "iterations": total_steps * equilibration,
+                     "fft_pairs": total_steps * equilibration,
+                     "wall_s": (result["wall_s"] - result["retraction_s"]
+                                + per_pseudo * total_steps * equilibration),
+                     "setup_s": result["setup_s"], "ms_per_iteration": 1e3 * per_pseudo,
+                     "pulloff_Lbar": math.nan, "pulloff_error": error,
+                     "curve_error": error, "extrapolated": True})
+    return rows
+
+
+def _row(label, result, reference, solver="cg"):
+    case = result["case"]
+    num = case.numerics
+    ref_po = reference["lbar"].min()
+    po = result["lbar"].min()
+    return {"solver": solver, "label": label, "nx": num.nx, "tolerance": num.tolerance,
+            "step_control": num.step_control,
+            "edge_fraction": num.edge_fraction if num.step_control == "adaptive" else math.nan,
+            "equilibration_steps": math.nan, "dt": float(np.median(result["dt"][1:])),
+            "steps": result["steps"], "iterations": result["iterations"],
+            "fft_pairs": result["fft_pairs"], "wall_s": result["wall_s"],
+            "setup_s": result["setup_s"],
+            "ms_per_iteration": 1e3 * result["retraction_s"]
+            / max(result["retraction_iterations"], 1),
+            "pulloff_Lbar": po, "pulloff_error": abs(po - ref_po) / abs(ref_po),
+            "curve_error": curve_error(reference, result), "extrapolated": False}
+
+
+def cached_run(text, comm, path):
+    """:func:`run`, or its result saved in ``path`` (.npz) by an earlier run of the same text.
+
+    The reference runs are the long ones; a re-run of the benchmark reuses them.
+    """
+    if path and os.path.exists(path):
+        with np.load(path, allow_pickle=False) as saved:
+            if str(saved["text"]) == text:
+                result = {key: saved[key] for key in ("time", "lbar", "abar", "dt")}
+                result.update({key: float(saved[key]) for key in SCALARS})
+                result["case"] = parse_case(text)
+                result["cached"] = True
+                return result
+    result = run(text, comm, progress=60.0)
+    if path and comm.Get_rank() == 0:
+        tmp = path + ".tmp.npz"
+        np.savez(tmp, text=text, **{key: result[key] for key in ("time", "lbar", "abar", "dt")},
+                 **{key: result[key] for key in SCALARS})
+        os.replace(tmp, path)
+    return result
+
+
+SCALARS = ("wall_s", "setup_s", "retraction_s", "retraction_iterations", "steps", "iterations",
+           "fft_pairs")
+
+
+def bench_case(key, comm, nxs, sweep, equilibrations, paper_steps, geometry, say,
+               cache_prefix=None):
+    lambda0, vz = (float(v) for v in key.split(":"))
+    top = max(nxs)
+    say(f"case lambda0 = {lambda0:g}, V_z = {vz:g}: reference at nx = {top}")
+    cache = (f"{cache_prefix}-reference-{lambda0:g}-{vz:g}-{top}.npz" if cache_prefix
+             else None)
+    reference = cached_run(case_text(lambda0, vz, {"nx": top, **REFERENCE}, geometry), comm,
+                           cache)
+    say(f"  reference: pull-off Lbar {reference['lbar'].min():.6f}, {int(reference['steps'])}"
+        f" steps, {reference['wall_s']:.0f} s{' (saved earlier)' if 'cached' in reference else ''}")
+    rows = [_row("reference " + " ".join(f"{k}={v:g}" for k, v in REFERENCE.items()),
+                 reference, reference, "reference")]
+    for label, overrides in sweep:
+        rows.append(_row(label, run(case_text(lambda0, vz, {"nx": top, **overrides}, geometry),
+                                    comm), reference))
+        say(_line(rows[-1]))
+    for nx in sorted(set(nxs) - {top}):
+        rows.append(_row(f"nx={nx} (default)", run(case_text(lambda0, vz, {"nx": nx},
+                                                              geometry), comm), reference))
+        say(_line(rows[-1]))
+    if equilibrations:
+        for row in measure_paper(lambda0, vz, top, reference, comm, geometry, equilibrations,
+                                 paper_steps):
+            rows.append(row)
+            say(_line(row))
+    for row in rows:
+        row.update(case=key, lambda0=lambda0, Vz=vz, ranks=comm.Get_size())
+    return rows
+
+
+def _line(row):
+    return (f"  {row['solver']:6s} {row['label']:45s} nx={row['nx']:7d} wall {row['wall_s']:9.1f} s"
+            f"  pairs {row['fft_pairs']:>11}  pull-off error {row['pulloff_error']:.2e}"
+            f"  curve error {row['curve_error']:.2e}")
+
+
+def write_csv(rows, path):
+    tmp = f"{path}.tmp"
+    with open(tmp, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=COLUMNS)
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: row.get(k, "") for k in COLUMNS})
+    os.replace(tmp, path)
+
+
+def plot(rows, path):
+    """PNG: pull-off error against wall time, one panel per case, one line per solver."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    cases = list(dict.fromkeys(r["case"] for r in rows))
+    fig, axes = plt.subplots(1, len(cases), figsize=(4.2 * len(cases), 4), squeeze=False)
+    for ax, key in zip(axes[0], cases):
+        for solver, style in (("cg", "C0o-"), ("paper", "C3s--")):
+            pts = sorted((r["wall_s"], max(r["pulloff_error"], 1e-7)) for r in rows
+                         if r["case"] == key and r["solver"] == solver
+                         and r["nx"] == max(x["nx"] for x in rows if x["case"] == key))
+            if pts:
+                label = ("fast (active-set CG, adaptive dt)" if solver == "cg"
+                         else "paper (damped Verlet, extrapolated)")
+                ax.loglog(*zip(*pts), style, label=label)
+        ax.axhline(5e-3, color="k", lw=0.5, ls=":")
+        ax.axvline(60.0, color="k", lw=0.5, ls=":")
+        lam, vz = key.split(":")
+        ax.set_title(f"lambda0 = {lam}, V_z = {vz}")
+        ax.set_xlabel("wall time (s)")
+        ax.set_ylabel("pull-off load error (relative)")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    tmp = f"{path}.tmp.png"
+    fig.savefig(tmp, dpi=110)
+    os.replace(tmp, path)
+
+
+def main(comm, argv=None):
+    parser = argparse.ArgumentParser(prog="python -m hpcgfmd bench", description=__doc__.split(
+        "\n")[0])
+    parser.add_argument("--cases", nargs="+", default=list(CASES),
+                        help="lambda0:V_z pairs (default: the paper's hard and slow cases)")
+    parser.add_argument("--nx", nargs="+", type=int, default=[15, 16, 17],
+                        help="log2 of the grids; the largest is the reference's (default 15 16 17)")
+    parser.add_argument("--paper-equilibration", nargs="*", type=int,
+                        default=list(PAPER_EQUILIBRATION),
+                        help="pseudo steps per step of the paper's method (shortened runs)")
+    parser.add_argument("--paper-steps", type=int, default=PAPER_STEPS)
+    parser.add_argument("--no-fixed", action="store_true", help="skip the fixed-step run")
+    parser.add_argument("--geometry", nargs=3, type=float, metavar=("DEPTH", "CELL", "ALPHA"),
+                        help="h0/R, L/R, alpha instead of 0.1 10 5e-5 (quick checks only)")
+    parser.add_argument("--out", default="speed_vs_error", help=(
+        "output prefix: PREFIX.csv, PREFIX.png and the reference runs PREFIX-reference-*.npz"
+        " (reused when present)"))
+    parser.add_argument("--reference-only", action="store_true",
+                        help="compute (or check) the reference runs only")
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exit_:
+        return int(exit_.code or 0)
+    geometry = dict(GEOMETRY)
+    if args.geometry:
+        geometry.update(depth=args.geometry[0], cell=args.geometry[1], adhesion=args.geometry[2])
+    sweep = [s for s in SWEEP if not (args.no_fixed and s[1].get("step_control") == "fixed")]
+    rank0 = comm.Get_rank() == 0
+
+    def say(message):
+        if rank0:
+            print(message, flush=True)
+
+    rows = []
+    if args.reference_only:
+        sweep, args.nx, args.paper_equilibration = [], [max(args.nx)], []
+    for key in args.cases:
+        try:
+            float(key.split(":")[0]), float(key.split(":")[1])
+        except (ValueError, IndexError):
+            if rank0:
+                print(f"bench: --cases {key}: expected lambda0:V_z, e.g. 7:4.5", file=sys.stderr)
+            return 2
+    for key in args.cases:
+        rows += bench_case(key, comm, [2**e for e in args.nx], sweep,
+                           args.paper_equilibration, args.paper_steps, geometry, say,
+                           args.out)
+        if rank0:  # after every case: a long benchmark keeps what it measured
+            write_csv(rows, args.out + ".csv")
+            plot(rows, args.out + ".png")
+    say(f"wrote {args.out}.csv and {args.out}.png")
+    return 0

@@ -1,0 +1,149 @@
+"""Time-step control of the retraction: fixed steps, or adaptive steps with error control.
+
+Where the time discretisation errs (physics.md, "Substrate" and "Protocol"):
+
+- The SLS is integrated exactly over a step for a displacement varying LINEARLY in time, so
+  the material history is exact wherever u(x, t) is smooth in t; its error is O(dt^2 u_tt).
+  Near a moving contact edge u_tt is concentrated: a node that leaves the wall changes its
+  velocity abruptly, so the history integral of the nodes the edge crosses within one step
+  errs by O(dt) each. The edge criterion bounds the nodes (the distance) crossed per step:
+  the contact edges may move by at most ``edge_fraction`` of the relaxed cohesive-zone width
+  w = pi E0 dmax / (4 sigma_a) per step (physics.md, "Scales"; the narrowest zone of the SLS).
+- The observables are sampled at the steps: the pull-off load is the most tensile SAMPLE of
+  a smooth load curve L(t), which a coarse step misses by up to L'' dt^2 / 8 (the paper's
+  "early pull-off" of coarse steps). The load criterion bounds the deviation of each new load
+  from the straight line through the two before, e = |L_n+1 - L_pred| ~ L'' dt (dt + dt_prev)
+  / 2, to ``load_tolerance`` load scales (R dgamma0^2 E0)^(1/3): the sampled minimum is then
+  within about load_tolerance / 8 load scales of the curve's, and the same curvature bound
+  controls the O(dt^2 u_tt) history error of the smooth parts.
+
+Controller. After each step the error ratios e_edge = |da|max / (edge_fraction w) (first
+order in dt) and e_load (second order) give the next step
+dt * clip(0.9 min(1/e_edge, 1/sqrt(e_load)), 1/4, 2), rounded down to the grid
+dt_min 2^(j/4) within [dt_min, dt_max]. A step with
+e_edge > 2 or e_load > 4 is rejected and repeated with that shorter step (the state is
+restored), unless it already is dt_min: a genuine jump of the contact (the snap-off at high
+speed) is then taken at dt_min, which places it in time to dt_min.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+GROWTH_LIMIT = 2.0     # largest factor between consecutive steps
+SHRINK_LIMIT = 0.25    # smallest factor (also the retry factor bound after a rejection)
+SAFETY = 0.9           # aim below the error target
+REJECT_EDGE = 2.0      # reject when the edge moved more than twice its allowance
+REJECT_LOAD = 4.0      # ... or the load deviates more than four times its tolerance
+GRID_PER_OCTAVE = 4    # steps are dt_min 2^(j/4): see AdaptiveSteps._on_grid
+
+
+@dataclass
+class StepDecision:
+    """Verdict on a step just solved."""
+
+    accepted: bool
+    next_dt: float
+    edge_error: float   # |da| / (edge_fraction w)
+    load_error: float   # |L - L_pred| / (load_tolerance load_scale)
+
+
+class FixedSteps:
+    """Constant step dt (the paper's method): every step is accepted."""
+
+    adaptive = False
+
+    def __init__(self, dt: float):
+        self.dt = dt
+
+    def first_dt(self) -> float:
+        return self.dt
+
+    def judge(self, dt, time, load, edge_motion) -> StepDecision:
+        return StepDecision(True, self.dt, 0.0, 0.0)
+
+    def accept(self, time, load):
+        pass
+
+    def state(self) -> dict:
+        return {}
+
+    def restore(self, attrs):
+        pass
+
+
+class AdaptiveSteps:
+    """Error-controlled step length (module docstring).
+
+    Parameters
+    ----------
+    first_dt, dt_min, dt_max : float
+        First step, bounds (time, internal units of tau).
+    edge_allowance : float
+        Largest contact-edge motion per step, edge_fraction * w (length, units of R).
+    load_allowance : float
+        Largest deviation of a load from the linear extrapolation of the two before,
+        load_tolerance * load scale (load per unit length, units of E0 R).
+    """
+
+    adaptive = True
+
+    def __init__(self, first_dt, dt_min, dt_max, edge_allowance, load_allowance):
+        self.dt_min, self.dt_max = dt_min, dt_max
+        self.dt = self._on_grid(first_dt)
+        self.edge_allowance = edge_allowance
+        self.load_allowance = load_allowance
+        self.points = []  # the last two accepted (time, load)
+
+    def first_dt(self) -> float:
+        return self.dt
+
+    def _on_grid(self, dt):
+        """Round down to dt_min 2^(j/4), within [dt_min, dt_max].
+
+        Steps from a grid: runs whose loads differ by round-off (other rank counts, other
+        FFT plans) choose the same steps unless a proposal falls within round-off of a grid
+        point, and the step operators are reused whenever a length recurs.
+        """
+        if dt >= self.dt_max:
+            return self.dt_max
+        if dt <= self.dt_min:
+            return self.dt_min
+        j = math.floor(GRID_PER_OCTAVE * math.log2(dt / self.dt_min) + 1e-9)
+        return min(self.dt_min * 2.0 ** (j / GRID_PER_OCTAVE), self.dt_max)
+
+    def judge(self, dt, time, load, edge_motion) -> StepDecision:
+        """The verdict on a solved step of length dt ending at ``time`` with ``load``.
+
+        ``edge_motion`` is the largest displacement of a contact edge over the step (length;
+        NaN or inf when the contact appeared or vanished).
+        """
+        edge_error = (edge_motion / self.edge_allowance if math.isfinite(edge_motion)
+                      else (0.0 if math.isnan(edge_motion) else math.inf))
+        load_error = 0.0
+        if len(self.points) == 2 and self.points[1][0] > self.points[0][0]:
+            (t0, l0), (t1, l1) = self.points
+            predicted = l1 + (l1 - l0) * (time - t1) / (t1 - t0)
+            load_error = abs(load - predicted) / self.load_allowance
+        worst = max(edge_error, math.sqrt(load_error))
+        factor = SAFETY / worst if worst > 0.0 else GROWTH_LIMIT
+        factor = min(max(factor, SHRINK_LIMIT), GROWTH_LIMIT)
+        next_dt = self._on_grid(dt * factor)
+        rejected = (edge_error > REJECT_EDGE or load_error > REJECT_LOAD) and dt > self.dt_min
+        self.dt = next_dt
+        return StepDecision(not rejected, next_dt, edge_error, load_error)
+
+    def accept(self, time, load):
+        """Record an accepted step's load for the next extrapolation (a repeated preload
+        at t = 0 replaces the point before)."""
+        points = [p for p in self.points if p[0] < time]
+        self.points = (points + [(time, load)])[-2:]
+
+    def state(self) -> dict:
+        flat = [v for point in self.points for v in point]
+        return {"controller_dt": self.dt, "controller_points": flat + [math.nan] * (4 - len(flat))}
+
+    def restore(self, attrs):
+        self.dt = float(attrs["controller_dt"])
+        flat = [float(v) for v in attrs["controller_points"]]
+        self.points = [(flat[i], flat[i + 1]) for i in (0, 2) if not math.isnan(flat[i])]
