@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import signal
 import sys
 import time
 from importlib import resources
@@ -20,6 +21,7 @@ from importlib import resources
 from . import __version__
 from .config import CaseError, load_case, parse_case
 from .driver import CaseFailure
+from .signals import STOP_SIGNALS
 
 EXIT_OK, EXIT_FAILURE, EXIT_USAGE, EXIT_RESUMABLE = 0, 1, 2, 75
 
@@ -200,9 +202,11 @@ def _farm_table(sweep, out_dir, groups, case_file, file_status):
                      f" {g['Vz']:>8.4g} {g['chi_ve']:>9.4g} {g['depth']:>6.3g}"
                      f" {item.case.numerics.nx:>8} {item.cost():>8.3g}"
                      f"  {file_status(case_file(out_dir, item), item)}")
+    from .sweep import ITERATIONS_PER_STEP, SECONDS_PER_NODE_ITERATION
     total = sum(c.cost() for c in sweep.cases)
-    lines.append(f"estimated cost: {total:.0f} core-seconds (model: 8.7 ms per CG iteration at"
-                 f" 2^17 nodes, 16.7 iterations per step); about {max(loads):.0f} s on"
+    lines.append(f"estimated cost: {total:.0f} core-seconds (model:"
+                 f" {SECONDS_PER_NODE_ITERATION * 2**17 * 1e3:.2g} ms per CG iteration at"
+                 f" 2^17 nodes, {ITERATIONS_PER_STEP:g} iterations per step); about {max(loads):.0f} s on"
                  f" {groups} group(s) of ranks, longest first")
     return "\n".join(lines)
 
@@ -321,6 +325,12 @@ def main(comm, argv=None, stop=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["bench"]:  # its own options (hpcgfmd.benchmark)
         from .benchmark import main as bench_main
+        # no checkpoints to write: SIGTERM/SIGUSR1 end the benchmark as usual (it keeps the
+        # tables of the cases done and the reference runs)
+        if stop is not None and stop.received is not None:
+            return EXIT_RESUMABLE
+        for signum in STOP_SIGNALS:
+            signal.signal(signum, signal.SIG_DFL)
         return bench_main(comm, argv[1:])
     if comm.Get_rank() == 0:
         args = build_parser().parse_args(argv)

@@ -39,9 +39,10 @@ SECTIONS = {"case": CASE_KEYS, "physical": PHYSICAL_KEYS, "numerics": NUMERICS_K
             "output": OUTPUT_KEYS}
 FARM_KEYS = ("ranks_per_case", "output")
 # Cost model of the dry run and of the longest-first order: measured on this project's
-# default case (lambda0 = 7, V_z = 0.45, 2^17 nodes): 8.7 ms per CG iteration and 16.7
-# iterations per step; the indenter travels about 1.2 h0 before detachment.
-SECONDS_PER_NODE_ITERATION = 8.7e-3 / 2**17
+# default case (lambda0 = 7, V_z = 0.45, 2^17 nodes): 4.1 ms per CG iteration
+# (scripts/bench_iteration.py) and 16.7 iterations per step (more at high speed: ~50 at
+# V_z = 4.5); the indenter travels about 1.2 h0 before detachment.
+SECONDS_PER_NODE_ITERATION = 4.1e-3 / 2**17
 ITERATIONS_PER_STEP = 16.7
 TRAVEL_PER_DEPTH = 1.2
 
