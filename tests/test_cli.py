@@ -57,6 +57,16 @@ BAD = [
      ["checkpoint_steps", "-1", "integer >= 0"]),
     ("checkpoint interval", case_text(output="checkpoint_interval = 0"),
      ["checkpoint_interval", "0", "> 0"]),
+    ("solver", case_text(numerics='nx = 1024\nsolver = "fire"'), ["solver", "'fire'", "'cg'", "'paper'"]),
+    ("step control", case_text(numerics='nx = 1024\nstep_control = "auto"'),
+     ["step_control", "'auto'", "'adaptive'", "'fixed'"]),
+    ("edge fraction", case_text(numerics="nx = 1024\nedge_fraction = 0"), ["edge_fraction", "> 0"]),
+    ("load tolerance", case_text(numerics="nx = 1024\nload_tolerance = -1"),
+     ["load_tolerance", "-1", "> 0"]),
+    ("dt bounds", case_text(numerics="nx = 1024\ndt_min = 2.0\ndt_max = 1.0"),
+     ["dt_min", "2", "dt_max"]),
+    ("equilibration steps", case_text(numerics="nx = 1024\nequilibration_steps = 0"),
+     ["equilibration_steps", "0", "integer >= 1"]),
 ]
 
 
