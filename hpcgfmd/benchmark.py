@@ -334,6 +334,8 @@ def main(comm, argv=None):
                         help="pseudo steps per step of the paper's method (shortened runs)")
     parser.add_argument("--paper-steps", type=int, default=PAPER_STEPS)
     parser.add_argument("--no-fixed", action="store_true", help="skip the fixed-step run")
+    parser.add_argument("--only", nargs="+", metavar="SETTING",
+                        help="run only these fast-solver settings (f=2, f=1, f=0.5, fixed)")
     parser.add_argument("--geometry", nargs=3, type=float, metavar=("DEPTH", "CELL", "ALPHA"),
                         help="h0/R, L/R, alpha instead of 0.1 10 5e-5 (quick checks only)")
     parser.add_argument("--out", default="speed_vs_error", help=(
@@ -354,7 +356,6 @@ def main(comm, argv=None):
     geometry = dict(GEOMETRY)
     if args.geometry:
         geometry.update(depth=args.geometry[0], cell=args.geometry[1], adhesion=args.geometry[2])
-    sweep = [s for s in SWEEP if not (args.no_fixed and s[1].get("step_control") == "fixed")]
     rank0 = comm.Get_rank() == 0
 
     def say(message):
@@ -369,6 +370,13 @@ def main(comm, argv=None):
             print(f"bench: {message}", file=sys.stderr)
         return 2
 
+    sweep = [s for s in SWEEP if not (args.no_fixed and s[1].get("step_control") == "fixed")]
+    if args.only:
+        unknown = [o for o in args.only if not any(s[0].split(" ")[0] == o for s in SWEEP)]
+        if unknown:
+            return usage(f"--only {' '.join(unknown)}: expected among"
+                         f" {', '.join(s[0].split(' ')[0] for s in SWEEP)}")
+        sweep = [s for s in sweep if s[0].split(" ")[0] in args.only]
     if args.paper_steps < 1:
         return usage(f"--paper-steps {args.paper_steps}: expected an integer >= 1")
     if any(e < 1 for e in args.paper_equilibration):
