@@ -39,8 +39,7 @@ def serial(tmp_path_factory):
 
 
 def by_label(rows):
-    return {row["label"].split(" (")[0] if row["solver"] != "paper" else "paper": row
-            for row in rows}
+    return {row["label"].split(" (")[0].split(" =")[0]: row for row in rows}
 
 
 def test_rows_errors_and_extrapolation(serial):
@@ -58,7 +57,7 @@ def test_rows_errors_and_extrapolation(serial):
     fine = float(default["pulloff_error"])
     # the coarser grid is the less accurate
     assert float(rows["nx=1024"]["pulloff_error"]) > fine
-    paper = rows["paper"]
+    paper = rows["E=300"]
     assert paper["extrapolated"] == "True"
     # E = 300 pseudo steps at n = 2048 lag CG by ~1e-5 (tests/test_gfmd.py measures the decay)
     assert float(paper["pulloff_error"]) < 1e-3
@@ -66,6 +65,10 @@ def test_rows_errors_and_extrapolation(serial):
     steps = int(paper["steps"])
     assert steps >= 100 and int(paper["fft_pairs"]) == steps * 300
     assert float(paper["wall_s"]) > 10 * float(default["wall_s"])
+    # the authors' own E = 1024 sqrt(n) = 46341, extrapolated from the same cost per step
+    authors = rows["E=46341"]
+    assert int(authors["fft_pairs"]) == steps * 46341
+    assert float(authors["pulloff_error"]) == float(paper["pulloff_error"])  # the bound
 
 
 @pytest.mark.skipif(MPIRUN is None, reason="OpenMPI's mpirun is not installed")
