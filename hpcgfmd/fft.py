@@ -717,6 +717,384 @@ class TransposedRealFFT:
         -------
         out : ndarray
         """
+        copy, multiply = np.copyto, np.multiply
+        # 1-2. The columns of the field to the peers; stage A: rfft down the columns,
+        # twiddle, rows of the xt blocks.
+        self._to_rows(field)
+
+        # 3. Stage B: FFT along the rows, multiplier, inverse FFT, rows of the z blocks.
+        for gathers, forward, work, chunk, backward, writes in self._stage_b:
+            for to, part in gathers:
+                copy(to, part)
+            forward.execute()
+            multiply(work, diagonal[chunk], out=work)
+            backward.execute()
+            for to, part in writes:
+                copy(to, part)
+        self._exchange("z")
+
+        # 4-5. Stage C: conjugate twiddle, c2r down the columns; this rank's rows from every
+        # rank's h (the own columns before the synchronisation: an early rank waits less).
+        self._from_rows(out)
+        self.pairs += 1
+        return out
+
+    def forward(self, field, spectrum_out):
+        """spectrum_out = rfft(field): the local modes of the real field (no normalisation).
+
+        Local. Half of a pair: ``inverse(d * forward(f))`` equals ``apply_diagonal(f, d)``
+        bitwise (same plans, same operations); ``pairs`` is counted in :meth:`inverse`.
+
+        Parameters
+        ----------
+        field : ndarray of float64, shape (n,)
+            Real input field.
+        spectrum_out : ndarray of complex128, shape spectrum_shape
+            Output; may be :attr:`spectrum`, the transform's own buffer, which saves one
+            copy (it then stays valid only until the next call of any transform method).
+
+        Returns
+        -------
+        spectrum_out : ndarray
+        """
+        self.real[:] = field
+        self._forward.execute()
+        if spectrum_out is not self.spectrum:
+            spectrum_out[:] = self.spectrum
+        return spectrum_out
+
+    def inverse(self, spectrum, field_out):
+        """field_out = irfft(spectrum) without the 1/n (unnormalised, like apply_diagonal).
+
+        Local. Counts one pair in ``pairs`` (the forward transform of the pair counts none).
+        ``spectrum`` must be the half spectrum of a real field (modes 0 and n/2 real, their
+        imaginary parts are ignored, as by numpy's irfft).
+
+        Parameters
+        ----------
+        spectrum : ndarray of complex128, shape spectrum_shape
+            Input modes; left unchanged unless it is :attr:`spectrum` itself, which the c2r
+            transform overwrites (that saves one copy).
+        field_out : ndarray of float64, shape (n,)
+
+        Returns
+        -------
+        field_out : ndarray
+        """
+        if spectrum is not self.spectrum:
+            self.spectrum[:] = spectrum
+        self._backward.execute()
+        field_out[:] = self.real
+        self.pairs += 1
+        return field_out
+
+
+RealFFT = SerialRealFFT  # old name, kept while the callers move to plan_real_fft
+
+
+class TransposedRealFFT:
+    """Length-n real FFT distributed over ``comm`` by the four-step algorithm.
+
+    See the module docstring for the algorithm, the layout, the transports and the
+    communication volume. Construction is collective on ``comm`` (it decides the transport and
+    allocates the shared window), and so is ``apply_diagonal``.
+
+    Parameters
+    ----------
+    comm : mpi4py.MPI.Comm
+        Communicator over which the nodes are distributed (any size, including 1).
+    n : int
+        Number of grid nodes (even).
+    planner_effort : str
+        FFTW planner flag.
+    transport : {"auto", "shared", "messages"}
+        How the ranks see each other's data: ``"shared"`` reads it in an MPI shared-memory
+        window (all ranks must be on one node), ``"messages"`` moves it with ``Alltoallv``;
+        ``"auto"`` takes ``"shared"`` when all ranks of ``comm`` share a node and the window can
+        be allocated, ``"messages"`` otherwise. Every rank must pass the same value.
+
+    Attributes
+    ----------
+    comm : mpi4py.MPI.Comm
+    n : int
+    n1, n2 : int
+        Factors ``n = n1 * n2`` of the four-step transform (n1 even).
+    x_start, x_stop : int
+        This rank's contiguous node range ``[x_start, x_stop)`` (global indices).
+    x_blocks : list of (int, int)
+        ``(x_start, x_stop)`` of every rank, in rank order.
+    spectrum_shape : tuple of int
+        ``(M, n2)``: this rank's M mode rows (M may be 0).
+    wavenumber : ndarray of int64, shape spectrum_shape
+        Signed mode index m in (-n/2, n/2] of each local spectrum entry (q = 2 pi m / L).
+        Rows ``0 < k1 < n1/2`` also stand for the conjugate modes -m.
+    transport : str
+        ``"shared"``, ``"messages"``, or ``"none"`` on a one-rank communicator.
+    spectrum : ndarray of complex128, shape spectrum_shape
+        A spectrum buffer for :meth:`forward` and :meth:`inverse` callers (unused by
+        ``apply_diagonal``).
+    pairs : int
+        Number of forward+backward pairs done (``apply_diagonal`` and ``inverse`` count one
+        each).
+    communication_time : float
+        Seconds spent in the four synchronisations per call (``Barrier`` or ``Alltoallv``),
+        including waiting for the other ranks.
+    """
+
+    def __init__(self, comm, n: int, planner_effort: str = "FFTW_MEASURE",
+                 transport: str = "auto"):
+        if transport not in TRANSPORTS:
+            raise ValueError(f"transport must be one of {TRANSPORTS}, got {transport!r}")
+        self.comm, self.n = comm, n
+        self.n1, self.n2 = n1, n2 = split_length(n)
+        size, rank = comm.Get_size(), comm.Get_rank()
+        k1_count = n1 // 2 + 1
+        self._rows = rows = [block_range(n1, size, r) for r in range(size)]
+        self._cols = cols = [block_range(n2, size, r) for r in range(size)]
+        self._modes = modes = [block_range(k1_count, size, r) for r in range(size)]
+        R, C, M = (b - a for a, b in (rows[rank], cols[rank], modes[rank]))
+        self._R, self._C, self._M = R, C, M
+        self._peers = [s for s in range(size) if s != rank]
+
+        self.x_blocks = [(n2 * a, n2 * b) for a, b in rows]
+        self.x_start, self.x_stop = self.x_blocks[rank]
+        self.spectrum_shape = (M, n2)
+        k = np.arange(*modes[rank])[:, None] + n1 * np.arange(n2)[None, :]
+        self.wavenumber = np.where(k <= n // 2, k, k - n).astype(np.int64)
+
+        # Outputs of step 1 and stages A, B, C of rank s, each split into one block per
+        # destination rank t (rows padded, see _padded_width), so that what t reads is one
+        # contiguous block: "pack" (R_s, C_t) field columns (none for t = s), "xt" (C_s, M_t)
+        # stage A, "z" (M_s, C_t) stage B, "h" (C_s, R_t) stage C, each [rows, columns].
+        nrows, ncols, nmodes = ([b - a for a, b in blocks] for blocks in (rows, cols, modes))
+
+        def outputs(s):
+            Rs, Cs, Ms = (b - a for a, b in (rows[s], cols[s], modes[s]))
+            return {"pack": [(Rs if t != s else 0, _padded_width(ncols[t], 8))
+                             for t in range(size)],
+                    "xt": [(Cs, _padded_width(nmodes[t], 16)) for t in range(size)],
+                    "z": [(Ms, _padded_width(ncols[t], 16)) for t in range(size)],
+                    "h": [(Cs, _padded_width(nrows[t], 8)) for t in range(size)]}
+
+        self._window = None
+        if size == 1:
+            self.transport = "none"
+        else:
+            self.transport = self._choose_transport(transport)
+        if self.transport == "shared":
+            mine, theirs = self._shared_buffers(outputs)
+        if self.transport != "shared":
+            mine = {stage: _BlockArray(shapes, _DTYPES[stage])
+                    for stage, shapes in outputs(rank).items()}
+        self._out = mine
+
+        # The blocks of the other ranks that the gathers read, as (rows, columns) views:
+        # A: peer s's field rows in my columns (nr_s, C); B: peer s's columns in my mode rows
+        # (nc_s, M); C: peer s's mode rows in my columns (nm_s, C); F: peer s's columns in my
+        # rows (nc_s, R). Shared: the peers' own output blocks; messages: receive blocks.
+        if self.transport == "shared":
+            self._from = {stage: {s: theirs[s][stage].blocks[rank][:, :width]
+                                  for s in self._peers}
+                          for stage, width in (("pack", C), ("xt", M), ("z", C), ("h", R))}
+        else:
+            self._receive = {
+                stage: _BlockArray([(count[s] if s != rank else 0,
+                                     _padded_width(width, _DTYPES[stage].itemsize))
+                                    for s in range(size)], _DTYPES[stage])
+                for stage, count, width in (("pack", nrows, C), ("xt", ncols, M),
+                                            ("z", nmodes, C), ("h", ncols, R))}
+            self._from = {stage: {s: self._receive[stage].blocks[s][:, :width]
+                                  for s in self._peers}
+                          for stage, width in (("pack", C), ("xt", M), ("z", C), ("h", R))}
+
+        # Twiddles w**(n2*k1) for the local columns, [n2, k1]; the integer product is reduced
+        # mod n before the float division so that the angle is exact for any n.
+        k1 = np.arange(k1_count, dtype=np.int64)[None, :]
+        col = np.arange(*cols[rank], dtype=np.int64)[:, None]
+        self._twiddle = np.exp((-2j * np.pi / n) * ((col * k1) % n))
+        self._twiddle_conj = self._twiddle.conj()
+
+        # Chunks, work arrays and FFTW plans (one pair per distinct chunk height; pyfftw
+        # refuses zero-size arrays, so a rank without columns or mode rows has none).
+        col_chunks = _chunks(C, min(_MAX_COLUMNS, max(1, _COLUMN_CHUNK // n1)))
+        row_chunks = _chunks(M, max(1, _ROW_CHUNK // n2))
+        self._row_blocks = _chunks(R, _ROW_BLOCK)
+        tall = max((b - a for a, b in col_chunks), default=1)
+        high = max((b - a for a, b in row_chunks), default=1)
+        f8, c16 = np.dtype(np.float64), np.dtype(np.complex128)
+        work_real = pyfftw.zeros_aligned((tall, n1), dtype=f8)
+        work_half = pyfftw.zeros_aligned((tall, k1_count), dtype=c16)
+        work_rows = pyfftw.zeros_aligned((high, n2), dtype=c16)
+        flags = (planner_effort, "FFTW_DESTROY_INPUT")
+        column_plans, row_plans = {}, {}
+        for h in {b - a for a, b in col_chunks}:
+            real, half = work_real[:h], work_half[:h]
+            column_plans[h] = (
+                pyfftw.FFTW(real, half, axes=(1,), flags=flags, threads=1),
+                pyfftw.FFTW(half, real, axes=(1,), direction="FFTW_BACKWARD", flags=flags,
+                            threads=1))
+        for h in {b - a for a, b in row_chunks}:
+            work = work_rows[:h]
+            row_plans[h] = (
+                pyfftw.FFTW(work, work, axes=(1,), flags=flags, threads=1),
+                pyfftw.FFTW(work, work, axes=(1,), direction="FFTW_BACKWARD", flags=flags,
+                            threads=1))
+        self._build_steps(col_chunks, row_chunks, column_plans, row_plans,
+                          work_real, work_half, work_rows)
+        # Spectrum buffer for forward/inverse callers (same role as SerialRealFFT.spectrum).
+        self.spectrum = pyfftw.zeros_aligned(self.spectrum_shape, dtype=c16)
+        self.pairs = 0
+        self.communication_time = 0.0
+
+    def _build_steps(self, col_chunks, row_chunks, column_plans, row_plans, work_real,
+                     work_half, work_rows):
+        """Prebuild the views the stages copy between; a call only slices the caller's arrays.
+
+        (Less Python work per call; the gain was below the noise at n = 2**17.)
+        """
+        rank, size = self.comm.Get_rank(), self.comm.Get_size()
+        rows, cols, modes = self._rows, self._cols, self._modes
+        row0, col0, mode0 = rows[rank][0], cols[rank][0], modes[rank][0]
+        C, M, R = self._C, self._M, self._R
+        out, read = self._out, self._from
+        blocks = {stage: out[stage].blocks for stage in out}
+        self._packs = [(blocks["pack"][s][:, :cols[s][1] - cols[s][0]], slice(*cols[s]))
+                       for s in self._peers]
+        self._stage_a, self._stage_b, self._stage_c = [], [], []
+        for a, b in col_chunks:
+            real, half = work_real[:b - a], work_half[:b - a]
+            forward, backward = column_plans[b - a]
+            # A: peers' rows of these columns, then (per call) this rank's rows from field;
+            # rfft; twiddle while writing each destination's mode block.
+            self._stage_a.append((
+                [(real[:, slice(*rows[s])], part[:, a:b].T) for s, part in read["pack"].items()],
+                [(real[:, row0 + p:row0 + q], slice(p, q)) for p, q in self._row_blocks],
+                slice(col0 + a, col0 + b), forward,
+                [(half[:, slice(*modes[t])], self._twiddle[a:b, slice(*modes[t])],
+                  blocks["xt"][t][a:b, :modes[t][1] - modes[t][0]]) for t in range(size)]))
+            # C: every rank's mode rows of these columns, conjugate twiddle, c2r, then each
+            # destination's row block.
+            self._stage_c.append((
+                [(half[:, slice(*modes[s])], part[:, a:b].T) for s, part in read["z"].items()]
+                + [(half[:, mode0:mode0 + M], blocks["z"][rank][:, a:b].T)],
+                half, self._twiddle_conj[a:b], backward,
+                [(blocks["h"][t][a:b, :rows[t][1] - rows[t][0]], real[:, slice(*rows[t])])
+                 for t in range(size)]))
+        for a, b in row_chunks:
+            work = work_rows[:b - a]
+            forward, backward = row_plans[b - a]
+            # B: every rank's columns of these mode rows, FFT, multiplier, inverse FFT, then
+            # each destination's column block.
+            self._stage_b.append((
+                [(work[:, slice(*cols[s])], part[:, a:b].T) for s, part in read["xt"].items()]
+                + [(work[:, col0:col0 + C], blocks["xt"][rank][:, a:b].T)],
+                forward, work, slice(a, b), backward,
+                [(blocks["z"][t][a:b, :cols[t][1] - cols[t][0]], work[:, slice(*cols[t])])
+                 for t in range(size)]))
+        # Final gather: this rank's rows from every rank's h (own part first, see
+        # apply_diagonal), as (rows slice, columns slice, source view).
+        own_h = blocks["h"][rank][:, :R]
+        self._final_own = [(slice(p, q), slice(col0, col0 + C), own_h[:, p:q].T)
+                           for p, q in self._row_blocks]
+        self._final_peers = [(slice(p, q), slice(*cols[s]), part[:, p:q].T)
+                             for s, part in read["h"].items() for p, q in self._row_blocks]
+
+    def _choose_transport(self, transport):
+        """Collective: ``"shared"`` or ``"messages"``, the same on every rank."""
+        if transport == "messages":
+            return transport
+        node = self.comm.Split_type(MPI.COMM_TYPE_SHARED)
+        on_one_node = node.Get_size() == self.comm.Get_size()
+        node.Free()
+        on_one_node = self.comm.allreduce(on_one_node, op=MPI.LAND)
+        if transport == "shared" and not on_one_node:
+            raise ValueError("transport='shared' needs all ranks of comm on one node")
+        return "shared" if on_one_node else "messages"
+
+    def _shared_buffers(self, outputs):
+        """Allocate the stage outputs in a shared window; return mine and the peers'.
+
+        Returns ``(mine, theirs)``: a dict stage -> :class:`_BlockArray` for this rank and
+        one such dict per peer. Falls back to ``transport = "messages"`` (on every rank) if
+        the window cannot be made, e.g. where the MPI library has no shared-memory one-sided
+        component; then returns ``(None, None)``.
+        """
+        comm, rank = self.comm, self.comm.Get_rank()
+
+        def nbytes(s):
+            return sum(_BlockArray.nbytes(shapes, _DTYPES[stage])
+                       for stage, shapes in outputs(s).items())
+
+        try:
+            window = MPI.Win.Allocate_shared(nbytes(rank) + 64, 1, comm=comm)
+            ok = True
+        except MPI.Exception:
+            window, ok = None, False
+        if not comm.allreduce(ok, op=MPI.LAND):
+            if window is not None:
+                window.Free()
+            self.transport = "messages"
+            return None, None
+        self._window = window
+
+        def arrays(s):
+            memory = np.frombuffer(window.Shared_query(s)[0], dtype=np.uint8)
+            start = -memory.ctypes.data % 64  # align every block to a cache line
+            found = {}
+            for stage, shapes in outputs(s).items():
+                size = _BlockArray.nbytes(shapes, _DTYPES[stage])
+                found[stage] = _BlockArray(shapes, _DTYPES[stage],
+                                           memory[start:start + size])
+                start += size
+            return found
+
+        mine = arrays(rank)
+        for stage in mine.values():
+            stage.flat[...] = 0
+        window.Lock_all(MPI.MODE_NOCHECK)
+        self._synchronise()
+        return mine, {s: arrays(s) for s in self._peers}
+
+    def _synchronise(self):
+        """Make every rank's writes to the shared window visible to all ranks."""
+        self._window.Sync()
+        self.comm.Barrier()
+        self._window.Sync()
+
+    def _exchange(self, stage):
+        """Make the peers' blocks of ``stage`` readable (collective on ``comm``)."""
+        start = time.perf_counter()
+        if self.transport == "shared":
+            self._synchronise()
+        elif self.transport == "messages":
+            send, receive = self._out[stage], self._receive[stage]
+            rank = self.comm.Get_rank()
+            counts = [0 if t == rank else c for t, c in enumerate(send.counts)]
+            self.comm.Alltoallv([send.flat, (counts, send.displacements), send.mpi_type],
+                                [receive.flat, (receive.counts, receive.displacements),
+                                 receive.mpi_type])
+        self.communication_time += time.perf_counter() - start
+
+    def apply_diagonal(self, field, diagonal, out):
+        """out = irfft(diagonal * rfft(field)) on the distributed field, without the 1/n.
+
+        Collective on ``comm`` (four synchronisations): every rank must call it, also ranks
+        owning no nodes or no modes.
+
+        Parameters
+        ----------
+        field : ndarray of float64, shape (x_stop - x_start,)
+            This rank's block of the real input field, in its own units (e.g. m).
+        diagonal : ndarray of float64, shape spectrum_shape
+            Multiplier of each local mode, even in m (units of out / units of field, times
+            1/n), e.g. a function of ``abs(wavenumber)``.
+        out : ndarray of float64, shape (x_stop - x_start,)
+            This rank's block of the output (may be ``field``).
+
+        Returns
+        -------
+        out : ndarray
+        """
         source = field.reshape(-1, self.n2)
         target = out.reshape(-1, self.n2)
         copy, multiply = np.copyto, np.multiply
