@@ -717,25 +717,10 @@ class TransposedRealFFT:
         -------
         out : ndarray
         """
-        source = field.reshape(-1, self.n2)
-        target = out.reshape(-1, self.n2)
         copy, multiply = np.copyto, np.multiply
-
-        # 1. The columns of the field that the peers transform.
-        for block, columns in self._packs:
-            copy(block, source[:, columns])
-        self._exchange("pack")
-
-        # 2. Stage A: rfft down the columns, twiddle, rows of the xt blocks.
-        for peers, own, columns, forward, writes in self._stage_a:
-            for to, part in peers:
-                copy(to, part)
-            for to, block in own:
-                copy(to, source[block, columns].T)
-            forward.execute()
-            for half, twiddle, to in writes:
-                multiply(half, twiddle, out=to)
-        self._exchange("xt")
+        # 1-2. The columns of the field to the peers; stage A: rfft down the columns,
+        # twiddle, rows of the xt blocks.
+        self._to_rows(field)
 
         # 3. Stage B: FFT along the rows, multiplier, inverse FFT, rows of the z blocks.
         for gathers, forward, work, chunk, backward, writes in self._stage_b:
@@ -748,21 +733,9 @@ class TransposedRealFFT:
                 copy(to, part)
         self._exchange("z")
 
-        # 4. Stage C: conjugate twiddle, c2r down the columns, rows of the h blocks.
-        for gathers, half, twiddle, backward, writes in self._stage_c:
-            for to, part in gathers:
-                copy(to, part)
-            multiply(half, twiddle, out=half)
-            backward.execute()
-            for to, part in writes:
-                copy(to, part)
-        # 5. This rank's rows from every rank's h: the own columns need no other rank, so
-        # they are copied before the synchronisation (a rank that arrives early waits less).
-        for block, columns, part in self._final_own:
-            copy(target[block, columns], part)
-        self._exchange("h")
-        for block, columns, part in self._final_peers:
-            copy(target[block, columns], part)
+        # 4-5. Stage C: conjugate twiddle, c2r down the columns; this rank's rows from every
+        # rank's h (the own columns before the synchronisation: an early rank waits less).
+        self._from_rows(out)
         self.pairs += 1
         return out
 
