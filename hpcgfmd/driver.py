@@ -26,7 +26,7 @@ from .domain import Domain
 from .fft import plan_real_fft
 from .interface import DugdaleMaugis, edge_positions
 from .material import StandardLinearSolid, ViscoelasticHalfSpace
-from .solver import ConstrainedCG, project_feasible
+from .solver import ConstrainedCG, EdgeWatch, project_feasible
 from .stepping import AdaptiveSteps, FixedSteps
 
 logger = logging.getLogger(__name__)
@@ -134,10 +134,17 @@ class Retraction:
         self._edges_previous = None
 
     # --- one equilibrium -------------------------------------------------------------
-    def _equilibrate(self, ops, dt, solver=None):
+    def _equilibrate(self, ops, dt, solver=None, edge_watch=None):
+        """Solve the step; None when the solve was abandoned by ``edge_watch`` (CG only)."""
         solver = self.solver if solver is None else solver
         np.add(self.profile, self.indenter, out=self.wall)
-        result = solver.solve(self.u, self.wall, ops, self.history)
+        if edge_watch is None:
+            result = solver.solve(self.u, self.wall, ops, self.history)
+        else:
+            result = solver.solve(self.u, self.wall, ops, self.history, edge_watch=edge_watch)
+        if result.abandoned:
+            self.total_iterations += result.iterations
+            return None
         if not math.isfinite(result.residual):
             raise FloatingPointError(f"solver produced a non-finite residual at t = {self.time}")
         if not result.converged:
@@ -183,7 +190,10 @@ class Retraction:
         while True:
             self._save()
             record = self._advance(dt)
-            decision = self.steps.judge(dt, record.time, record.load, self._edge_motion())
+            if record is None:  # abandoned: its edges moved too far, the verdict is known
+                decision = self.steps.judge(dt, self.time, None, math.inf)
+            else:
+                decision = self.steps.judge(dt, record.time, record.load, self._edge_motion())
             if decision.accepted:
                 break
             self.rejected_steps += 1
@@ -193,8 +203,12 @@ class Retraction:
         self.dt_previous = dt
         return record
 
-    def _advance(self, dt) -> StepRecord:
-        """One SLS step of length dt from the current state (paper Eq. 14, physics.md)."""
+    def _advance(self, dt) -> StepRecord | None:
+        """One SLS step of length dt from the current state (paper Eq. 14, physics.md).
+
+        None when the solve was abandoned because its contact edges strayed beyond what the
+        step control accepts (:meth:`stepping.AdaptiveSteps.edge_limit`).
+        """
         self.substrate.history(self.fft, self.u, self.substrate_traction, dt, self.history)
         contact = self.wall - self.u <= 0.0
         self.step_index += 1
@@ -207,9 +221,17 @@ class Retraction:
         if self.case.numerics.solver == "cg":  # the paper's method starts from u_n itself
             ratio = 1.0 if self.dt_previous is None else dt / self.dt_previous
             self._predict(self.case.velocity * dt, contact, ops, ratio)
-        else:
-            np.add(self.profile, self.indenter, out=self.wall)
+            return self._equilibrate(ops, dt, edge_watch=self._edge_watch(dt))
+        np.add(self.profile, self.indenter, out=self.wall)
         return self._equilibrate(ops, dt)
+
+    def _edge_watch(self, dt):
+        """The limit on the solve's edge motion, or None (no contact before, or at dt_min)."""
+        limit = self.steps.edge_limit(dt)
+        left, right = self._edges
+        if not (math.isfinite(limit) and math.isfinite(left) and math.isfinite(right)):
+            return None
+        return EdgeWatch(left, right, limit)
 
     def _edge_motion(self):
         """Largest contact-edge displacement of the last step; inf if the contact (dis)appeared."""
@@ -350,7 +372,8 @@ class Retraction:
                  "rejected_steps": self.rejected_steps,
                  "dt_previous": math.nan if self.dt_previous is None else self.dt_previous,
                  "cut_steps": self.solver.cut_steps,
-                 "residual_steps": self.solver.residual_steps}
+                 "residual_steps": self.solver.residual_steps,
+                 "abandoned_solves": getattr(self.solver, "abandoned", 0)}
         attrs.update(self.steps.state())
         return fields, attrs
 
@@ -373,6 +396,8 @@ class Retraction:
         self.solver.projections = int(attrs["projections"])
         self.solver.cut_steps = int(attrs["cut_steps"])
         self.solver.residual_steps = int(attrs["residual_steps"])
+        if hasattr(self.solver, "abandoned"):
+            self.solver.abandoned = int(attrs.get("abandoned_solves", 0))
         self.rejected_steps = int(attrs["rejected_steps"])
         dt_previous = float(attrs["dt_previous"])
         self.dt_previous = None if math.isnan(dt_previous) else dt_previous

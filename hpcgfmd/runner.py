@@ -197,6 +197,7 @@ def _run(sim, case, path, comm, printer, overwrite, resume, stop, start):
                    "cut_steps": sim.solver.cut_steps,
                    "rejected_predictions": sim.rejected_predictions,
                    "rejected_steps": sim.rejected_steps,
+                   "abandoned_solves": getattr(sim.solver, "abandoned", 0),
                    "moving_edge_predictions": sim.predictor_choice[1],
                    "detachment_indenter": sim.indenter * case.units.length,
                    "detachment_time": sim.time * case.units.time}

@@ -123,3 +123,27 @@ def test_coarse_first_step_does_not_make_pull_off_early(converged):
     assert fixed > reference * (1 - 3e-3)  # the warning is real here
     assert adaptive == pytest.approx(reference, rel=2e-3)
     assert sim.rejected_steps >= 1  # the controller threw away the coarse first attempts
+
+
+def test_abandoned_solves_change_nothing_but_the_cost(monkeypatch):
+    # A solve whose contact edges stray beyond twice the allowance is stopped and the step
+    # repeated with dt / 4, which the finished solve would have got too (stepping module
+    # docstring): on a fast retraction with a snap-off, the same steps and loads bit for bit.
+    text = ("[case]\nmaugis = 3.5\nmodulus_ratio = 0.1\nvelocity = 9.0\ndepth = 0.03\n"
+            "cell = 2.0\nadhesion = 1e-4\n[numerics]\nnx = 2048\n")
+
+    def run():
+        sim = Retraction(parse_case(text), MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
+        records = [sim.preload()]
+        while not sim.detached():
+            records.append(sim.step())
+        sim.close()
+        return [(r.time, r.load) for r in records], sim
+
+    watched, sim = run()
+    monkeypatch.setattr(AdaptiveSteps, "edge_limit", lambda self, dt: math.inf)
+    unwatched, plain = run()
+    assert watched == unwatched
+    assert sim.rejected_steps == plain.rejected_steps > 0
+    assert sim.solver.abandoned > 0 == plain.solver.abandoned
+    assert sim.total_iterations < plain.total_iterations
