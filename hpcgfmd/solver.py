@@ -38,8 +38,8 @@ the solution) and one at the start unless the driver's predictor evaluated the s
 15 passes over the block: r = t - (K u + H - p_applied), its sum and extrema, the mean of z,
 one pass for the three CG dot products (a 2 x 2 matmul of the stacked r, r_old and z, d_old),
 one axpy for d, d.Kd, the trial point's gaps, the axpy on u and the one on K u + H -
-p_applied, plus two passes (the point's gaps) per line-search extension. Everything about the wall, the active set and the cohesive
-law works on the span of nodes with gap < dmax (the contact and its cohesive zone, a few % of
+p_applied, plus three passes (the point's gaps and its span) per line-search extension.
+Everything about the wall, the active set and the cohesive law works on the span of nodes with gap < dmax (the contact and its cohesive zone, a few % of
 the cell), and the traction of a trial point that is taken is not evaluated again. Buffers
 are swapped, not copied, and no array of the block's size is allocated in an iteration
 (``tracemalloc``: 134 KiB peak in a solve at 2^17 nodes and 136 KiB at 2^18, i.e.
@@ -50,7 +50,8 @@ alternated): 4.0-4.2 ms per iteration = 4.6-4.9 bare pairs of time (a bare pair:
 ``apply_diagonal`` timed in the same run, 0.86-0.88 ms), 2.18 pairs per iteration, of which
 the FFTs take 55 % (in the solve a pair costs 1.15 bare pairs: its data come from memory,
 not cache) and the elementwise passes and the interpreter about 2 bare pairs; before this
-layout 6.2-6.8 ms = 7.8 bare pairs, 2.32 pairs per iteration, FFTs 37 %.
+layout 6.2-6.8 ms = 7.8 bare pairs, 2.32 pairs per iteration, FFTs 37 %. With the line
+search (same script, load average 1.2): 3.77 ms = 4.86 bare pairs, 2.21 pairs per iteration.
 
 Parallel layout. Every real-space vector is this rank's block of nodes
 (:class:`hpcgfmd.domain.Domain`); the transforms inside ``fft.apply_diagonal`` are the only

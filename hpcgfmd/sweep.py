@@ -32,19 +32,23 @@ import re
 import tomllib
 from dataclasses import dataclass
 
-from .config import (CASE_KEYS, DT_MIN_PER_DEFAULT, NUMERICS_KEYS, OUTPUT_KEYS, PHYSICAL_KEYS,
-                     Case, CaseError, parse_case)
+from .config import (CASE_KEYS, DEFAULT_STEP_PER_RANGE, NUMERICS_KEYS, OUTPUT_KEYS,
+                     PHYSICAL_KEYS, Case, CaseError, parse_case)
 
 SECTIONS = {"case": CASE_KEYS, "physical": PHYSICAL_KEYS, "numerics": NUMERICS_KEYS,
             "output": OUTPUT_KEYS}
 FARM_KEYS = ("ranks_per_case", "output")
-# Cost model of the dry run and of the longest-first order: measured on this project's
-# default case (lambda0 = 7, V_z = 0.45, 2^17 nodes): 4.1 ms per CG iteration
-# (scripts/bench_iteration.py) and 16.7 iterations per step (more at high speed: ~50 at
-# V_z = 4.5); the indenter travels about 1.2 h0 before detachment.
-SECONDS_PER_NODE_ITERATION = 4.1e-3 / 2**17
-ITERATIONS_PER_STEP = 16.7
+# Cost model of the dry run and of the longest-first order, measured at 2^17 nodes on one
+# rank with the default numerics: the default case (lambda0 = 7, V_z = 0.45) took 1169
+# adaptive steps, 18,252 CG iterations (15.6 per step) and 79 s of CPU time (4.35 ms per
+# iteration); its indenter travelled 1.2 h0 before detachment. The adaptive steps were
+# 0.47x (V_z = 0.45), 0.69x (4.5), 1.7x (9) and 0.83x (lambda0 = 14, V_z = 0.9) the count
+# of the fixed default step (the indenter moving dmax/4 per step), at 20-30 iterations per
+# step at high speed (speed-against-error benchmark, README).
+SECONDS_PER_NODE_ITERATION = 4.35e-3 / 2**17
+ITERATIONS_PER_STEP = 15.6
 TRAVEL_PER_DEPTH = 1.2
+ADAPTIVE_PER_FIXED_STEPS = 0.5
 
 
 class SweepError(ValueError):
@@ -84,11 +88,13 @@ class SweepCase:
             return 0.0
         c = self.case
         num = c.numerics
+        travel_time = TRAVEL_PER_DEPTH * c.depth / c.velocity
         if num.step_control == "fixed":
-            steps = TRAVEL_PER_DEPTH * c.depth / (c.velocity * num.dt)
-        else:  # measured: about half the steps of the fixed default dt (= 64 dt_min)
-            default_dt = num.dt_min / DT_MIN_PER_DEFAULT
-            steps = 0.5 * TRAVEL_PER_DEPTH * c.depth / (c.velocity * default_dt)
+            steps = travel_time / num.dt
+        else:  # about half the steps of the fixed default, and at least travel / dt_max
+            default_dt = DEFAULT_STEP_PER_RANGE * c.dmax / c.velocity
+            steps = max(ADAPTIVE_PER_FIXED_STEPS * travel_time / default_dt,
+                        travel_time / num.dt_max)
         per_step = ITERATIONS_PER_STEP if num.solver == "cg" else num.equilibration_steps
         return steps * per_step * num.nx * SECONDS_PER_NODE_ITERATION
 

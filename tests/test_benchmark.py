@@ -47,13 +47,16 @@ def test_rows_errors_and_extrapolation(serial):
     reference = next(r for r in serial if r["solver"] == "reference")
     assert float(reference["pulloff_error"]) == 0.0
     # the error falls with the step control's allowance and tolerance (second order in it)
-    coarse = rows["f=2 tol=1e-5"]
+    coarsest = rows["f=4 tol=1e-4"]
+    coarse = rows["f=2 tol=1e-4"]
     middle = rows["f=1 tol=1e-5"]
     default = rows["f=0.5 tol=1e-6"]
     assert float(default["pulloff_error"]) < float(middle["pulloff_error"]) < 1e-2
     assert float(default["pulloff_error"]) < float(coarse["pulloff_error"]) < 1e-2
+    # (on this small case f = 4 and f = 2 take the same steps: the load criterion binds)
+    assert float(coarse["pulloff_error"]) <= float(coarsest["pulloff_error"]) < 1e-2
     assert float(default["curve_error"]) < float(coarse["curve_error"])
-    assert int(coarse["fft_pairs"]) < int(default["fft_pairs"])
+    assert int(coarsest["fft_pairs"]) <= int(coarse["fft_pairs"]) < int(default["fft_pairs"])
     fine = float(default["pulloff_error"])
     # the coarser grid is the less accurate
     assert float(rows["nx=1024"]["pulloff_error"]) > fine
