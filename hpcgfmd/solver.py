@@ -20,10 +20,11 @@ the linearised adhesion is an upper bound of E: every step of length in (0, 2 al
 CG direction, alpha* the bound's minimiser, lowers E. The same holds from every point of the
 line with its own slope, so the line search goes on beyond alpha* while the energy provably
 falls (:meth:`ConstrainedCG._line_search`; without it the step was capped at 1.9 alpha* in
-half of all iterations, and the iteration count fell 3x with it). Steps that would cross the wall are
-either projected (accepted only if E drops) or cut at the first contact (inside that
-interval; when the CG direction presses on a node already on the wall, the step is taken
-along the projected residual instead, whose first contact is at a positive length). Every
+half of all iterations, and the iteration count fell 2.4-2.9x with it). Steps that would
+cross the wall are either projected (accepted only if E drops) or cut at the first contact
+(inside that interval; when the CG direction presses on a node already on the wall, the step
+is taken along the projected residual instead, whose first contact is at a positive
+length). Every
 iteration lowers E: the solver goes downhill from its start, the previous step's equilibrium
 or a guess of lower energy, and ends in the local minimum of that basin, the physical branch.
 
@@ -39,11 +40,14 @@ the solution) and one at the start unless the driver's predictor evaluated the s
 one pass for the three CG dot products (a 2 x 2 matmul of the stacked r, r_old and z, d_old),
 one axpy for d, d.Kd, the trial point's gaps, the axpy on u and the one on K u + H -
 p_applied, plus three passes (the point's gaps and its span) per line-search extension.
-Everything about the wall, the active set and the cohesive law works on the span of nodes with gap < dmax (the contact and its cohesive zone, a few % of
-the cell), and the traction of a trial point that is taken is not evaluated again. Buffers
-are swapped, not copied, and no array of the block's size is allocated in an iteration
-(``tracemalloc``: 134 KiB peak in a solve at 2^17 nodes and 136 KiB at 2^18, i.e.
-independent of n: numpy's internal buffers and the few straddling elements of the law).
+Everything about the wall, the active set and the cohesive law works on the span of nodes
+with gap < dmax (the contact and its cohesive zone, a few % of the cell), and the traction
+of a trial point that is taken is not evaluated again. Buffers are swapped, not copied, and
+no array of the block's size is allocated in a CG iteration or a line-search extension.
+The rare projected step evaluates the energy, whose cohesive part makes temporaries of the
+interaction span's size (about 45 bytes per node with gap < dmax): ``tracemalloc`` peaks of
+164, 324 and 645 KiB in a solve of the default case at 2^16, 2^17 and 2^18 nodes (20 steps
+in; 1-3 projections; 3.7k, 7.3k and 14.6k nodes within dmax), against blocks of 0.5-2 MiB.
 Measured with ``scripts/bench_iteration.py --n 17 --steps 20`` (default case, one rank, on a
 2-core machine shared with other jobs, load average 8-10; two runs of each version,
 alternated): 4.0-4.2 ms per iteration = 4.6-4.9 bare pairs of time (a bare pair:
@@ -459,8 +463,8 @@ class ConstrainedCG:
     def _strayed(self, watch, left, right):
         """True when an edge of the iterate's contact is farther than ``watch.limit`` away.
 
-        The iterate's edges are nodes, the watched ones interpolated: one node spacing each
-        side is allowed for the difference. An iterate without contact is no verdict: the
+        The iterate's edges are nodes, the watched ones interpolated between nodes: two node
+        spacings are allowed for the difference. An iterate without contact is no verdict: the
         start of a step (the wall has risen) and the iterates between a projection and the
         next contact have none.
         """
