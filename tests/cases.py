@@ -14,3 +14,22 @@ def case_text(numerics="nx = 2048", output="", prefix=""):
     groups = "".join(f"{key} = {value!r}\n" for key, value in GROUPS.items())
     text = f"[{prefix}case]\n{groups}[{prefix}numerics]\n{numerics}\n"
     return text + (f"[{prefix}output]\n{output}\n" if output else "")
+
+
+def pull_off_run(text):
+    """A whole serial retraction of the case file ``text``: (pull-off Lbar, the finished run).
+
+    The pull-off is the most tensile load over the run (preload included) in load scales.
+    """
+    from mpi4py import MPI
+
+    from hpcgfmd.config import parse_case
+    from hpcgfmd.driver import Retraction
+
+    case = parse_case(text)
+    sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
+    loads = [sim.preload().load]
+    while not sim.detached():
+        loads.append(sim.step().load)
+    sim.close()
+    return min(loads) / case.load_scale, sim

@@ -114,19 +114,10 @@ def test_every_iteration_lowers_the_energy(k, velocity):
 
 def _retraction(k, velocity):
     """Whole retraction of a small case: (pull-off Lbar, the run)."""
-    from mpi4py import MPI
+    from cases import pull_off_run
 
-    from hpcgfmd.config import parse_case
-    from hpcgfmd.driver import Retraction
-
-    case = parse_case(f"[case]\nmaugis = 3.5\nmodulus_ratio = {k}\nvelocity = {velocity}\n"
-                      "depth = 0.03\ncell = 2.0\nadhesion = 1e-4\n[numerics]\nnx = 2048\n")
-    sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
-    loads = [sim.preload().load]
-    while not sim.detached():
-        loads.append(sim.step().load)
-    sim.close()
-    return min(loads) / case.load_scale, sim
+    return pull_off_run(f"[case]\nmaugis = 3.5\nmodulus_ratio = {k}\nvelocity = {velocity}\n"
+                        "depth = 0.03\ncell = 2.0\nadhesion = 1e-4\n[numerics]\nnx = 2048\n")
 
 
 @pytest.mark.parametrize("k, velocity", [(1.0, 1.0), (0.1, 9.0)])

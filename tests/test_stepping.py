@@ -10,7 +10,7 @@ from hpcgfmd.config import parse_case
 from hpcgfmd.driver import Retraction
 from hpcgfmd.stepping import AdaptiveSteps
 
-from cases import case_text
+from cases import case_text, pull_off_run
 
 
 def controller(**kw):
@@ -81,13 +81,7 @@ def test_state_round_trip():
 
 
 def pull_off(numerics):
-    case = parse_case(case_text(numerics=numerics))
-    sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
-    loads = [sim.preload().load]
-    while not sim.detached():
-        loads.append(sim.step().load)
-    sim.close()
-    return min(loads) / case.load_scale, sim
+    return pull_off_run(case_text(numerics=numerics))
 
 
 @pytest.fixture(scope="module")
