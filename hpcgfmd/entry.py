@@ -1,8 +1,8 @@
 """Process entry point shared by ``python -m hpcgfmd`` and the ``hpcgfmd`` console script.
 
 Sets one BLAS thread per process before numpy is imported: the solver's vector dot products
-are tiny and OpenBLAS's spinning threads made them 10x slower on a loaded 2-core node
-(measured: 78 s -> 19 s for 300 steps at n_x = 2^15); MPI ranks supply the parallelism.
+are tiny and OpenBLAS's spinning threads slow them down on a loaded node (docs/results.md);
+MPI ranks supply the parallelism.
 
 This is the only place that names ``MPI.COMM_WORLD``: the command line receives it as its
 communicator. Under MPI with more than one rank an uncaught exception on one rank aborts all

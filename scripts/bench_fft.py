@@ -6,9 +6,9 @@
 For each n = 2**e three transforms are timed, interleaved round by round so that a change of
 the machine's load hits all of them alike:
 
-* ``serial``: :class:`hpcgfmd.fft.SerialRealFFT` on rank 0 alone;
-* ``T x 1``: :class:`hpcgfmd.fft.TransposedRealFFT` on ``COMM_SELF`` of rank 0 alone;
-* ``T x P``: :class:`hpcgfmd.fft.TransposedRealFFT` on ``COMM_WORLD`` (only when P > 1).
+* ``serial``: :class:`hpcgfmd.parallel.SerialRealFFT` on rank 0 alone;
+* ``T x 1``: :class:`hpcgfmd.parallel.TransposedRealFFT` on ``COMM_SELF`` of rank 0 alone;
+* ``T x P``: :class:`hpcgfmd.parallel.TransposedRealFFT` on ``COMM_WORLD`` (only when P > 1).
 
 While rank 0 plans or runs alone the other ranks sleep in a polled ``Ibarrier`` (they do not
 spin, so rank 0 has a core to itself as in a one-rank run). A call's time is the wall time on
@@ -32,7 +32,8 @@ import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from hpcgfmd.fft import TRANSPORTS, SerialRealFFT, TransposedRealFFT  # noqa: E402
+from hpcgfmd.parallel.fft import SerialRealFFT, TransposedRealFFT
+from hpcgfmd.parallel.fft_transposed import TRANSPORTS  # noqa: E402
 
 
 def release(comm):

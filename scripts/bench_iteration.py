@@ -5,8 +5,8 @@
 
 Builds the paper's default case (lambda0 = 7, k = 0.1, V_z = 0.45, h0/R = 0.1, L/R = 10,
 alpha = 5e-5; ``hpcgfmd/default_case.toml``) at n_x = 2**n, runs the preload and ``--steps``
-retraction steps of :class:`hpcgfmd.driver.Retraction`, and reports for the solves of the
-retraction steps (:meth:`hpcgfmd.solver.ConstrainedCG.solve` only: the predictor, history
+retraction steps of :class:`hpcgfmd.runs.protocol.Retraction`, and reports for the solves of the
+retraction steps (:meth:`hpcgfmd.solvers.cg.ConstrainedCG.solve` only: the predictor, history
 and records of a step are outside):
 
 * ms per CG iteration (solve wall time / iterations; the one FFT pair at the start and the
@@ -52,8 +52,8 @@ import pyfftw.builders  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from hpcgfmd.config import parse_case  # noqa: E402
-from hpcgfmd.driver import Retraction  # noqa: E402
+from hpcgfmd.model.case import parse_case  # noqa: E402
+from hpcgfmd.runs.protocol import Retraction  # noqa: E402
 
 DEFAULT_GROUPS = {"maugis": 7.0, "modulus_ratio": 0.1, "velocity": 0.45, "depth": 0.1,
                   "cell": 10.0, "adhesion": 5e-5}
@@ -303,8 +303,7 @@ def main():
         "mpi_ms_per_iteration": 1e3 * comm.allreduce(profile.mpi_time, op=MPI.MAX) / its,
         "load_last": loads[-1], "iterations_total": int(sum(iterations[1:])),
         "iterations_preload": int(iterations[0]),
-        "projections": sim.solver.projections, "cut_steps": sim.solver.cut_steps,
-        "residual_steps": sim.solver.residual_steps,
+        **{key: sim.solver.statistics()[key] for key in STATISTICS},
         "pairs_outside_solves": sim.fft.pairs - start_pairs - profile.pairs,
         "setup_s": setup, "load_average": os.getloadavg()[0],
     }
@@ -332,10 +331,11 @@ def main():
           f" collectives {result['collective_ms_per_iteration']:.3f} ms"
           f" ({100 * result['collective_share']:.0f} %); MPI calls in the collectives and"
           f" transforms {result['mpi_ms_per_iteration']:.3f} ms")
-    print(f"  solver: {sim.solver.projections} projections, {sim.solver.cut_steps} cut steps,"
-          f" {sim.solver.residual_steps} along the residual,"
-          f" {getattr(sim.solver, 'held_steps', '?')} with held nodes,"
-          f" {getattr(sim.solver, 'recalled', '?')} first transforms recalled"
+    stats = sim.solver.statistics()
+    print(f"  solver: {stats['projections']} projections, {stats['cut_steps']} cut steps,"
+          f" {stats['residual_steps']} along the residual,"
+          f" {stats['held_steps']} with held nodes,"
+          f" {stats['recalled']} first transforms recalled"
           f" (since start, {profile.solves} timed solves)")
     if temporaries is not None:
         print(f"  tracemalloc: peak {result['temporaries_kib']:.1f} KiB above the start of a"

@@ -3,7 +3,7 @@
 What is measured (one row per grid size and rank count, appended to a CSV file)
     The paper's default case (lambda0 = 7, k = 0.1, V_z = 0.45, h0/R = 0.1, L/R = 10,
     alpha = 5e-5, default dt and tolerance) on a grid of n_x = 2^N nodes. The run builds the
-    :class:`~hpcgfmd.driver.Retraction` (``setup``: dominated by FFTW planning), solves the
+    :class:`~hpcgfmd.runs.protocol.Retraction` (``setup``: dominated by FFTW planning), solves the
     preload from the flat surface (``preload``, reported with its iterations but not part of
     the per-step cost), then times ``--steps`` retraction steps exactly as the production loop
     does them (a detachment test and one step each, no output file), between two barriers.
@@ -103,8 +103,8 @@ def measure(comm, nx, steps, planner):
     """
     from mpi4py import MPI
 
-    from hpcgfmd.config import parse_case
-    from hpcgfmd.driver import Retraction
+    from hpcgfmd.model.case import parse_case
+    from hpcgfmd.runs.protocol import Retraction
 
     row = {"started": datetime.datetime.now().isoformat(timespec="seconds"),
            "ranks": comm.Get_size(), "nx": nx, "planner": planner}
@@ -176,7 +176,7 @@ def run_here(args):
     """Measure every grid on COMM_WORLD and append the rows (rank 0 prints and writes)."""
     from mpi4py import MPI
 
-    from hpcgfmd import config
+    from hpcgfmd.model import case as config
 
     # Cost, not accuracy, is measured: accept the quick test grid 2^14 (w/dx = 0.97 < 1).
     config.MIN_ZONE_POINTS = 0.5

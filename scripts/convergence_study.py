@@ -20,10 +20,10 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):  # one BLAS thread, as 
 
 from mpi4py import MPI  # noqa: E402
 
-from hpcgfmd import config  # noqa: E402
-from hpcgfmd.analysis import read_series  # noqa: E402
-from hpcgfmd.config import DEFAULT_STEP_PER_RANGE, parse_case  # noqa: E402
-from hpcgfmd.runner import run_case  # noqa: E402
+from hpcgfmd.model import case as config  # noqa: E402
+from hpcgfmd.storage.reader import read_series  # noqa: E402
+from hpcgfmd.model.case import DEFAULT_STEP_PER_RANGE, parse_case  # noqa: E402
+from hpcgfmd.runs.single_case import run_case  # noqa: E402
 
 
 def case_text(lam, vz, nx, dt_factor, depth=0.1):
@@ -65,7 +65,7 @@ def main():
                 case = parse_case(case_text(lam, vz, nx, factor))
                 path = os.path.join(tmp, f"{lam}_{vz}_{nx}_{factor}.h5")
                 start = time.monotonic()
-                summary = run_case(case, path, MPI.COMM_SELF, printer=lambda *line: None)
+                summary = run_case(case, path, MPI.COMM_SELF)
                 s = read_series(path)
                 i = s.pull_off()
                 row = {"lambda0": lam, "Vz": vz, "nx": nx, "dt_factor": factor,

@@ -1,18 +1,25 @@
-"""The small fast case the parallel, farm and SLURM tests share.
+"""The one builder of case files for the tests, and the small fast case they share.
 
-lambda0 = 3.5, k = 0.1, V_z = 1 on a cell of L/R = 2 at h0/R = 0.03 (alpha = 1e-4): about
-217 steps, 1-6 s on one core for nx = 2048-8192 (measured), with a real viscoelastic
-retraction (pull-off, jumps) to compare between runs.
+:data:`GROUPS`: lambda0 = 3.5, k = 0.1, V_z = 1 on a cell of L/R = 2 at h0/R = 0.03
+(alpha = 1e-4): about 217 steps, 1-6 s on one core for nx = 2048-8192, with a real
+viscoelastic retraction (pull-off, jumps) to compare between runs.
 """
 
 GROUPS = {"maugis": 3.5, "modulus_ratio": 0.1, "velocity": 1.0, "depth": 0.03, "cell": 2.0,
           "adhesion": 1e-4}
 
 
-def case_text(numerics="nx = 2048", output="", prefix=""):
-    """A case file of :data:`GROUPS`; ``prefix = "base."`` gives a sweep file's base."""
-    groups = "".join(f"{key} = {value!r}\n" for key, value in GROUPS.items())
-    text = f"[{prefix}case]\n{groups}[{prefix}numerics]\n{numerics}\n"
+def case_text(numerics="nx = 2048", output="", prefix="", **groups):
+    """A case file of :data:`GROUPS` changed by ``groups``.
+
+    A value of None leaves the key out; a string is written as it is (so a test can write
+    ``maugis='"seven"'``). ``numerics`` and ``output`` are the sections' lines;
+    ``prefix = "base."`` gives a sweep file's base.
+    """
+    values = {**GROUPS, **groups}
+    body = "".join(f"{key} = {value if isinstance(value, str) else repr(value)}\n"
+                   for key, value in values.items() if value is not None)
+    text = f"[{prefix}case]\n{body}[{prefix}numerics]\n{numerics}\n"
     return text + (f"[{prefix}output]\n{output}\n" if output else "")
 
 
@@ -23,8 +30,8 @@ def pull_off_run(text):
     """
     from mpi4py import MPI
 
-    from hpcgfmd.config import parse_case
-    from hpcgfmd.driver import Retraction
+    from hpcgfmd.model.case import parse_case
+    from hpcgfmd.runs.protocol import Retraction
 
     case = parse_case(text)
     sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")

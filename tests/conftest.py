@@ -9,10 +9,10 @@ import pytest  # noqa: E402
 
 from mpi4py import MPI  # noqa: E402
 
-from hpcgfmd.domain import Domain  # noqa: E402
-from hpcgfmd.fft import plan_real_fft  # noqa: E402
-from hpcgfmd.interface import DugdaleMaugis  # noqa: E402
-from hpcgfmd.solver import ConstrainedCG  # noqa: E402
+from hpcgfmd.parallel.domain import Domain  # noqa: E402
+from hpcgfmd.parallel.fft import plan_real_fft  # noqa: E402
+from hpcgfmd.model.interface import DugdaleMaugis  # noqa: E402
+from hpcgfmd.solvers.cg import ConstrainedCG  # noqa: E402
 
 
 class Grid:

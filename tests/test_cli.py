@@ -8,17 +8,15 @@ import h5py
 import numpy as np
 import pytest
 
-from hpcgfmd.analysis import read_series
-from hpcgfmd.config import TARGET_ZONE_POINTS, parse_case
+from hpcgfmd.model.case import TARGET_ZONE_POINTS, parse_case
+from hpcgfmd.storage.reader import read_series
 
-GOOD = {"maugis": "1.0", "modulus_ratio": "1.0", "velocity": "1.0", "depth": "0.03",
-        "cell": "2.0", "adhesion": "1e-4"}
+import cases
 
 
 def case_text(numerics="nx = 1024", output="", **changes):
-    keys = {**GOOD, **changes}
-    body = "".join(f"{k} = {v}\n" for k, v in keys.items() if v is not None)
-    return f"[case]\n{body}[numerics]\n{numerics}\n" + (f"[output]\n{output}\n" if output else "")
+    """The tests' case made elastic with lambda = 1 (fast), changed by ``changes``."""
+    return cases.case_text(numerics, output, **{"maugis": 1.0, "modulus_ratio": 1.0, **changes})
 
 
 def hpcgfmd(*args, cwd, timeout=300):

@@ -24,9 +24,11 @@ MPIRUN = shutil.which("mpirun")
 pytestmark = [pytest.mark.mpi,
               pytest.mark.skipif(MPIRUN is None, reason="OpenMPI's mpirun is not installed")]
 
-CASE = case_text("nx = {nx}\ntolerance = 1e-13",
-                 "snapshot_times = [0.0, 3.0, 8.0, 12.0]\nsnapshot_zero_load = true\n"
-                 "checkpoint_steps = {checkpoint_steps}")
+def case(nx=2048, checkpoint_steps=0, tolerance="1e-13", more="", **groups):
+    """The tests' case at the solver's round-off floor, with snapshots and checkpoints."""
+    return case_text(f"nx = {nx}\ntolerance = {tolerance}{more}",
+                     "snapshot_times = [0.0, 3.0, 8.0, 12.0]\nsnapshot_zero_load = true\n"
+                     f"checkpoint_steps = {checkpoint_steps}", **groups)
 SERIES = ("time", "indenter", "load", "contact_half_width", "cohesive_half_width")
 
 
@@ -86,7 +88,7 @@ def assert_same(reference, other, tolerance, edge_tolerance=None, field_toleranc
 @pytest.fixture(scope="module")
 def serial_run(tmp_path_factory):
     cwd = tmp_path_factory.mktemp("serial")
-    (cwd / "case.toml").write_text(CASE.format(nx=2048, checkpoint_steps=0))
+    (cwd / "case.toml").write_text(case())
     done = run(0, "run", "case.toml", "-o", "serial.h5", cwd=cwd)
     assert done.returncode == 0, done.stderr
     return cwd, read(cwd / "serial.h5")
@@ -105,7 +107,7 @@ def test_same_answer_on_any_rank_count(serial_run, tmp_path, ranks):
 
 def interrupt(tmp_path, ranks, signum):
     """Start a run, signal it at a random step after its first checkpoint, return the result."""
-    (tmp_path / "case.toml").write_text(CASE.format(nx=2048, checkpoint_steps=5))
+    (tmp_path / "case.toml").write_text(case(checkpoint_steps=5))
     process = subprocess.Popen(command(ranks, "run", "case.toml", "-o", "out.h5"),
                                cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                text=True, env=environment())
@@ -153,7 +155,7 @@ def test_checkpoint_of_another_case_is_refused(serial_run, tmp_path):
     cwd, _ = serial_run
     status, stdout, stderr = interrupt(tmp_path, 0, signal.SIGTERM)
     assert status == 75, stderr
-    other = CASE.format(nx=2048, checkpoint_steps=5).replace("velocity = 1.0", "velocity = 2.0")
+    other = case(checkpoint_steps=5, velocity=2.0)
     (tmp_path / "other.toml").write_text(other)
     before = (tmp_path / "out.h5").read_bytes()
     done = run(2, "run", "other.toml", "-o", "out.h5", cwd=tmp_path)
@@ -191,8 +193,7 @@ def test_failure_on_one_rank_stops_all_ranks(tmp_path):
 def test_non_convergence_stops_every_rank_with_status_1(tmp_path):
     # A failure every rank detects alike (from reduced values): status 1 from all ranks and
     # one line from rank 0, no hang. Here the preload fails, before the file is created.
-    text = CASE.format(nx=2048, checkpoint_steps=0).replace(
-        "tolerance = 1e-13", "tolerance = 1e-13\nmax_iterations = 3")
+    text = case(more="\nmax_iterations = 3")
     (tmp_path / "case.toml").write_text(text)
     done = run(2, "run", "case.toml", "-o", "out.h5", cwd=tmp_path)
     assert done.returncode == 1, done.stderr
@@ -204,7 +205,7 @@ def test_non_convergence_stops_every_rank_with_status_1(tmp_path):
 def test_ranks_that_own_no_nodes(tmp_path):
     # nx = 64 is split as 8 rows of 8 nodes (and 5 mode rows): on 10 ranks, ranks 8 and 9 own
     # no nodes and ranks 5 to 9 no modes; they take part in every collective, halo and write.
-    text = CASE.format(nx=64, checkpoint_steps=0).replace("maugis = 3.5", "maugis = 1.0")
+    text = case(nx=64, maugis=1.0)
     (tmp_path / "case.toml").write_text(text)
     serial = run(0, "run", "case.toml", "-o", "serial.h5", cwd=tmp_path)
     assert serial.returncode == 0, serial.stderr
@@ -216,7 +217,7 @@ def test_ranks_that_own_no_nodes(tmp_path):
 def test_signal_during_set_up_exits_75_with_nothing_written(tmp_path):
     # FFTW planning and the preload at 2^16 take seconds: a signal then must not kill the run
     # (SLURM's warning can come at any moment); nothing was computed, so nothing is written.
-    text = CASE.format(nx=65536, checkpoint_steps=0).replace("1e-13", "1e-7")
+    text = case(nx=65536, tolerance="1e-7")
     (tmp_path / "case.toml").write_text(text)
     process = subprocess.Popen(command(2, "run", "case.toml", "-o", "out.h5"), cwd=tmp_path,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,

@@ -11,9 +11,10 @@ import h5py
 import numpy as np
 import pytest
 
-from hpcgfmd.analysis import read_series
-from hpcgfmd.config import parse_case
-from hpcgfmd.sweep import SweepError, parse_sweep
+from hpcgfmd.storage.reader import read_series
+from hpcgfmd.model.case import parse_case
+from hpcgfmd.errors import SweepError
+from hpcgfmd.runs.sweep import parse_sweep
 from cases import case_text
 
 MPIRUN = shutil.which("mpirun")
@@ -29,10 +30,7 @@ def test_grid_times_cases_and_overrides():
     assert first.name == "velocity_0.5-depth_0.03"
     assert last.name == "maugis_1.0-nx_2048-velocity_2.0-depth_0.02"
     # each case file is the base with its values: the same Case as writing it by hand
-    by_hand = parse_case(BASE.replace("[base.", "[").replace("velocity = 1.0", "velocity = 2.0")
-                         .replace("depth = 0.03", "depth = 0.02")
-                         .replace("maugis = 3.5", "maugis = 1.0")
-                         .replace("nx = 1024", "nx = 2048"))
+    by_hand = parse_case(case_text("nx = 2048", velocity=2.0, depth=0.02, maugis=1.0))
     assert last.case.identity() == by_hand.identity()
     assert all(c.error is None for c in sweep.cases)
 
@@ -53,7 +51,7 @@ def test_an_invalid_case_is_kept_with_its_error():
     (BASE + "[[cases]]\nvelocity = 1.0\n[[cases]]\nvelocity = 1.0\n", ["same case"]),
     ("cases = []\n" + BASE, ["cases = []", "at least one"]),
     (BASE + "[grid]\nvelocity = [1.0]\n[[cases]]\nvelocity = 3.0\n", ["velocity", "both"]),
-    (BASE.replace("maugis = 3.5", 'maugis = "x"') + "[grid]\nvelocity = [1.0, 2.0]\n",
+    (case_text("nx = 1024", prefix="base.", maugis='"x"') + "[grid]\nvelocity = [1.0, 2.0]\n",
      ["no valid case", "maugis"]),
 ])
 def test_bad_sweep_files_are_rejected(text, words):
@@ -63,7 +61,7 @@ def test_bad_sweep_files_are_rejected(text, words):
 
 
 def test_base_from_a_case_file(tmp_path):
-    (tmp_path / "case.toml").write_text(BASE.replace("[base.", "["))
+    (tmp_path / "case.toml").write_text(case_text("nx = 1024"))
     sweep = parse_sweep('base = "case.toml"\n[grid]\nvelocity = [1.0, 2.0]\n', str(tmp_path))
     assert [c.case.Vz for c in sweep.cases] == [1.0, 2.0]
 
@@ -117,8 +115,7 @@ def test_farm_signal_checkpoints_and_the_same_command_finishes(tmp_path):
     # Three cases on two single-rank groups; SIGUSR1 (forwarded by mpirun) stops them with
     # checkpoints (status 75); the same command on one group of two ranks finishes them,
     # each equal to a direct serial run of its case.
-    base = BASE.replace("nx = 1024", "nx = 2048\ntolerance = 1e-13") + \
-        "[base.output]\ncheckpoint_steps = 5\n"
+    base = case_text("nx = 2048\ntolerance = 1e-13", "checkpoint_steps = 5", prefix="base.")
     (tmp_path / "sweep.toml").write_text(base + "[grid]\nvelocity = [0.6, 0.8, 1.0]\n")
     process = subprocess.Popen(farm_command(2, "sweep.toml", "-o", "out"), cwd=tmp_path,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from hpcgfmd.fft import (RealFFT, SerialRealFFT, TransposedRealFFT, plan_real_fft,
-                         split_length)
-from hpcgfmd.parallel import block_range
+from hpcgfmd.parallel.fft import SerialRealFFT, TransposedRealFFT, plan_real_fft
+from hpcgfmd.parallel.fft_transposed import split_length
+from hpcgfmd.parallel.blocks import block_range
 
 SIZES = [2, 16, 30, 64, 96, 1000, 2**12]
 
@@ -43,7 +43,6 @@ def test_apply_diagonal_matches_numpy(n, transposed):
     fft.apply_diagonal(in_place, multiplier[np.abs(fft.wavenumber)], in_place)
     np.testing.assert_array_equal(in_place, out)
     assert fft.pairs == 2
-    assert fft.communication_time >= 0.0
 
 
 @pytest.mark.parametrize("n", SIZES)
@@ -82,15 +81,15 @@ def test_transport_on_one_rank(transport):
     field = np.random.default_rng(0).standard_normal(64)
     out = fft.apply_diagonal(field, np.ones(fft.spectrum_shape) / 64, np.empty(64))
     np.testing.assert_allclose(out, field, atol=1e-14)
-    assert fft.communication_time >= 0.0
     fft.close()
     with pytest.raises(ValueError):
         TransposedRealFFT(MPI.COMM_SELF, 64, "FFTW_ESTIMATE", transport="carrier pigeon")
 
 
-def test_factory_and_alias():
-    assert RealFFT is SerialRealFFT
+def test_factory_picks_the_serial_transform_on_one_rank():
     assert isinstance(plan_real_fft(MPI.COMM_SELF, 16, "FFTW_ESTIMATE"), SerialRealFFT)
+    assert isinstance(plan_real_fft(MPI.COMM_SELF, 16, "FFTW_ESTIMATE", transposed=True),
+                      TransposedRealFFT)
 
 
 @pytest.mark.parametrize("n", [0, 1, 5, 8, 64, 97])

@@ -4,8 +4,8 @@ import pytest
 
 from mpi4py import MPI
 
-from hpcgfmd.domain import Domain
-from hpcgfmd.interface import DugdaleMaugis, edge_positions
+from hpcgfmd.parallel.domain import Domain
+from hpcgfmd.model.interface import DugdaleMaugis, edge_positions
 
 
 def periodic(gap):

@@ -10,16 +10,17 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from hpcgfmd import checkpoint as ckpt
-from hpcgfmd.analysis import read_series
-from hpcgfmd.checkpoint import (checkpoint_path, read_checkpoint, remove_checkpoint,
+from hpcgfmd.storage import checkpoint as ckpt
+from hpcgfmd.storage.reader import read_series
+from hpcgfmd.storage.checkpoint import (checkpoint_path, read_checkpoint, remove_checkpoint,
                                 write_checkpoint)
-from hpcgfmd.config import parse_case
-from hpcgfmd.output import SERIES, SERIES_UNITS, CaseFile
+from hpcgfmd.model.case import parse_case
+from hpcgfmd.storage.casefile import SERIES, SERIES_UNITS, CaseFile
+
+from cases import case_text
 
 COMM = MPI.COMM_SELF
-CASE_TEXT = ("[case]\nmaugis = 1.0\nmodulus_ratio = 1.0\nvelocity = 1.0\ndepth = 0.03\n"
-             "cell = 2.0\nadhesion = 1e-4\n[numerics]\nnx = 64\n")
+CASE_TEXT = case_text("nx = 64", maugis=1.0, modulus_ratio=1.0)
 
 
 PHYSICAL_TEXT = ("[physical]\nradius = 1e-3\nmodulus_relaxed = 1e6\nmodulus_instantaneous = 1e7\n"

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from hpcgfmd.material import StandardLinearSolid, ViscoelasticHalfSpace
+from hpcgfmd.model.material import StandardLinearSolid, ViscoelasticHalfSpace
 
 SLS = StandardLinearSolid(e_relaxed=1.0, e_instantaneous=10.0, relaxation_time=1.0)
 

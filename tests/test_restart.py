@@ -9,9 +9,10 @@ changes the iteration path and so the series at about 1e-8: this test would see 
 import numpy as np
 from mpi4py import MPI
 
-from hpcgfmd.analysis import read_series
-from hpcgfmd.config import parse_case
-from hpcgfmd.runner import Interrupted, run_case
+from hpcgfmd.storage.reader import read_series
+from hpcgfmd.model.case import parse_case
+from hpcgfmd.errors import Interrupted
+from hpcgfmd.runs.single_case import run_case
 from cases import case_text
 
 CASE = case_text("nx = 2048", "snapshot_times = [0.0, 3.0, 8.0]\nsnapshot_zero_load = true")
@@ -31,7 +32,7 @@ class StopAtStep:
 
 def test_interrupted_and_resumed_equals_uninterrupted_bitwise(tmp_path):
     case = parse_case(CASE)
-    quiet = {"printer": lambda *a: None, "planner_effort": "FFTW_ESTIMATE"}
+    quiet = {"planner_effort": "FFTW_ESTIMATE"}
     run_case(case, tmp_path / "whole.h5", MPI.COMM_SELF, **quiet, stop=StopAtStep(10**9))
     try:  # one look after the preload, then one per step: stops after step 38
         run_case(case, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, stop=StopAtStep(38))

@@ -14,18 +14,19 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from hpcgfmd import theory
-from hpcgfmd.analysis import read_series
-from hpcgfmd.config import parse_case
-from hpcgfmd.runner import run_case
+from hpcgfmd.model import theory
+from hpcgfmd.storage.reader import read_series
+from hpcgfmd.model.case import parse_case
+from hpcgfmd.runs.single_case import run_case
+
+from cases import case_text
 
 
 def retraction(tmp_path, lam, k, velocity, nx, dt=None, name="case"):
-    text = (f"[case]\nmaugis = {lam}\nmodulus_ratio = {k}\nvelocity = {velocity}\n"
-            f"depth = 0.03\ncell = 2.0\nadhesion = 1e-4\n[numerics]\nnx = {nx}\n"
-            + (f"dt = {dt}\n" if dt else ""))
+    text = case_text(f"nx = {nx}" + (f"\ndt = {dt}" if dt else ""), maugis=lam,
+                     modulus_ratio=k, velocity=velocity)
     path = tmp_path / f"{name}.h5"
-    run_case(parse_case(text), path, MPI.COMM_SELF, printer=lambda *line: None)
+    run_case(parse_case(text), path, MPI.COMM_SELF)
     return read_series(path)
 
 

@@ -4,10 +4,12 @@ import math
 import numpy as np
 import pytest
 
-from hpcgfmd import theory
-from hpcgfmd.interface import edge_positions
-from hpcgfmd.material import StepOperators
-from hpcgfmd.solver import project_feasible
+from hpcgfmd.model import theory
+from hpcgfmd.model.interface import edge_positions
+from hpcgfmd.model.material import StepOperators
+from hpcgfmd.solvers.projection import project_feasible
+
+from cases import case_text, pull_off_run
 
 
 def test_project_feasible_zero_mean_and_wall():
@@ -16,14 +18,15 @@ def test_project_feasible_zero_mean_and_wall():
     wall = np.full(1000, 0.5) + 0.1 * rng.normal(size=1000)
     from mpi4py import MPI
 
-    from hpcgfmd.domain import Domain
+    from hpcgfmd.parallel.domain import Domain
 
-    out = project_feasible(Domain(MPI.COMM_SELF, 1000, 1.0, [(0, 1000)]), u, wall, np.empty(1000))
+    out = np.empty(1000)
+    shift = project_feasible(Domain(MPI.COMM_SELF, 1000, 1.0, [(0, 1000)]), u, wall, out)
     assert abs(out.mean()) < 1e-14
     assert np.all(out <= wall)
-    c = np.median(u - out)  # the common shift of the nodes not on the wall
     free = out < wall
-    np.testing.assert_allclose(out[free], u[free] - c, atol=1e-12)
+    np.testing.assert_allclose(out[free], u[free] - shift, atol=1e-12)
+    np.testing.assert_array_equal(out[~free], wall[~free])
 
 
 def hertz(grid, depth):
@@ -71,22 +74,20 @@ def test_iterations_do_not_grow_like_sqrt_n(grid_factory):
 @pytest.mark.parametrize("k, velocity", [(1.0, 1.0), (0.1, 9.0)])
 def test_every_iteration_lowers_the_energy(k, velocity):
     # Path following rests on monotone descent from the start of each step (module
-    # docstring of hpcgfmd.solver). The solve is deterministic, so the state after m
+    # docstring of hpcgfmd.solvers.cg.solver). The solve is deterministic, so the state after m
     # iterations is a prefix of the state after m + 1: compare energies along the sequence,
     # through the preload from flat (many wall contacts) and a retraction step.
     from mpi4py import MPI
 
-    from hpcgfmd.config import parse_case
-    from hpcgfmd.driver import Retraction
+    from hpcgfmd.model.case import parse_case
+    from hpcgfmd.runs.protocol import Retraction
 
-    case = parse_case(f"[case]\nmaugis = 3.5\nmodulus_ratio = {k}\nvelocity = {velocity}\n"
-                      "depth = 0.03\ncell = 2.0\nadhesion = 1e-4\n[numerics]\nnx = 2048\n")
+    case = parse_case(case_text("nx = 2048", modulus_ratio=k, velocity=velocity))
     sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
     solver = sim.solver
     np.add(sim.profile, sim.indenter, out=sim.wall)
     ops = sim.substrate.operators(math.inf)
     start = np.zeros(sim.n)
-    checked = 0
     for phase in ("preload", "retraction"):
         energies = []
         for m in range(0, 60):
@@ -97,7 +98,8 @@ def test_every_iteration_lowers_the_energy(k, velocity):
         rises = np.diff(energies)
         scale = np.abs(energies).max()
         assert np.all(rises <= 1e-12 * scale), (phase, rises.max() / scale)
-        checked += len(rises)
+        # and the sequence does descend (measured: 8 to 31 clear drops before round-off)
+        assert np.count_nonzero(rises < -1e-12 * scale) >= 5, (phase, rises / scale)
         # next: a retraction step of the real protocol, 20 steps in
         solver.max_iterations, solver.tolerance = 5000, case.numerics.tolerance
         sim.preload()
@@ -106,27 +108,23 @@ def test_every_iteration_lowers_the_energy(k, velocity):
         start = sim.u.copy()
         dt = case.numerics.dt
         sim.substrate.history(sim.fft, sim.u, sim.substrate_traction, dt, sim.history)
-        sim.indenter += case.velocity * dt
+        sim.indenter += case.indenter_speed * dt
         np.add(sim.profile, sim.indenter, out=sim.wall)
         ops = sim.substrate.operators(dt)
-    assert checked == 118
 
 
 def _retraction(k, velocity):
     """Whole retraction of a small case: (pull-off Lbar, the run)."""
-    from cases import pull_off_run
-
-    return pull_off_run(f"[case]\nmaugis = 3.5\nmodulus_ratio = {k}\nvelocity = {velocity}\n"
-                        "depth = 0.03\ncell = 2.0\nadhesion = 1e-4\n[numerics]\nnx = 2048\n")
+    return pull_off_run(case_text("nx = 2048", modulus_ratio=k, velocity=velocity))
 
 
 @pytest.mark.parametrize("k, velocity", [(1.0, 1.0), (0.1, 9.0)])
 def test_line_search_extensions_same_branch_fewer_iterations(monkeypatch, k, velocity):
-    # Going on along d while the energy provably falls (ConstrainedCG._line_search) changes
+    # Going on along d while the energy provably falls (hpcgfmd.solvers.cg.line_search) changes
     # the way down, not where it ends: the same pull-off to the solver's tolerance
     # (measured 5e-8 relative) with 2.4x fewer iterations (measured 0.42 and 0.41 of the
     # count without extensions, the step capped near 1.9 alpha as before).
-    import hpcgfmd.solver as solver_module
+    import hpcgfmd.solvers.cg.line_search as solver_module
 
     extended, run = _retraction(k, velocity)
     monkeypatch.setattr(solver_module, "MAX_EXTENSIONS", 0)

@@ -1,4 +1,4 @@
-"""Adaptive time steps (hpcgfmd.stepping): the controller's rules, and on a real retraction
+"""Adaptive time steps (hpcgfmd.solvers.stepping): the controller's rules, and on a real retraction
 its error against a converged run, its convergence with the edge allowance, and that a
 coarse step does not make the pull-off early (the paper's Appendix B warning)."""
 import math
@@ -6,9 +6,9 @@ import math
 import pytest
 from mpi4py import MPI
 
-from hpcgfmd.config import parse_case
-from hpcgfmd.driver import Retraction
-from hpcgfmd.stepping import AdaptiveSteps
+from hpcgfmd.model.case import parse_case
+from hpcgfmd.runs.protocol import Retraction
+from hpcgfmd.solvers.stepping import AdaptiveSteps
 
 from cases import case_text, pull_off_run
 
@@ -123,8 +123,7 @@ def test_abandoned_solves_change_nothing_but_the_cost(monkeypatch):
     # A solve whose contact edges stray beyond twice the allowance is stopped and the step
     # repeated with dt / 4, which the finished solve would have got too (stepping module
     # docstring): on a fast retraction with a snap-off, the same steps and loads bit for bit.
-    text = ("[case]\nmaugis = 3.5\nmodulus_ratio = 0.1\nvelocity = 9.0\ndepth = 0.03\n"
-            "cell = 2.0\nadhesion = 1e-4\n[numerics]\nnx = 2048\n")
+    text = case_text("nx = 2048", velocity=9.0)
 
     def run():
         sim = Retraction(parse_case(text), MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from hpcgfmd import theory
+from hpcgfmd.model import theory
 
 
 @pytest.mark.parametrize("k", [0.1, 0.5])

@@ -18,7 +18,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
-from hpcgfmd.fft import TransposedRealFFT  # noqa: E402
+from hpcgfmd.parallel.fft import TransposedRealFFT  # noqa: E402
 
 DEFAULT_SIZES = (2, 16, 30, 64, 96, 1000, 4096)
 TRANSPORTS = ("auto", "messages")

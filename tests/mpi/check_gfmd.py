@@ -24,11 +24,11 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
-from hpcgfmd.domain import Domain  # noqa: E402
-from hpcgfmd.fft import SerialRealFFT, TransposedRealFFT  # noqa: E402
-from hpcgfmd.gfmd import DampedVerletGFMD  # noqa: E402
-from hpcgfmd.interface import DugdaleMaugis  # noqa: E402
-from hpcgfmd.material import StepOperators  # noqa: E402
+from hpcgfmd.parallel.domain import Domain  # noqa: E402
+from hpcgfmd.parallel.fft import SerialRealFFT, TransposedRealFFT  # noqa: E402
+from hpcgfmd.solvers.verlet import DampedVerletGFMD  # noqa: E402
+from hpcgfmd.model.interface import DugdaleMaugis  # noqa: E402
+from hpcgfmd.model.material import StepOperators  # noqa: E402
 
 SIZES = (2, 16, 30, 96, 1000, 4096)
 

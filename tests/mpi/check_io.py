@@ -12,17 +12,21 @@ import sys
 import tempfile
 import traceback
 
+from pathlib import Path
+
 import h5py
 import numpy as np
 from mpi4py import MPI
 
-from hpcgfmd.analysis import read_series
-from hpcgfmd.checkpoint import read_checkpoint, write_checkpoint
-from hpcgfmd.config import parse_case
-from hpcgfmd.output import SERIES, SERIES_UNITS, CaseFile
+from hpcgfmd.storage.reader import read_series
+from hpcgfmd.storage.checkpoint import read_checkpoint, write_checkpoint
+from hpcgfmd.model.case import parse_case
+from hpcgfmd.storage.casefile import SERIES, SERIES_UNITS, CaseFile
 
-CASE = ("[case]\nmaugis = 1.0\nmodulus_ratio = 1.0\nvelocity = 1.0\ndepth = 0.03\ncell = 2.0\n"
-        "adhesion = 1e-4\n[numerics]\nnx = 1024\n")
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/: the case builder
+from cases import case_text  # noqa: E402
+
+CASE = case_text("nx = 1024", maugis=1.0, modulus_ratio=1.0)
 
 
 def write_edges(n, size):

@@ -10,9 +10,16 @@ Layout (all values in the case's units: R, E0, tau with ``[case]`` input; SI wit
                   wall_time, detachment_indenter, ...)
 /series/          one entry per time step, preload end (t = 0) included:
                   time, indenter (u_z), load (per unit length, compressive positive),
-                  contact_half_width, cohesive_half_width, iterations, residual, dt
+                  contact_half_width, cohesive_half_width, iterations, residual, dt;
+                  ``time`` is an HDF5 dimension scale attached to every other series
 /snapshots/       time (s,), surface u, pressure p (traction on the substrate, attractive
-                  positive), gap (each (s, nx)); x (nx,); attr complete
+                  positive), gap (each (s, nx)); x (nx,); attr complete; ``time`` and ``x``
+                  are the dimension scales of the profiles' two axes
+
+Every dataset has a ``units`` attribute (``R``, ``E0 R``, ``tau``, ... with ``[case]`` input;
+``m``, ``N/m``, ``s``, ``Pa`` with ``[physical]``; ``1`` for counts and dimensionless values),
+so that netCDF tools (xarray with h5netcdf) open the groups with labelled coordinates. Files
+written before the scales existed have the same datasets and read the same way.
 
 Parallel writing: every rank of the communicator opens the file (h5py ``mpio`` driver) and
 calls every :class:`CaseFile` method collectively with identical arguments, except the field
@@ -38,7 +45,8 @@ import os
 import h5py
 import numpy as np
 
-from . import __version__
+from .. import __version__
+from .hdf5 import check_blocks, open_file, write_block
 
 SERIES = ("time", "indenter", "load", "contact_half_width", "cohesive_half_width",
           "iterations", "residual", "dt")
@@ -47,92 +55,11 @@ SERIES_UNITS = {"time": "time", "indenter": "length", "load": "load",
                 "iterations": None, "residual": None, "dt": "time"}
 _INT_SERIES = ("iterations",)
 FIELDS = ("surface", "pressure", "gap")
-
-
-# --- collective block I/O, shared with hpcgfmd.checkpoint -------------------------------------
-
-def open_file(path, mode, comm):
-    """Open ``path`` on every rank of ``comm`` (collective).
-
-    Parameters
-    ----------
-    path : str or Path
-        HDF5 file.
-    mode : str
-        h5py mode ("r", "r+", "w", "w-").
-    comm : mpi4py.MPI.Comm
-        Ranks that open the file together.
-
-    Returns
-    -------
-    h5py.File
-        Opened with the ``mpio`` driver when h5py is built with MPI, else serially (one rank
-        only).
-    """
-    if h5py.get_config().mpi:
-        return h5py.File(path, mode, driver="mpio", comm=comm)
-    if comm.size > 1:
-        raise RuntimeError("h5py is built without MPI: cannot write one file from several ranks")
-    return h5py.File(path, mode)
-
-
-def _transfer(file):
-    """Dataset transfer property list: collective under mpio (every rank calls H5Dwrite)."""
-    dxpl = h5py.h5p.create(h5py.h5p.DATASET_XFER)
-    if file.driver == "mpio":
-        dxpl.set_dxpl_mpio(h5py.h5fd.MPIO_COLLECTIVE)
-    return dxpl
-
-
-def _spaces(ds, row, start, count):
-    """File and memory dataspaces selecting ``count`` entries from ``start`` (of ``row``)."""
-    fspace = ds.id.get_space()
-    mspace = h5py.h5s.create_simple((count,))
-    if count == 0:
-        # h5py's ds[...] skips H5Dwrite/H5Dread for an empty selection, which hangs the other
-        # ranks of a collective call; an explicit "none" selection still takes part.
-        fspace.select_none()
-        mspace.select_none()
-    elif row is None:
-        fspace.select_hyperslab((start,), (count,))
-    else:
-        fspace.select_hyperslab((row, start), (1, count))
-    return fspace, mspace
-
-
-def write_block(ds, start, block, row=None):
-    """Write this rank's ``block`` at ``[row,] start:start + len(block)`` of ``ds`` (collective).
-
-    Parameters
-    ----------
-    ds : h5py.Dataset
-        1D dataset, or 2D with ``row`` given; float64 or int64.
-    start : int
-        Global index of the block's first entry.
-    block : array_like
-        1D, possibly empty (the rank still takes part).
-    row : int, optional
-        Row of a 2D dataset.
-    """
-    block = np.ascontiguousarray(block, dtype=ds.dtype)
-    fspace, mspace = _spaces(ds, row, start, block.shape[0])
-    ds.id.write(mspace, fspace, block, dxpl=_transfer(ds.file))
-
-
-def read_block(ds, start, stop):
-    """Read entries [start, stop) of the 1D dataset ``ds`` on this rank (collective)."""
-    out = np.empty(stop - start, dtype=ds.dtype)
-    fspace, mspace = _spaces(ds, None, start, stop - start)
-    ds.id.read(mspace, fspace, out, dxpl=_transfer(ds.file))
-    return out
-
-
-def check_blocks(comm, n, x_start, x_stop):
-    """Raise ValueError on every rank unless the ranks' blocks tile [0, n) in rank order."""
-    blocks = comm.allgather((int(x_start), int(x_stop)))
-    starts, stops = [a for a, _ in blocks], [b for _, b in blocks]
-    if starts != [0] + stops[:-1] or stops[-1] != n or any(b < a for a, b in blocks):
-        raise ValueError(f"rank blocks {blocks} do not tile the {n} grid nodes in rank order")
+FIELD_UNITS = {"surface": "length", "pressure": "stress", "gap": "length"}
+# The ``units`` attribute of each dimension, by input form.
+UNIT_NAMES = {"case": {"time": "tau", "length": "R", "load": "E0 R", "stress": "E0", None: "1"},
+              "physical": {"time": "s", "length": "m", "load": "N/m", "stress": "Pa",
+                           None: "1"}}
 
 
 # --- the case file ----------------------------------------------------------------------------
@@ -144,7 +71,7 @@ class CaseFile:
     ----------
     path : str or Path
         Output file; must not exist unless ``overwrite`` (the caller decides).
-    case : hpcgfmd.config.Case
+    case : hpcgfmd.model.case.Case
         The case (internal units); its ``units`` convert to the file's units.
     x_local : ndarray
         This rank's grid positions, nodes [x_start, x_start + len(x_local)) (internal length
@@ -187,24 +114,36 @@ class CaseFile:
         attrs["stress_unit"] = case.units.stress
         attrs["time_unit"] = case.units.time
         attrs["vbar_convention"] = ("vbar = 2 pi rhodot tau / (k c0): retardation time tau/k,"
-                                    " see hpcgfmd.theory.persson_brener")
+                                    " see hpcgfmd.model.theory.persson_brener")
         attrs["finished"] = False
         attrs["steps_complete"] = 0  # entries of /series fully written (readers truncate to it)
+        names = UNIT_NAMES[case.form]
         series = self.file.create_group("series")
         for name in SERIES:
             dtype = "i8" if name in _INT_SERIES else "f8"
-            series.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dtype, chunks=(1024,))
+            ds = series.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dtype,
+                                       chunks=(1024,))
+            ds.attrs["units"] = names[SERIES_UNITS[name]]
+        _attach(series["time"], [series[name] for name in SERIES if name != "time"], 0)
         snaps = self.file.create_group("snapshots")
         x = snaps.create_dataset("x", shape=(n,), dtype="f8")
+        x.attrs["units"] = names["length"]
         write_block(x, x_start, np.asarray(x_local) * case.units.length)
-        snaps.create_dataset("time", shape=(0,), maxshape=(None,), dtype="f8", chunks=(64,))
+        times = snaps.create_dataset("time", shape=(0,), maxshape=(None,), dtype="f8",
+                                     chunks=(64,))
+        times.attrs["units"] = names["time"]
         meaning = {"surface": "displacement u, upward positive (length)",
                    "pressure": "traction on the substrate, attractive positive (stress)",
                    "gap": "g = h + u_z - u (length)"}
+        profiles = []
         for name in FIELDS:
             ds = snaps.create_dataset(name, shape=(0, n), maxshape=(None, n), dtype="f8",
                                       chunks=(1, n))
             ds.attrs["meaning"] = meaning[name]
+            ds.attrs["units"] = names[FIELD_UNITS[name]]
+            profiles.append(ds)
+        _attach(times, profiles, 0)
+        _attach(x, profiles, 1)
         snaps.attrs["complete"] = 0
         self.file.flush()
 
@@ -222,7 +161,7 @@ class CaseFile:
         ----------
         path : str or Path
             Case file written by an earlier (killed) run of the same case.
-        case : hpcgfmd.config.Case
+        case : hpcgfmd.model.case.Case
             The case (for the units).
         comm : mpi4py.MPI.Comm
             Ranks writing from now on (any number).
@@ -326,3 +265,11 @@ class CaseFile:
     def close(self):
         """Close the file (collective)."""
         self.file.close()
+
+
+def _attach(scale, datasets, axis):
+    """Make ``scale`` a dimension scale named after itself and attach it to ``axis`` of each
+    dataset (collective metadata under mpio: every rank makes the same calls)."""
+    scale.make_scale(scale.name.rsplit("/", 1)[-1])
+    for ds in datasets:
+        ds.dims[axis].attach_scale(scale)

@@ -6,9 +6,9 @@ integrated by position (Stormer-)Verlet with a pseudo time step h, for a fixed n
 pseudo steps (the "equilibration time"); the hard wall is applied in real space after every
 step ("the hardwall condition returns the coordinates of the surface nodes to the rigid
 body"). :class:`DampedVerletGFMD` does exactly that for one time step, with the interface of
-:class:`hpcgfmd.solver.ConstrainedCG` so that the driver can use either.
+:class:`hpcgfmd.solvers.cg.ConstrainedCG` so that the driver can use either.
 
-Equations of motion (physics.md "Substrate"; the paper's 8|q| is |q|/2)
+Equations of motion (docs/model.md, "Substrate"; the paper's 8|q| is |q|/2)
     Mode q, unit mass, stiffness k_q = (|q|/2) Eeff, history traction H_q (known for the time
     step), interface traction T_q (cohesive + hard-wall reaction), damping c_q:
 
@@ -94,7 +94,7 @@ Real-space formulation (one FFT pair per pseudo step)
     step project exactly instead (G_0 unshifted, u = min(g + t - s, wall) with s iterated
     to zero mean; below).
 
-    The q = 0 mode is held at zero (physics.md): it has no stiffness or damping, its
+    The q = 0 mode is held at zero (docs/model.md): it has no stiffness or damping, its
     multipliers are zero, and the uniform shift s (entering as the q = 0 entry of G, for
     free) keeps the mean of u at zero: the shift of the projection min(v - s, wall) with
     zero mean. Newton's method on f(s) = sum min(v - s, wall) (concave, decreasing,
@@ -108,37 +108,20 @@ Real-space formulation (one FFT pair per pseudo step)
     zero mean, ``mean_traction``) is mu = s / h^2; nodes on the wall carry the reaction.
 
     The LAST pseudo step iterates s to convergence again, so that the result is
-    min(v - s, wall) with exact zero mean and the contact nodes exactly on the wall. This
-    matters: before the relaxation has settled, the lagged mean error is not round-off
-    (measured 1e-14 to 1e-8 of the wall height), and the final evaluation's exact
-    projection min(u - c, wall) removes a positive error by lowering EVERY node, the
-    contact included, by c; once c exceeds ConstrainedCG's on-wall tolerance (1e-14 of the
-    wall height) the whole contact counts as open, there is no wall reaction and the load
-    is the cohesive force alone. On the small test case (tests/cases.py, n = 2048,
-    dt = 0.02 tau, Eeff = 9.9 E0) that turned a step lagging its equilibrium by 1e-7
-    (max |u - u_cg| = 1.7e-6 dmax after 500 pseudo steps) into a load of -33 instead of
-    +11.9 (residual 1.27); the sign of the lagged error decided, so 500 steps failed at
-    the first time step, 200 at the fourth, and 1000 or 2000 (settled to round-off) never.
-    With the exact last step the error of the fixed step count is a plain lag behind the
-    equilibrium, decreasing with the count; measured on that case over four
-    time steps (largest relative load error, largest max |u - u_cg| / dmax): 10 pseudo
-    steps 1.4e-2, 6.6e-2; 50: 1.3e-3, 1.1e-2; 100: 5.2e-4, 4.3e-3; 200: 6.3e-5, 5.8e-4;
-    500: 1.2e-7, 1.7e-6; 1000: round-off (residual 4e-12). Within a time step the start
-    (the previous equilibrium, below the risen wall) first loses its contact for one pseudo
-    step, touches the wall again at the second (423 of the final 443 contact nodes; 441
-    at the third step, all 443 by the 25th), and then decays without runaway, with a mild
-    ringing of the underdamped modes (max |u - u_cg| / dmax: 9.4e-2 after 2 pseudo steps,
-    1.1e-2 after 50, 2.8e-3 after 75, 3.6e-3 after 100, 1.1e-3 after 125, 1.1e-5 after
-    375).
+    min(v - s, wall) with exact zero mean and the contact nodes exactly on the wall. Before
+    the relaxation has settled the lagged mean error is not round-off, and an exact
+    projection of a lagged state afterwards would lower EVERY node, the contact included, by
+    that error; beyond the on-wall tolerance of :class:`ConstrainedCG` the whole contact
+    would count as open (no wall reaction, a load of the wrong sign). With the exact last
+    step, the error of the fixed pseudo-step count is a plain lag behind the equilibrium
+    that decreases with the count (measured in docs/results.md, "The paper's method").
 
     Work per pseudo step besides the two FFTs: the serial transform's copy in and copy out
     (the spectrum stays in the transform's own buffer), four passes over the n/2 complex
     modes (a0 U, a1 U, - V, - P, done on interleaved floats: a complex-times-real multiply
     would cast through a numpy buffer), the wall minimum (in place), the free-node test and
     the sum; with adhesion also the gap, the cohesive law and one addition. Nothing is
-    allocated per pseudo step by this module (the cohesive law, hpcgfmd.interface, makes
-    its own temporaries). Measured at n = 2^17 on one rank: 1.5x a bare apply_diagonal pair
-    without adhesion, 1.9-2.2x with it (the law alone costs ~0.25 pair).
+    allocated per pseudo step by this module (the cohesive law makes its own temporaries).
 
 Per solve (not per pseudo step): an exact zero-mean projection of the start, the global
 stability limit (one reduction), and a final evaluation delegated to a ConstrainedCG with no
@@ -157,10 +140,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .domain import Domain
-from .interface import DugdaleMaugis
-from .material import StepOperators
-from .solver import ConstrainedCG, SolveResult, project_feasible
+from ..model.interface import DugdaleMaugis
+from .base import EquilibriumSolver, SolveResult, register
+from .cg import ConstrainedCG
+from .projection import project_feasible
 
 _GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
 
@@ -228,12 +211,13 @@ def pseudo_step(sqrt_k0_min, sqrt_k0_max, e):
     return float(0.5 * (a + b)), float(h_limit)
 
 
-class DampedVerletGFMD:
+@register("paper")
+class DampedVerletGFMD(EquilibriumSolver):
     """Damped per-mode position Verlet, the paper's GFMD (see the module docstring).
 
     Parameters
     ----------
-    domain : Domain
+    domain : hpcgfmd.parallel.domain.Domain
         This rank's block of nodes and the collectives.
     fft : SerialRealFFT or TransposedRealFFT
         Planned transforms (same block layout as ``domain``).
@@ -258,12 +242,11 @@ class DampedVerletGFMD:
         (length/stress)^(1/2): unit mass per mode).
     modulus_ratio : float
         Eeff / E0 of the last solve.
-    projections, cut_steps, residual_steps : int
-        Always 0 (kept for the checkpoint's statistics, as in ConstrainedCG).
     """
 
-    def __init__(self, domain: Domain, fft, law: DugdaleMaugis, half_q, relaxed_modulus,
-                 equilibration_steps: int, traction_scale: float, time_step_fraction=1.0):
+    def __init__(self, domain, fft, law: DugdaleMaugis, half_q, relaxed_modulus,
+                 equilibration_steps: int, traction_scale: float, time_step_fraction=1.0,
+                 preload=None):
         if equilibration_steps < 0:
             raise ValueError(f"equilibration_steps must be >= 0, got {equilibration_steps}")
         if not 0.0 < time_step_fraction:
@@ -315,12 +298,29 @@ class DampedVerletGFMD:
         self.step_length = self.step_optimal = self.step_limit = np.nan
         self.modulus_ratio = np.nan
         self.shift_traction = np.nan  # s / h^2 of the last solve (= mean_traction at rest)
-        self.projections = 0
-        self.cut_steps = 0
-        self.residual_steps = 0
+        self._preload = preload
+
+    @classmethod
+    def from_case(cls, case, domain, fft, law, half_q):
+        """The paper's method with the case's equilibration_steps; relaxed damping with
+        E0 = 1 (internal units). Its preload is solved by CG to the case's tolerance."""
+        return cls(domain, fft, law, half_q, 1.0, case.numerics.equilibration_steps,
+                   case.sigma_a, preload=ConstrainedCG.from_case(case, domain, fft, law, half_q))
+
+    @classmethod
+    def describe(cls, numerics):
+        return (f"the paper's damped Verlet GFMD, {numerics.equilibration_steps} pseudo steps"
+                " per step")
+
+    def preload_solver(self):
+        """CG: the loading-branch equilibrium to the tolerance (the paper's method would need a
+        loading phase of its own)."""
+        if self._preload is None:
+            raise ValueError("built without a preload solver (use from_case)")
+        return self._preload
 
     # --- set-up of a solve --------------------------------------------------------------
-    def prepare(self, ops: StepOperators):
+    def prepare(self, ops):
         """Collective: pseudo step and Verlet multipliers for the step's stiffness.
 
         Returns the pseudo step h = time_step_fraction * h_opt (module docstring). One
@@ -359,7 +359,7 @@ class DampedVerletGFMD:
         return h
 
     # --- the relaxation -----------------------------------------------------------------
-    def relax(self, u, wall, ops: StepOperators, history, steps, applied=None, monitor=None):
+    def relax(self, u, wall, ops, history, steps, applied=None, monitor=None):
         """Collective: ``steps`` damped Verlet pseudo steps from ``u`` (at rest), in place.
 
         ``u`` is first projected exactly (zero mean, u <= wall), and so is the last pseudo
@@ -390,7 +390,7 @@ class DampedVerletGFMD:
         free, work, zero = self._free, self._work, self._zero_mode
         multiply, subtract, minimum = np.multiply, np.subtract, np.minimum
         s = self._mean_traction * h2  # warm start: the last solve's multiplier
-        tolerance = 1e-15 * dom.max_abs(wall)  # of the shift, as in project_feasible
+        wall_scale = dom.max_abs(wall)  # the shift's tolerance is 1e-15 of it
         for k in range(steps):
             first = k == 0
             # The first and the last step project exactly (see the module docstring: the
@@ -418,7 +418,8 @@ class DampedVerletGFMD:
             if adhesive:
                 v += traction
             if exact:
-                s = self._project(v, wall, u, s, tolerance)
+                s = project_feasible(dom, v, wall, u, work=free, wall_scale=wall_scale,
+                                     shift=s)
             else:
                 minimum(u, wall, out=u)  # the hard wall
                 np.less(u, wall, out=free)
@@ -432,34 +433,14 @@ class DampedVerletGFMD:
         self._v_old, self._v_new = v_old, v_new
         return s
 
-    def _project(self, v, wall, out, s, tolerance):
-        """Collective: out = min(v - s, wall) with zero mean, by Newton on s from ``s``.
-
-        f(s) = sum min(v - s, wall) is concave and decreasing (f' = -free nodes), so Newton
-        converges monotonically after its first step, exactly once the free set settles.
-        Returns the shift after the last update.
-        """
-        dom, free = self.domain, self._free
-        for _ in range(100):
-            np.subtract(v, s, out=out)
-            np.minimum(out, wall, out=out)
-            np.less(out, wall, out=free)
-            total, count = dom.sums(out.sum(), np.count_nonzero(free))
-            if count == 0:
-                raise FloatingPointError("the wall leaves no free node for zero mean "
-                                         "displacement")
-            step = total / count
-            s += step
-            if abs(step) <= tolerance:
-                break
-        return s
-
-    def solve(self, u, wall, ops: StepOperators, history, applied=None) -> SolveResult:
+    def solve(self, u, wall, ops, history, applied=None, edge_watch=None) -> SolveResult:
         """Collective: relax ``u`` in place by ``equilibration_steps`` pseudo steps.
 
         Same arguments and result type as :meth:`ConstrainedCG.solve`; ``iterations`` is
         the number of pseudo steps, ``converged`` is always True (fixed equilibration time,
         the paper's method) and ``residual`` is ConstrainedCG's measure of the result.
+        ``edge_watch`` is ignored: the paper's method runs with fixed steps, which never
+        abandon a solve.
         """
         s = self.relax(u, wall, ops, history, self.equilibration_steps, applied)
         # Exact projection, K u, residual and multiplier as ConstrainedCG defines them.
@@ -481,3 +462,10 @@ class DampedVerletGFMD:
     def energy(self, u, wall, ops, history, applied=None):
         """Collective: energy of the step per unit length over dx (ConstrainedCG.energy)."""
         return self._cg.energy(u, wall, ops, history, applied)
+
+    def statistics(self) -> dict:
+        """No counters beyond the pseudo steps (the protocol counts them as iterations)."""
+        return {}
+
+    def restore_statistics(self, saved):
+        pass

@@ -1,6 +1,6 @@
 """Time-step control of the retraction: fixed steps, or adaptive steps with error control.
 
-Where the time discretisation errs (physics.md, "Substrate" and "Protocol"):
+Where the time discretisation errs (docs/model.md, "Substrate" and "Protocol"):
 
 - The SLS is integrated exactly over a step for a displacement varying LINEARLY in time, so
   the material history is exact wherever u(x, t) is smooth in t; its error is O(dt^2 u_tt).
@@ -8,7 +8,7 @@ Where the time discretisation errs (physics.md, "Substrate" and "Protocol"):
   velocity abruptly, so the history integral of the nodes the edge crosses within one step
   errs by O(dt) each. The edge criterion bounds the nodes (the distance) crossed per step:
   the contact edges may move by at most ``edge_fraction`` of the relaxed cohesive-zone width
-  w = pi E0 dmax / (4 sigma_a) per step (physics.md, "Scales"; the narrowest zone of the SLS).
+  w = pi E0 dmax / (4 sigma_a) per step (docs/model.md, "Scales"; the narrowest zone of the SLS).
 - The observables are sampled at the steps: the pull-off load is the most tensile SAMPLE of
   a smooth load curve L(t), which a coarse step misses by up to L'' dt^2 / 8 (the paper's
   "early pull-off" of coarse steps). The load criterion bounds the deviation of each new load
@@ -32,8 +32,7 @@ get whenever its edges end beyond SAFETY / SHRINK_LIMIT = 3.6 allowances (the us
 the iterate's edge recedes monotonically), and a shorter one otherwise, never a longer one.
 This matters past the fold of the attached branch near the snap-off: such a step otherwise
 descends through the whole snap-off, thousands of CG iterations at 2^17, only to be
-repeated (measured on V_z = 4.5 at 2^17, f = 2: 12,392 iterations when abandoning at 3.6
-allowances, 10,946 at 2, the same steps and pull-off load).
+repeated (docs/results.md has the iterations it saves).
 """
 from __future__ import annotations
 
@@ -172,3 +171,13 @@ class AdaptiveSteps:
         self.dt = float(attrs["controller_dt"])
         flat = [float(v) for v in attrs["controller_points"]]
         self.points = [(flat[i], flat[i + 1]) for i in (0, 2) if not math.isnan(flat[i])]
+
+
+def make_step_control(case):
+    """Fixed steps of ``[numerics] dt``, or adaptive steps starting from it."""
+    numerics = case.numerics
+    if numerics.step_control == "fixed":
+        return FixedSteps(numerics.dt)
+    return AdaptiveSteps(numerics.dt, numerics.dt_min, numerics.dt_max,
+                         numerics.edge_fraction * case.zone_width,
+                         numerics.load_tolerance * case.load_scale)

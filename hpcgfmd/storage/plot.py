@@ -7,7 +7,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .analysis import read_series  # noqa: E402
+from .reader import read_series  # noqa: E402
 
 
 def plot_case(path, output):

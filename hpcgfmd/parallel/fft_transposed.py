@@ -1,23 +1,6 @@
-"""Real FFT of the periodic surface, serial or distributed over an MPI communicator.
+"""A single length-n real FFT split over the ranks of a communicator (four-step algorithm).
 
-The only operation the solver needs is a mode-diagonal operator applied to a real field,
-``out = irfft(diag * rfft(v))``: the elastic stiffness, its inverse (the Green's function) and
-the SLS history are all of that form. The multiplier is real and even in the mode index m
-(it depends on |q| = 2 pi |m| / L only) and the caller folds the 1/n of the inverse transform
-into it, so an application is one forward transform, one multiply and one unnormalised
-backward transform. Plans are made once on aligned buffers and nothing is allocated per call.
-
-Two classes share one interface (``comm``, ``n``, ``x_start``, ``x_stop``, ``x_blocks``,
-``spectrum_shape``, ``wavenumber``, ``apply_diagonal``, ``pairs``, ``communication_time``);
-:func:`plan_real_fft` picks one for a communicator. For solvers that must keep or combine
-spectra between transforms (the damped-dynamics baseline, :mod:`hpcgfmd.gfmd`), both also
-split the pair: ``forward(field, spectrum_out)`` and ``inverse(spectrum, field_out)``, with
-``inverse(d * forward(f))`` equal to ``apply_diagonal(f, d)``, and a persistent ``spectrum``
-buffer of ``spectrum_shape`` to pass to them.
-
-* :class:`SerialRealFFT`: one rank, a pyfftw rfft/irfft pair of length n.
-* :class:`TransposedRealFFT`: a single length-n transform split over the P ranks of ``comm``
-  with the four-step (transposed) algorithm below.
+Same interface as :class:`hpcgfmd.parallel.fft_serial.SerialRealFFT` (see :mod:`hpcgfmd.parallel.fft`).
 
 Four-step algorithm
 -------------------
@@ -82,59 +65,8 @@ Transport (``transport``) and communication per call
     per call (plus the row padding, under 64 bytes a row). The two transports give bitwise
     equal results.
 
-Why this variant
-    Measured with ``scripts/bench_fft.py`` (and variants of it with per-stage timers) on the
-    2-core development VM (2 MB L2 per core), 2 ranks, shared transport; times per call, the
-    serial pair on rank 0 alone timed in the same run; ranges over three runs at load
-    average about 1 (the benchmark's own ranks included):
-
-    =====  =========  ==========  =========  ==========  ===========
-    n      serial ms  T x 1 ms    T x 2 ms   T x 2 /     T x 2 comm
-                                             serial      share
-    =====  =========  ==========  =========  ==========  ===========
-    2**17  0.91-1.06  1.39-1.48   0.82-0.98  0.87-0.98   5-6 %
-    2**20  12.6-12.9  17.3-18.4   9.1-9.5    0.73-0.74   3-8 %
-    2**22  81-87      78-82       44-46      0.51-0.57   3-8 %
-    =====  =========  ==========  =========  ==========  ===========
-
-    A run that started at load 2.5 gave 0.89, 0.84 and 0.59 (comm share 7-14 %: a rank that
-    is descheduled makes the other wait at the next synchronisation). ``T x 1``, the
-    transposed class on one rank, is only a test configuration.
-
-    The previous version of this class (strided FFTW plans down axis 0 of whole column blocks,
-    separate pack and twiddle passes, four ``Alltoallv``) ran at 1.02-1.12 (2**20), 1.13-1.18
-    (2**17) and 1.11 (2**22) of the serial pair in the same kind of runs. Contiguous chunked
-    FFTs with the transpositions in numpy gathers and the twiddle fused into a copy brought
-    2**20 to 0.80-0.87 with ``Alltoallv`` (a quarter of the time in the four exchanges);
-    sequential writes plus reading the other rank's blocks in shared memory brought it to
-    0.71-0.74. The ``"messages"`` transport of this version runs at 0.90-0.92 (2**20) and
-    1.03-1.04 (2**17). Planning takes 0.3-1.1 s (FFTW_MEASURE, n = 2**17..2**22) against
-    4-180 s for the serial pair.
-
-    At 2**20 every stage is bound by memory traffic: a pass that reads and writes a rank's
-    4 MB costs 0.5-1 ms and a complex multiply over it about 0.5 ms, against 2.3 ms for all
-    the FFTs; the 9.3 ms per call are the four transposing gathers (~1 ms each), three
-    output writes (~0.5 ms each), the three complex multiplies and the FFTs. At 2**17 the
-    per-rank working set (~5 MB with the twiddle tables) still exceeds L2, so the same
-    passes dominate, plus ~60 numpy calls.
-
-    Tried and dropped (2**20, 2 ranks unless noted): FFTW plans reading strided columns,
-    whole or in chunks (stage A 1.6-1.7 ms against 1.3 ms for gather + contiguous FFT, one
-    core); FFTW writing transposed output (stage C + step 5: 3.5 ms against 2.3 ms); FFTW
-    writing straight into the stage outputs with both twiddles moved into stage B (0.71-0.77
-    vs 0.71-0.72: a multiply with a transposed operand costs 2.3 copies); factored twiddles
-    (a small table times one row per chunk instead of full tables: 0.75-0.76 vs 0.72-0.74,
-    the extra multiply costs what the table read saves); FFTW_PATIENT for the local plans
-    (same FFT times within 3 %, 8.5 s of planning instead of 0.1-0.6 s); N1 = 256, 512, 2048,
-    4096 instead of 1024 (0.73, 0.73, 0.76, 0.79 vs 0.72); ``Alltoallw`` with vector
-    datatypes reading and writing the strided sub-blocks in place instead of per-rank
-    contiguous blocks and ``Alltoallv`` (messages transport 0.92-1.01 vs 0.90 at 2**20,
-    1.03-1.4 vs 1.04 at 2**17); copying this rank's own field columns to a padded array
-    before stage A (equal to reading them from ``field`` in blocks of 64 rows, which are
-    kept); chunks of 16-256 columns and 8-65 mode rows (within 3 %); prebuilt views against
-    per-call slicing (below the noise, kept). Not tried: the real-as-complex packing of
-    length n/2 and the P = 2 even/odd (binary exchange) split: both add elementwise passes
-    for the post-processing, and passes are what every stage here is bound by.
+The measurements behind this variant (per-stage timings, transports, what was tried and
+dropped) are in docs/results.md, "Distributed transform".
 """
 from __future__ import annotations
 
@@ -145,7 +77,7 @@ import numpy as np
 import pyfftw
 from mpi4py import MPI
 
-from .parallel import block_range
+from .blocks import block_range
 
 TRANSPORTS = ("auto", "shared", "messages")
 
@@ -159,38 +91,6 @@ _ROW_CHUNK = 2 ** 14
 # arrays.
 _ROW_BLOCK = 64
 
-
-def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
-    """Make the real FFT suited to ``comm``.
-
-    Every rank of ``comm`` must call it with the same arguments (collective: the transposed
-    class allocates its shared buffers on ``comm``).
-
-    Parameters
-    ----------
-    comm : mpi4py.MPI.Comm
-        Communicator over which the surface is distributed.
-    n : int
-        Number of grid nodes (even).
-    planner_effort : str
-        FFTW planner flag, e.g. ``"FFTW_MEASURE"`` or ``"FFTW_ESTIMATE"`` (tests).
-    transposed : bool or None
-        ``None``: serial on one rank, transposed otherwise. ``True`` forces the transposed
-        class (also on one rank, for testing). ``False`` demands the serial class and is an
-        error on more than one rank.
-
-    Returns
-    -------
-    SerialRealFFT or TransposedRealFFT
-    """
-    size = comm.Get_size()
-    if transposed is None:
-        transposed = size > 1
-    if transposed:
-        return TransposedRealFFT(comm, n, planner_effort)
-    if size > 1:
-        raise ValueError(f"a serial FFT cannot be spread over {size} ranks")
-    return SerialRealFFT(n, planner_effort, comm=comm)
 
 
 def split_length(n):
@@ -282,136 +182,6 @@ class _BlockArray:
         """Bytes to reserve for the blocks, rounded up to whole cache lines."""
         total = max(1, sum(rows * width for rows, width in shapes)) * dtype.itemsize
         return -(-total // 64) * 64
-
-
-class SerialRealFFT:
-    """rfft/irfft pair of length n on persistent aligned buffers, on one rank.
-
-    Parameters
-    ----------
-    n : int
-        Number of grid nodes (even).
-    planner_effort : str
-        FFTW planner flag; FFTW_MEASURE pays for itself after a few hundred transforms.
-    comm : mpi4py.MPI.Comm, optional
-        One-rank communicator to report as ``comm`` (default ``MPI.COMM_SELF``). The
-        signature keeps ``n`` first so that the old ``RealFFT(n)`` calls still work.
-
-    Attributes
-    ----------
-    comm : mpi4py.MPI.Comm
-    n : int
-    x_start, x_stop : int
-        Owned node range, here ``0, n``.
-    x_blocks : list of (int, int)
-        ``[(0, n)]``.
-    spectrum_shape : tuple of int
-        ``(n//2 + 1,)``.
-    wavenumber : ndarray of int64, shape (n//2 + 1,)
-        Mode index m of each spectrum entry, ``arange(n//2 + 1)`` (q = 2 pi m / L).
-    spectrum : ndarray of complex128, shape spectrum_shape
-        The transforms' own spectrum buffer; passing it to :meth:`forward` or
-        :meth:`inverse` saves a copy (contents valid until the next transform call).
-    pairs : int
-        Number of forward+backward pairs done, for the statistics (``apply_diagonal`` and
-        ``inverse`` count one each).
-    communication_time : float
-        Seconds spent in MPI calls, always 0.
-    """
-
-    def __init__(self, n: int, planner_effort: str = "FFTW_MEASURE", comm=None):
-        self.comm = MPI.COMM_SELF if comm is None else comm
-        self.n = n
-        self.x_start, self.x_stop = 0, n
-        self.x_blocks = [(0, n)]
-        self.spectrum_shape = (n // 2 + 1,)
-        self.wavenumber = np.arange(n // 2 + 1, dtype=np.int64)
-        self.real = pyfftw.empty_aligned(n, dtype="float64")
-        self.spectrum = pyfftw.empty_aligned(n // 2 + 1, dtype="complex128")
-        flags = (planner_effort, "FFTW_DESTROY_INPUT")
-        self._forward = pyfftw.FFTW(self.real, self.spectrum, flags=flags, threads=1)
-        self._backward = pyfftw.FFTW(self.spectrum, self.real, direction="FFTW_BACKWARD",
-                                     flags=flags, threads=1)
-        self.pairs = 0
-        self.communication_time = 0.0
-
-    def apply_diagonal(self, field, diagonal, out):
-        """out = irfft(diagonal * rfft(field)) without the 1/n (fold it into ``diagonal``).
-
-        Local (no communication).
-
-        Parameters
-        ----------
-        field : ndarray of float64, shape (n,)
-            Real input field, in its own units (e.g. m).
-        diagonal : ndarray, shape (n//2 + 1,)
-            Multiplier per mode (units of out / units of field, times 1/n).
-        out : ndarray of float64, shape (n,)
-            Output buffer (may be ``field``).
-
-        Returns
-        -------
-        out : ndarray
-        """
-        self.real[:] = field
-        self._forward.execute()
-        self.spectrum *= diagonal
-        self._backward.execute()
-        out[:] = self.real
-        self.pairs += 1
-        return out
-
-    def forward(self, field, spectrum_out):
-        """spectrum_out = rfft(field): the local modes of the real field (no normalisation).
-
-        Local. Half of a pair: ``inverse(d * forward(f))`` equals ``apply_diagonal(f, d)``
-        bitwise (same plans, same operations); ``pairs`` is counted in :meth:`inverse`.
-
-        Parameters
-        ----------
-        field : ndarray of float64, shape (n,)
-            Real input field.
-        spectrum_out : ndarray of complex128, shape spectrum_shape
-            Output; may be :attr:`spectrum`, the transform's own buffer, which saves one
-            copy (it then stays valid only until the next call of any transform method).
-
-        Returns
-        -------
-        spectrum_out : ndarray
-        """
-        self.real[:] = field
-        self._forward.execute()
-        if spectrum_out is not self.spectrum:
-            spectrum_out[:] = self.spectrum
-        return spectrum_out
-
-    def inverse(self, spectrum, field_out):
-        """field_out = irfft(spectrum) without the 1/n (unnormalised, like apply_diagonal).
-
-        Local. Counts one pair in ``pairs`` (the forward transform of the pair counts none).
-        ``spectrum`` must be the half spectrum of a real field (modes 0 and n/2 real, their
-        imaginary parts are ignored, as by numpy's irfft).
-
-        Parameters
-        ----------
-        spectrum : ndarray of complex128, shape spectrum_shape
-            Input modes; left unchanged unless it is :attr:`spectrum` itself, which the c2r
-            transform overwrites (that saves one copy).
-        field_out : ndarray of float64, shape (n,)
-
-        Returns
-        -------
-        field_out : ndarray
-        """
-        if spectrum is not self.spectrum:
-            self.spectrum[:] = spectrum
-        self._backward.execute()
-        field_out[:] = self.real
-        self.pairs += 1
-        return field_out
-
-
-RealFFT = SerialRealFFT  # old name, kept while the callers move to plan_real_fft
 
 
 class TransposedRealFFT:

@@ -17,8 +17,8 @@ import os
 import h5py
 import numpy as np
 
-from . import __version__
-from .output import check_blocks, open_file, read_block, write_block
+from .. import __version__
+from .hdf5 import check_blocks, open_file, read_block, write_block
 
 FORMAT_VERSION = 1
 _MARK = "hpcgfmd_checkpoint"  # root attribute holding the format version

@@ -1,7 +1,7 @@
 """Speed against error: the fast solver and the paper's method on the paper's hard cases.
 
 ``python -m hpcgfmd bench`` (or ``scripts/speed_vs_error.py``) runs, for each case
-(lambda0, V_z) at h0/R = 0.1, L/R = 10, alpha = 5e-5, k = 0.1 (physics.md, "The paper's cases"):
+(lambda0, V_z) at h0/R = 0.1, L/R = 10, alpha = 5e-5, k = 0.1 (docs/model.md, "The paper's cases"):
 
 1. A reference run: the fast solver with fine settings (edge motion <= w/4 per step, load
    deviation <= 3e-3 load scales, residual 1e-7) at the largest grid of the sweep (on the
@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import logging
 import math
 import os
 import sys
@@ -38,8 +39,11 @@ import time
 
 import numpy as np
 
-from .config import CaseError, parse_case
-from .driver import Retraction
+from ..errors import CaseError
+from ..model.case import parse_case
+from ..runs.protocol import Retraction
+
+logger = logging.getLogger(__name__)
 
 CASES = ("7:4.5", "7:9", "14:0.9", "7:0.045")
 GEOMETRY = {"modulus_ratio": 0.1, "depth": 0.1, "cell": 10.0, "adhesion": 5e-5}
@@ -88,9 +92,9 @@ def run(text, comm, max_steps=None, progress=None):
         records.append(sim.step())
         if progress and time.perf_counter() - last > progress and comm.Get_rank() == 0:
             last = time.perf_counter()
-            print(f"    ... step {sim.step_index}, t = {records[-1].time:.4g},"
-                  f" a_c/a_c(0) = {records[-1].contact_half_width / records[0].contact_half_width:.3f},"
-                  f" {last - start:.0f} s", flush=True)
+            peeled = records[-1].contact_half_width / records[0].contact_half_width
+            logger.info(f"    ... step {sim.step_index}, t = {records[-1].time:.4g},"
+                        f" a_c/a_c(0) = {peeled:.3f}, {last - start:.0f} s")
     wall = comm.allreduce(time.perf_counter() - start, op=_max())
     # CPU seconds of the slowest rank: on a shared machine the wall time counts the other
     # processes too, the CPU time only this run's work (equal to the wall time when idle)
@@ -365,13 +369,10 @@ def main(comm, argv=None):
         geometry.update(depth=args.geometry[0], cell=args.geometry[1], adhesion=args.geometry[2])
     rank0 = comm.Get_rank() == 0
 
-    def say(message):
-        if rank0:
-            print(message, flush=True)
+    say = logger.info  # rank 0 prints (hpcgfmd.logs)
 
     rows = []
-    if args.reference_only:
-        sweep, args.nx, args.paper_equilibration = [], [max(args.nx)], []
+
     def usage(message):
         if rank0:
             print(f"bench: {message}", file=sys.stderr)
@@ -384,6 +385,8 @@ def main(comm, argv=None):
             return usage(f"--only {' '.join(unknown)}: expected among"
                          f" {', '.join(s[0].split(' ')[0] for s in SWEEP)}")
         sweep = [s for s in sweep if s[0].split(" ")[0] in args.only]
+    if args.reference_only:  # the references alone: no sweep, no other grid, no paper rows
+        sweep, args.nx, args.paper_equilibration = [], [max(args.nx)], []
     if args.paper_steps < 1:
         return usage(f"--paper-steps {args.paper_steps}: expected an integer >= 1")
     if any(e < 1 for e in args.paper_equilibration):
@@ -404,7 +407,7 @@ def main(comm, argv=None):
             rows = collect(args.out)
             write_csv(rows, args.out + ".csv")
             plot(rows, args.out + ".png", args.clock)
-            print(f"collected {len(rows)} rows into {args.out}.csv and {args.out}.png")
+            logger.info(f"collected {len(rows)} rows into {args.out}.csv and {args.out}.png")
         return 0
     for key in args.cases:
         case_rows = bench_case(key, comm, [2**e for e in args.nx], sweep,

@@ -1,6 +1,6 @@
 """Standard linear solid (Zener) half-space, one Fourier mode at a time.
 
-Per mode q != 0 (physics.md, "Substrate"; paper Eq. 14 with the corrected factor |q|/2):
+Per mode q != 0 (docs/model.md, "Substrate"; paper Eq. 14 with the corrected factor |q|/2):
 
     p + tau dp/dt = (|q|/2) (E0 u + tau Einf du/dt)
 
@@ -60,7 +60,7 @@ class StandardLinearSolid:
     relaxation_time: float
 
     def step_factors(self, dt: float) -> StepFactors:
-        """Factors of the exact step over dt (physics.md, "Substrate").
+        """Factors of the exact step over dt (docs/model.md, "Substrate").
 
         ``dt = math.inf`` gives the relaxed (elastic E0) problem used for the preload.
         """
@@ -72,7 +72,7 @@ class StandardLinearSolid:
         return StepFactors(decay=decay, e_eff=e_eff, e_history=e0 * (1.0 - decay) - e_eff)
 
     def creep_compliance(self, t):
-        """J(t) = 1/E0 - (1/E0 - 1/Einf) exp(-t E0 / (Einf tau)) (physics.md, analytic check)."""
+        """J(t) = 1/E0 - (1/E0 - 1/Einf) exp(-t E0 / (Einf tau)) (docs/model.md, "Substrate")."""
         e0, einf, tau = self.e_relaxed, self.e_instantaneous, self.relaxation_time
         return 1.0 / e0 - (1.0 / e0 - 1.0 / einf) * np.exp(-np.asarray(t) * e0 / (einf * tau))
 
@@ -103,7 +103,7 @@ class StepOperators:
 
 
 class ViscoelasticHalfSpace:
-    """Per-mode SLS time stepping of the periodic half-space (physics.md, "Substrate").
+    """Per-mode SLS time stepping of the periodic half-space (docs/model.md, "Substrate").
 
     Holds the operators of a step length (recomputed only when dt changes) and forms the
     history traction H = a p_n + (|q|/2)(E0 (1 - a) - Eeff) u_n from the previous state.

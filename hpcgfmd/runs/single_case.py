@@ -1,32 +1,36 @@
-"""One case from a validated :class:`~hpcgfmd.config.Case` to a finished HDF5 file.
+"""One case from a validated :class:`~hpcgfmd.model.case.Case` to a finished HDF5 file.
 
 Collective over the case's communicator. A run survives the end of a job's allocation:
-the full state is checkpointed (:mod:`hpcgfmd.checkpoint`) every ``[output]
+the full state is checkpointed (:mod:`hpcgfmd.storage.checkpoint`) every ``[output]
 checkpoint_interval`` seconds of wall time and/or every ``checkpoint_steps`` steps, and when
 the process receives SIGTERM or SIGUSR1 (what SLURM sends before the time limit), after which
-the run stops with :class:`Interrupted` (exit status 75). ``resume=True`` continues from the
-checkpoint on any number of ranks, appending to the same output file.
+the run stops with :class:`~hpcgfmd.errors.Interrupted` (exit status 75). ``resume=True``
+continues from the checkpoint on any number of ranks, appending to the same output file.
+Progress goes to the ``hpcgfmd`` logger (:mod:`hpcgfmd.logs`).
 """
 from __future__ import annotations
 
 import json
+import logging
 import time
 
-from .checkpoint import checkpoint_path, read_checkpoint, remove_checkpoint, write_checkpoint
-from .config import TARGET_ZONE_POINTS, Case, CaseError
-from .driver import CaseFailure, Progress, Retraction
-from .output import CaseFile
-from .signals import StopSignals
+from ..errors import CaseError, CaseFailure, Interrupted
+from ..model.case import TARGET_ZONE_POINTS, Case
+from ..signals import StopSignals
+from ..solvers import solver_class
+from ..storage.casefile import CaseFile
+from ..storage.checkpoint import (checkpoint_path, read_checkpoint, remove_checkpoint,
+                                  write_checkpoint)
+from .progress import Progress
+from .protocol import Retraction
+
+logger = logging.getLogger(__name__)
 
 # The indenter must have left the surface long before it is one radius above it.
 MAX_INDENTER_HEIGHT = 1.0
 # After the preload the cohesive zone must stay within a quarter of the cell: beyond that the
-# periodic images change the load by more than about 10 % (physics.md numerical notes).
+# periodic images change the load by more than about 10 % (docs/model.md, "Periodic cell").
 MAX_ZONE_PER_CELL = 0.25
-
-
-class Interrupted(Exception):
-    """The run stopped on a signal after writing a checkpoint; it can be resumed."""
 
 
 class SnapshotSchedule:
@@ -65,30 +69,25 @@ def describe(case: Case) -> str:
     """The derived groups and numerics, printed at start."""
     g = case.groups()
     u = case.units
+    num = case.numerics
     auto = (f" (chosen automatically: the smallest power of two with w/dx >= {TARGET_ZONE_POINTS:g})"
-            if case.numerics.nx_automatic else "")
-    lines = [f"lambda0 = {g['lambda0']:.6g}   lambda_inf = {g['lambda_inf']:.6g}   k = {g['k']:.6g}"
-             f"   V_z = {g['Vz']:.6g}   chi_ve = {g['chi_ve']:.6g}   alpha = {g['alpha']:.6g}",
-             f"h0/R = {g['depth']:.6g}   L/R = {g['cell']:.6g}   beta = {case.beta * u.length:.6g}"
-             f"   load scale = {case.load_scale * u.load:.6g}   w/dx = {g['zone_points']:.3g}",
-             f"nx = {case.numerics.nx}{auto}"
-             f"   dt = {case.numerics.dt * u.time:.6g}   tolerance = {case.numerics.tolerance:g}",
-             _stepping_line(case)]
-    return "\n".join(lines)
-
-
-def _stepping_line(case: Case) -> str:
-    num, u = case.numerics, case.units
-    solver = ("solver: active-set CG" if num.solver == "cg" else
-              f"solver: paper (damped Verlet, {num.equilibration_steps} pseudo steps per step)")
+            if num.nx_automatic else "")
     if num.step_control == "fixed":
-        return f"{solver}; fixed steps dt"
-    return (f"{solver}; adaptive steps from dt in [{num.dt_min * u.time:.4g},"
-            f" {num.dt_max * u.time:.4g}], edge motion <= {num.edge_fraction:g} w,"
-            f" load deviation <= {num.load_tolerance:g} load scales")
+        steps = "fixed steps dt"
+    else:
+        steps = (f"adaptive steps from dt in [{num.dt_min * u.time:.4g},"
+                 f" {num.dt_max * u.time:.4g}], edge motion <= {num.edge_fraction:g} w,"
+                 f" load deviation <= {num.load_tolerance:g} load scales")
+    return "\n".join([
+        f"lambda0 = {g['lambda0']:.6g}   lambda_inf = {g['lambda_inf']:.6g}   k = {g['k']:.6g}"
+        f"   V_z = {g['Vz']:.6g}   chi_ve = {g['chi_ve']:.6g}   alpha = {g['alpha']:.6g}",
+        f"h0/R = {g['depth']:.6g}   L/R = {g['cell']:.6g}   beta = {case.beta * u.length:.6g}"
+        f"   load scale = {case.load_scale * u.load:.6g}   w/dx = {g['zone_points']:.3g}",
+        f"nx = {num.nx}{auto}   dt = {num.dt * u.time:.6g}   tolerance = {num.tolerance:g}",
+        f"solver: {solver_class(num.solver).describe(num)}; {steps}"])
 
 
-def run_case(case: Case, path, comm, printer=print, overwrite=False, resume=False,
+def run_case(case: Case, path, comm, overwrite=False, resume=False,
              planner_effort="FFTW_MEASURE", stop=None) -> dict:
     """Collective: run (or resume) the retraction of ``case`` into the HDF5 file ``path``.
 
@@ -102,13 +101,13 @@ def run_case(case: Case, path, comm, printer=print, overwrite=False, resume=Fals
     """
     if stop is None:
         with StopSignals() as own:
-            return run_case(case, path, comm, printer, overwrite, resume, planner_effort, own)
+            return run_case(case, path, comm, overwrite, resume, planner_effort, own)
     start = time.monotonic()
     sim = Retraction(case, comm, planner_effort=planner_effort)
     # Free the transform's shared-memory window (collective) when every rank stops alike; on
     # any other error the job aborts and a collective here would hang the failing rank.
     try:
-        summary = _run(sim, case, path, comm, printer, overwrite, resume, stop, start)
+        summary = _run(sim, case, path, comm, overwrite, resume, stop, start)
     except (CaseError, CaseFailure, FloatingPointError, Interrupted):
         sim.close()
         raise
@@ -116,17 +115,20 @@ def run_case(case: Case, path, comm, printer=print, overwrite=False, resume=Fals
     return summary
 
 
-def _run(sim, case, path, comm, printer, overwrite, resume, stop, start):
-    """The body of :func:`run_case` on a built :class:`Retraction`."""
+def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
+    """Collective: the case file to append to and the run's bookkeeping before the first step.
+
+    Resuming: the checkpoint's state and the file cut back to it. New: the preload, checked
+    against the cell, then a new file with the t = 0 entry. Returns (file, snapshots written,
+    wall seconds spent before this run).
+    """
     dom = sim.domain
     checkpoint = checkpoint_path(path)
-    schedule = SnapshotSchedule(case.output)
     if resume:
         fields, attrs = read_checkpoint(checkpoint, comm, dom.x_start, dom.x_stop)
         sim.restore(fields, attrs)
         schedule.restore(attrs["snapshot_schedule"])
         snapshots = int(attrs["snapshots_written"])
-        wall_before = float(attrs["wall_time"])
         if dom.max(float(stop.received is not None)):  # the checkpoint is still the latest
             raise Interrupted(f"stopped by a signal while resuming; checkpoint {checkpoint}")
         try:
@@ -134,26 +136,34 @@ def _run(sim, case, path, comm, printer, overwrite, resume, stop, start):
                                   steps=sim.step_index + 1, snapshots=snapshots)
         except (ValueError, KeyError) as err:  # alike on every rank: the same file
             raise CaseError(f"{path} does not match its checkpoint {checkpoint}: {err}") from None
-        printer(f"resuming from {checkpoint} at step {sim.step_index}"
-                f" (t = {sim.time * case.units.time:.6g}) on {comm.Get_size()} rank(s)")
-    else:
-        record = sim.preload()
-        if record.cohesive_half_width > MAX_ZONE_PER_CELL * case.cell:
-            need = record.cohesive_half_width / MAX_ZONE_PER_CELL
-            raise CaseError(f"{case.cell_key()} = {case.cell * case.units.length:g}: too small"
-                            f" for the contact; after the preload the cohesive zone reaches"
-                            f" a_a = {record.cohesive_half_width * case.units.length:.4g}, more"
-                            f" than {MAX_ZONE_PER_CELL:g} L; need L >="
-                            f" {need * case.units.length:.4g}")
-        if dom.max(float(stop.received is not None)):
-            raise Interrupted("stopped by a signal before the first step; nothing was written")
-        wall_before = 0.0
-        remove_checkpoint(checkpoint, comm)  # a stale one would pair with the new file
-        out = CaseFile(path, case, sim.x, comm, dom.x_start, sim.n, overwrite=overwrite)
-        out.append_step(record.as_dict())
-        out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
-        snapshots = 1
-        schedule.due(record)
+        logger.info(f"resuming from {checkpoint} at step {sim.step_index}"
+                    f" (t = {sim.time * case.units.time:.6g}) on {comm.Get_size()} rank(s)")
+        return out, snapshots, float(attrs["wall_time"])
+    record = sim.preload()
+    if record.cohesive_half_width > MAX_ZONE_PER_CELL * case.cell:
+        need = record.cohesive_half_width / MAX_ZONE_PER_CELL
+        raise CaseError(f"{case.cell_key()} = {case.cell * case.units.length:g}: too small"
+                        f" for the contact; after the preload the cohesive zone reaches"
+                        f" a_a = {record.cohesive_half_width * case.units.length:.4g}, more"
+                        f" than {MAX_ZONE_PER_CELL:g} L; need L >="
+                        f" {need * case.units.length:.4g}")
+    if dom.max(float(stop.received is not None)):
+        raise Interrupted("stopped by a signal before the first step; nothing was written")
+    remove_checkpoint(checkpoint, comm)  # a stale one would pair with the new file
+    out = CaseFile(path, case, sim.x, comm, dom.x_start, sim.n, overwrite=overwrite)
+    out.append_step(record.as_dict())
+    out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
+    schedule.due(record)
+    return out, 1, 0.0
+
+
+def _run(sim, case, path, comm, overwrite, resume, stop, start):
+    """The body of :func:`run_case` on a built :class:`Retraction`."""
+    dom = sim.domain
+    checkpoint = checkpoint_path(path)
+    schedule = SnapshotSchedule(case.output)
+    out, snapshots, wall_before = _open_output(sim, case, path, comm, overwrite, resume, stop,
+                                               schedule)
     every = case.output.checkpoint_steps
     last_checkpoint = time.monotonic()
 
@@ -165,14 +175,14 @@ def _run(sim, case, path, comm, printer, overwrite, resume, stop, start):
         write_checkpoint(checkpoint, comm, sim.n, dom.x_start, fields, attrs)
 
     try:
-        progress = Progress(case.output.progress_interval, printer)
+        progress = Progress(case.output.progress_interval, case.units)
         while not sim.detached():
             record = sim.step()
             out.append_step(record.as_dict())
             if schedule.due(record):
                 out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
                 snapshots += 1
-            progress.update(sim.step_index, record, case.units)
+            progress.update(sim.step_index, record)
             if sim.indenter > MAX_INDENTER_HEIGHT:
                 raise CaseFailure(f"no complete detachment by u_z = {MAX_INDENTER_HEIGHT} R")
             # One reduction decides for all ranks: a signal on any rank, or rank 0's clock.
@@ -188,17 +198,8 @@ def _run(sim, case, path, comm, printer, overwrite, resume, stop, start):
                                   f" (t = {sim.time * case.units.time:.6g}); checkpoint"
                                   f" {checkpoint}")
         out.add_snapshot(sim.time, sim.u, sim.traction, sim.gap())
-        summary = {"steps": sim.step_index, "iterations": sim.total_iterations,
-                   "fft_pairs": sim.fft.pairs,
-                   "wall_time": wall_before + time.monotonic() - start,
+        summary = {**sim.summary(), "wall_time": wall_before + time.monotonic() - start,
                    "ranks": comm.Get_size(),
-                   "projections": sim.solver.projections,
-                   "residual_steps": sim.solver.residual_steps,
-                   "cut_steps": sim.solver.cut_steps,
-                   "rejected_predictions": sim.rejected_predictions,
-                   "rejected_steps": sim.rejected_steps,
-                   "abandoned_solves": getattr(sim.solver, "abandoned", 0),
-                   "moving_edge_predictions": sim.predictor_choice[1],
                    "detachment_indenter": sim.indenter * case.units.length,
                    "detachment_time": sim.time * case.units.time}
         out.finish(summary)

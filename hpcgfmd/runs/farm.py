@@ -9,7 +9,7 @@ each group's leader when the group is free and broadcast inside the group. There
 rank: every rank computes, and a long case never waits behind short ones.
 
 Outputs. ``OUTDIR/<name>.h5`` per case (named from the swept values, see
-:mod:`hpcgfmd.sweep`), and ``OUTDIR/summary.csv`` and ``OUTDIR/summary.h5`` with one row per
+:mod:`hpcgfmd.runs.sweep`), and ``OUTDIR/summary.csv`` and ``OUTDIR/summary.h5`` with one row per
 case, written atomically by rank 0 at the end from the case files themselves (so the table is
 complete after a resumed farm, or after the last element of a job array, too).
 
@@ -24,8 +24,10 @@ cases failed (capped at 199); 2 for a bad sweep file or command line.
 """
 from __future__ import annotations
 
+import contextlib
 import csv
 import fcntl
+import logging
 import os
 import time
 
@@ -33,15 +35,14 @@ import h5py
 import numpy as np
 from mpi4py import MPI
 
-from .analysis import read_series
-from .checkpoint import checkpoint_path
-from .config import CaseError
-from .driver import CaseFailure
-from .runner import Interrupted, run_case
-from .signals import StopSignals
+from ..errors import EXIT_FAILED_BASE, EXIT_RESUMABLE, CaseError, CaseFailure, Interrupted
+from ..signals import StopSignals
+from ..storage.checkpoint import checkpoint_path
+from ..storage.reader import read_series
+from .single_case import run_case
+from .sweep import ITERATIONS_PER_STEP, SECONDS_PER_NODE_ITERATION
 
-EXIT_INTERRUPTED = 75
-EXIT_FAILED_BASE = 100
+logger = logging.getLogger(__name__)
 SUMMARY_COLUMNS = ("index", "name", "status", "error", "lambda0", "lambda_inf", "k", "Vz",
                    "chi_ve", "alpha", "depth", "cell", "nx", "pull_off_load", "pull_off_lbar",
                    "pull_off_contact_half_width", "pull_off_abar", "detachment_indenter",
@@ -67,6 +68,31 @@ def file_status(path, item) -> str:
     if finished:
         return "finished"
     return "resumable" if os.path.exists(checkpoint_path(path)) else "unfinished"
+
+
+def plan_table(sweep, out_dir, groups):
+    """The dry run's listing: each case, its groups, its file's state and its estimated cost."""
+    lines = [f"{len(sweep.cases)} cases; outputs in {out_dir}",
+             f"{'#':>3}  {'name':<32} {'lambda0':>8} {'k':>6} {'V_z':>8} {'chi_ve':>9}"
+             f" {'h0/R':>6} {'nx':>8} {'cost/s':>8}  file"]
+    loads = [0.0] * max(groups, 1)
+    for item in sorted(sweep.cases, key=lambda c: -c.cost()):
+        loads[loads.index(min(loads))] += item.cost()  # longest first onto the freest group
+    for item in sweep.cases:
+        if item.case is None:
+            lines.append(f"{item.index:>3}  {item.name:<32} invalid: {item.error}")
+            continue
+        g = item.case.groups()
+        lines.append(f"{item.index:>3}  {item.name:<32} {g['lambda0']:>8.4g} {g['k']:>6.3g}"
+                     f" {g['Vz']:>8.4g} {g['chi_ve']:>9.4g} {g['depth']:>6.3g}"
+                     f" {item.case.numerics.nx:>8} {item.cost():>8.3g}"
+                     f"  {file_status(case_file(out_dir, item), item)}")
+    total = sum(c.cost() for c in sweep.cases)
+    lines.append(f"estimated cost: {total:.0f} core-seconds (model:"
+                 f" {SECONDS_PER_NODE_ITERATION * 2**17 * 1e3:.2g} ms per CG iteration at"
+                 f" 2^17 nodes, {ITERATIONS_PER_STEP:g} iterations per step); about"
+                 f" {max(loads):.0f} s on {groups} group(s) of ranks, longest first")
+    return "\n".join(lines)
 
 
 class _Counter:
@@ -150,9 +176,9 @@ def _run_one(item, out_dir, group, say, stop):
         alike += (Exception,)
     started = time.monotonic()
     try:
-        summary = run_case(item.case, path, group, printer=lambda *a: None,
-                           overwrite=status == "unfinished", resume=status == "resumable",
-                           stop=stop)
+        with _quiet_case():
+            summary = run_case(item.case, path, group, overwrite=status == "unfinished",
+                               resume=status == "resumable", stop=stop)
     except Interrupted:
         say(f"[{item.index}] {item.name}: interrupted, checkpointed")
         return dict(record, status="interrupted")
@@ -164,8 +190,21 @@ def _run_one(item, out_dir, group, say, stop):
     return dict(record, status="finished")
 
 
-def run_farm(sweep, comm, out_dir, ranks_per_case=1, printer=print, only=None,
-             stop=None) -> int:
+@contextlib.contextmanager
+def _quiet_case():
+    """The farm reports each case in one line: the case's own progress lines are held back."""
+    loggers = [logging.getLogger(f"hpcgfmd.runs.{name}") for name in ("single_case", "progress")]
+    levels = [one.level for one in loggers]
+    for one in loggers:
+        one.setLevel(logging.WARNING)
+    try:
+        yield
+    finally:
+        for one, level in zip(loggers, levels):
+            one.setLevel(level)
+
+
+def run_farm(sweep, comm, out_dir, ranks_per_case=1, only=None, stop=None) -> int:
     """Collective: run the cases of ``sweep`` on ``comm``; returns the exit status.
 
     ``only`` runs just that case index on all of ``comm`` (one element of a job array).
@@ -173,7 +212,7 @@ def run_farm(sweep, comm, out_dir, ranks_per_case=1, printer=print, only=None,
     """
     if stop is None:
         with StopSignals() as own:
-            return run_farm(sweep, comm, out_dir, ranks_per_case, printer, only, own)
+            return run_farm(sweep, comm, out_dir, ranks_per_case, only, own)
     rank = comm.Get_rank()
     if rank == 0:
         os.makedirs(out_dir, exist_ok=True)
@@ -184,7 +223,11 @@ def run_farm(sweep, comm, out_dir, ranks_per_case=1, printer=print, only=None,
         group = comm.Split(color=rank // ranks_per_case, key=rank)
         order = sorted(range(len(sweep.cases)), key=lambda i: -sweep.cases[i].cost())
     leader = group.Get_rank() == 0
-    say = printer if leader else (lambda line: None)  # each group's leader reports its cases
+
+    def say(line):  # each group's leader reports its own cases
+        if leader:
+            logger.info(line, extra={"every_rank": True})
+
     n_groups = comm.Get_size() // group.Get_size() if only is None else 1
     queue = _Counter.create(comm, order, rank // group.Get_size(), n_groups, say)
     records = []
@@ -209,13 +252,13 @@ def run_farm(sweep, comm, out_dir, ranks_per_case=1, printer=print, only=None,
         rows = write_summary(sweep, out_dir, done)
         counts = {s: sum(r["status"] == s for r in rows) for s in
                   ("finished", "failed", "interrupted", "pending")}
-        printer(f"farm: {counts['finished']} finished, {counts['failed']} failed,"
-                f" {counts['interrupted']} interrupted, {counts['pending']} pending; summary in"
-                f" {os.path.join(out_dir, 'summary.csv')}")
+        logger.info(f"farm: {counts['finished']} finished, {counts['failed']} failed,"
+                    f" {counts['interrupted']} interrupted, {counts['pending']} pending;"
+                    f" summary in {os.path.join(out_dir, 'summary.csv')}")
         mine = [r for r in rows if r["index"] in set(order)]  # --case: just that one
         failed = sum(r["status"] == "failed" for r in mine)
         if any(r["status"] in ("interrupted", "pending") for r in mine):
-            status = EXIT_INTERRUPTED  # only a signal leaves cases undone
+            status = EXIT_RESUMABLE  # only a signal leaves cases undone
         elif failed:
             status = EXIT_FAILED_BASE + min(failed, 99)
     if group is not comm:

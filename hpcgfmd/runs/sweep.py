@@ -25,18 +25,18 @@ from the swept values (``velocity_0.45-depth_0.1.h5``).
 from __future__ import annotations
 
 import itertools
-import json
 import math
 import os
 import re
 import tomllib
 from dataclasses import dataclass
 
-from .config import (CASE_KEYS, DEFAULT_STEP_PER_RANGE, NUMERICS_KEYS, OUTPUT_KEYS,
-                     PHYSICAL_KEYS, Case, CaseError, parse_case)
+import tomli_w
 
-SECTIONS = {"case": CASE_KEYS, "physical": PHYSICAL_KEYS, "numerics": NUMERICS_KEYS,
-            "output": OUTPUT_KEYS}
+from ..errors import CaseError, SweepError
+from ..model.case import (DEFAULT_STEP_PER_RANGE, NUMERICS_KEYS, OUTPUT_KEYS, SECTIONS, Case,
+                          parse_case)
+
 FARM_KEYS = ("ranks_per_case", "output")
 # Cost model of the dry run and of the longest-first order, measured at 2^17 nodes on one
 # rank with the default numerics: the default case (lambda0 = 7, V_z = 0.45) took 1169
@@ -49,10 +49,6 @@ SECONDS_PER_NODE_ITERATION = 4.35e-3 / 2**17
 ITERATIONS_PER_STEP = 15.6
 TRAVEL_PER_DEPTH = 1.2
 ADAPTIVE_PER_FIXED_STEPS = 0.5
-
-
-class SweepError(ValueError):
-    """A rejected sweep file: ``str(error)`` is the one-line message (exit status 2)."""
 
 
 @dataclass
@@ -88,11 +84,11 @@ class SweepCase:
             return 0.0
         c = self.case
         num = c.numerics
-        travel_time = TRAVEL_PER_DEPTH * c.depth / c.velocity
+        travel_time = TRAVEL_PER_DEPTH * c.depth / c.indenter_speed
         if num.step_control == "fixed":
             steps = travel_time / num.dt
         else:  # about half the steps of the fixed default, and at least travel / dt_max
-            default_dt = DEFAULT_STEP_PER_RANGE * c.dmax / c.velocity
+            default_dt = DEFAULT_STEP_PER_RANGE * c.dmax / c.indenter_speed
             steps = max(ADAPTIVE_PER_FIXED_STEPS * travel_time / default_dt,
                         travel_time / num.dt_max)
         per_step = ITERATIONS_PER_STEP if num.solver == "cg" else num.equilibration_steps
@@ -110,26 +106,12 @@ class Sweep:
     path: str = ""
 
 
-def _toml_value(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, float)):
-        return repr(value) if not isinstance(value, float) or math.isfinite(value) else (
-            "nan" if value != value else ("inf" if value > 0 else "-inf"))
-    if isinstance(value, str):
-        return json.dumps(value)  # a TOML basic string
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    raise SweepError(f"{value!r}: only numbers, booleans, strings and lists can be swept")
-
-
 def to_toml(doc: dict) -> str:
     """A case document (sections of scalars and lists) as TOML text."""
-    lines = []
-    for section, table in doc.items():
-        lines.append(f"[{section}]")
-        lines += [f"{key} = {_toml_value(value)}" for key, value in table.items()]
-    return "\n".join(lines) + "\n"
+    try:
+        return tomli_w.dumps(doc)
+    except TypeError as err:
+        raise SweepError(f"{err}: only numbers, booleans, strings and lists can be swept") from None
 
 
 def _resolve(key, base):
@@ -161,7 +143,8 @@ def _flatten(table):
 
 
 def _label(value) -> str:
-    text = _toml_value(value)
+    """A file-name part from a swept value: TOML's spelling, only [A-Za-z0-9.+-_] kept."""
+    text = tomli_w.dumps({"v": value})[len("v = "):].strip()
     return re.sub(r"[^A-Za-z0-9.+-]", "", text.replace(", ", "_"))
 
 

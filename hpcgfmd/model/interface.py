@@ -1,11 +1,11 @@
 """Real-space interface physics: indenter gap, Dugdale-Maugis adhesion, contact measures.
 
-Dugdale-Maugis law with a hard wall (physics.md, "Interface"; paper Eq. 4): with
+Dugdale-Maugis law with a hard wall (docs/model.md, "Interface"; paper Eq. 4): with
 sigma_a = dgamma0 / dmax the interface energy per area is
 
     Phi(g) = -sigma_a max(dmax - g, 0)   for g >= 0,   +infinity for g < 0.
 
-Discretisation (physics.md, numerical notes): Phi is integrated EXACTLY over the piecewise
+Discretisation (docs/model.md, "Discretisation"): Phi is integrated EXACTLY over the piecewise
 linear interpolant of the nodal gaps, element by element (node i to node i+1, periodic).
 The nodal cohesive traction is then continuous in the gaps, which removes the O(dx)
 lattice-trapping bias of the node-by-node law. With the ramp r = max(dmax - g, 0) the mean
@@ -45,7 +45,7 @@ class DugdaleMaugis:
         t_i = -(1/dx) dE/du_i = -sigma_a (dM_{i-1}/dg_b + dM_i/dg_a): sigma_a inside the
         zone, 0 beyond it, continuous in between. Local: node i needs the gaps of nodes
         i - 1 and i + 1, so the block comes with one ghost node on each side
-        (:meth:`hpcgfmd.domain.Domain.fill_halo`).
+        (:meth:`hpcgfmd.parallel.domain.Domain.fill_halo`).
 
         Cost: one comparison pass over the block finds the span of nodes in the zone; the
         law is evaluated on that span (and its two neighbours each side, which a straddling
@@ -154,14 +154,14 @@ def edge_positions(domain, gap, level, shape_exponent):
 
     The region is the span from the first to the last node (global index) with
     g <= level. For shape_exponent p != 1 the gap beyond the edge is modelled as
-    g - level ~ (x - a)^p from the first two open nodes (physics.md, "The contact edge":
+    g - level ~ (x - a)^p from the first two open nodes (docs/model.md, "Discretisation":
     p = 3/2 for the edge of intimate contact); p = 1 interpolates linearly between the last
     closed and the first open node (the cohesive-zone edge, where g crosses dmax with a
     finite slope).
 
     Parameters
     ----------
-    domain : hpcgfmd.domain.Domain
+    domain : hpcgfmd.parallel.domain.Domain
         This rank's block and the collectives.
     gap : ndarray, shape (local_n,)
         Nodal gaps of this rank's block (length units).

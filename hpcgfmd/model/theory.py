@@ -1,9 +1,10 @@
 """Closed-form references for the adhesive cylinder (pure functions, no state).
 
-All quantities are in the paper's dgamma0 scaling (physics.md, "Scales and dimensionless
+All quantities are in the paper's dgamma0 scaling (docs/model.md, "Scales and dimensionless
 groups"): abar = a / beta, Lbar = L_n / (R dgamma0^2 E0)^(1/3), beta = (R^2 dgamma0 / E0)^(1/3),
-with E0 the relaxed plane-strain modulus. Equation numbers refer to the paper in
-``shared/paper`` as corrected in ``shared/physics.md``.
+with E0 the relaxed plane-strain modulus. Equation numbers refer to the paper (Van Dokkum,
+Pérez-Ràfols, Dorogin, Nicola: retraction of an adhesive cylindrical indenter from a
+viscoelastic substrate) as corrected in docs/model.md.
 """
 from __future__ import annotations
 
@@ -31,7 +32,7 @@ def jkr_load(abar, work_ratio=1.0):
 
 
 def _md_closure(m, abar, lam):
-    """Left side minus right side of the Baney-Hui closure (physics.md, Eq. 13 corrected)."""
+    """Left side minus right side of the Baney-Hui closure (paper Eq. 13, corrected: docs/model.md)."""
     s = np.sqrt(m * m - 1.0)
     ach = np.arccosh(m)
     return (lam * abar**2 / 2.0 * (m * s - ach)
@@ -73,7 +74,7 @@ def maugis_dugdale(abar, lam):
 def periodic_load_factor(a, cell):
     """Factor by which the periodic cell raises the load at contact half-width a.
 
-    physics.md, numerical notes: with zero mean displacement and period L the images add a
+    docs/model.md, "Periodic cell": with zero mean displacement and period L the images add a
     curvature 2 pi L_n / (3 E* L^2), so L_n(a) = L_isolated(a) / (1 - pi^2 a^2 / (6 L^2)) to
     O((a/L)^4), for Hertz, JKR and Maugis-Dugdale alike.
 
@@ -103,7 +104,7 @@ def persson_brener(vbar, k):
 
     Solves cbar = [1 - (1 - k) (sqrt(1 + (cbar/vbar)^2) - cbar/vbar)]^(-1) for cbar in [1, 1/k].
 
-    Convention (physics.md): this closed form equals the quadrature of Eq. 6 when
+    Convention (docs/model.md, "Analytic references"): this closed form equals the quadrature of Eq. 6 when
     vbar = 2 pi rhodot tau_r / c0 with the RETARDATION time tau_r = tau / k of the SLS whose
     relaxation time is tau; see :func:`peel_velocity` and :func:`persson_brener_quadrature`.
 
@@ -172,7 +173,7 @@ def peel_velocity(rhodot, tau, k, lambda0, beta):
 def effective_work_ratio(x, y):
     """dgamma_eff / dgamma0 of a point (x, y) = (Lbar/sqrt(abar), (pi/4) abar^(3/2)).
 
-    physics.md, Observables: the slope-1 line through the point has intercept y - x =
+    docs/model.md, "Observables": the slope-1 line through the point has intercept y - x =
     sqrt(2 pi dgamma_eff / dgamma0).
     """
     d = np.asarray(y, dtype=float) - np.asarray(x, dtype=float)

@@ -1,0 +1,82 @@
+"""The Python API: ``hpcgfmd.Case``, ``hpcgfmd.run``, ``hpcgfmd.open`` (docs/api.md).
+
+    import hpcgfmd
+    case = hpcgfmd.Case(maugis=3.5, modulus_ratio=0.1, velocity=1.0, depth=0.03, cell=2.0,
+                        adhesion=1e-4, numerics={"nx": 2048})
+    result = hpcgfmd.run(case)                 # in memory; or run(case, "out.h5")
+    result.pull_off().lbar, result.series.load, result.snapshots.surface
+    hpcgfmd.open("out.h5")                     # a finished or running case file
+
+The same validation, solver and file layout as ``python -m hpcgfmd run``; errors are raised
+as the exceptions of :mod:`hpcgfmd.errors` (a :class:`~hpcgfmd.errors.CaseError` names the key,
+the value and what is accepted).
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+
+from .model.case import Case
+from .storage.reader import Result, read_result
+
+
+def run(case, path=None, comm=None, overwrite=False, planner_effort="FFTW_MEASURE") -> Result:
+    """Run the retraction of ``case`` and return its :class:`~hpcgfmd.storage.reader.Result`.
+
+    Collective over ``comm``: every rank calls it with the same arguments.
+
+    Parameters
+    ----------
+    case : Case, str or os.PathLike
+        A :class:`Case`, a case file's path or its TOML text.
+    path : str or os.PathLike, optional
+        The HDF5 file to write (kept). Left out, the run goes to a temporary file that is
+        read back and removed; ``Result.path`` is then None.
+    comm : mpi4py.MPI.Comm, optional
+        The ranks sharing the case; default ``MPI.COMM_SELF`` (serial).
+    overwrite : bool
+        Replace an existing ``path``.
+    planner_effort : str
+        FFTW planner flag: "FFTW_MEASURE" (fastest transforms, planning takes seconds at
+        2^17) or "FFTW_ESTIMATE" (instant planning, for small quick runs).
+
+    Raises
+    ------
+    CaseError
+        Invalid case, or a contact too large for the cell.
+    CaseFailure
+        The run failed (e.g. the solver did not converge).
+    FileExistsError
+        ``path`` exists and ``overwrite`` is false.
+    """
+    from mpi4py import MPI
+
+    from .runs.single_case import run_case
+
+    comm = MPI.COMM_SELF if comm is None else comm
+    if not isinstance(case, Case):
+        case = Case.from_toml(case)
+    if path is not None:
+        if os.path.exists(path) and not overwrite:
+            raise FileExistsError(f"{path}: file exists; pass overwrite=True to replace it")
+        run_case(case, path, comm, overwrite=overwrite, planner_effort=planner_effort)
+        return read_result(path)
+    directory = comm.bcast(tempfile.mkdtemp(prefix="hpcgfmd-") if comm.Get_rank() == 0
+                           else None, root=0)
+    try:
+        temporary = os.path.join(directory, "case.h5")
+        run_case(case, temporary, comm, planner_effort=planner_effort)
+        result = read_result(temporary)
+    finally:
+        comm.Barrier()
+        if comm.Get_rank() == 0:
+            shutil.rmtree(directory, ignore_errors=True)
+    result.path = None
+    return result
+
+
+def open_result(path) -> Result:
+    """The results in the case file ``path``, finished or still being written
+    (``hpcgfmd.open``)."""
+    return read_result(path)

@@ -1,0 +1,475 @@
+"""A case: the dimensionless groups of one retraction, its numerics and its output, validated.
+
+Two equivalent forms of input, exactly one per case (docs/model.md, "Scales and dimensionless
+groups"; docs/case-file.md lists every key with its default):
+
+``[case]`` the dimensionless groups in units R = E0 = tau = 1:
+    maugis (lambda0), modulus_ratio (k = E0/Einf, in (0, 1]), velocity (V_z),
+    depth (h0/R), cell (L/R), adhesion (alpha = dgamma0 / (E0 R)).
+``[physical]`` SI values:
+    radius, modulus_relaxed, modulus_instantaneous (plane-strain moduli E*), relaxation_time,
+    work_of_adhesion, interaction_range, velocity, depth, cell_length.
+
+``[numerics]`` and ``[output]`` are optional; times and lengths there are in the case's units
+(tau and R with ``[case]``, seconds and metres with ``[physical]``).
+
+From Python, ``Case(maugis=7.0, modulus_ratio=0.1, velocity=0.45, depth=0.1, cell=10.0,
+adhesion=5e-5, numerics={"nx": 4096})`` validates exactly as the case file would;
+:meth:`Case.from_toml` reads a file or a text. Every problem is a
+:class:`~hpcgfmd.errors.CaseError` naming the key, the value and what is accepted.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import tomllib
+from dataclasses import dataclass, field
+
+import tomli_w
+
+from ..errors import CaseError
+from . import theory
+
+# Cohesive-zone resolution w/dx (w: relaxed zone width pi E0 dmax / (4 sigma_a)); the
+# accuracy it buys is measured in docs/results.md ("Grid convergence").
+MIN_ZONE_POINTS = 1.0      # below this nx is rejected
+TARGET_ZONE_POINTS = 3.0   # the automatic nx is the smallest power of two reaching this
+# The geometric contact width sqrt(2 R h0) bounds a_c; with L >= 6 sqrt(2 R h0) the periodic
+# image correction pi^2 a^2 / (6 L^2) to the load stays below 5 %.
+MIN_CELL_PER_CONTACT = 6.0
+DEFAULT_STEP_PER_RANGE = 0.25  # fixed steps: the indenter moves this fraction of dmax per step
+DEFAULT_TOLERANCE = 1e-6
+DEFAULT_MAX_ITERATIONS = 5000
+# Adaptive steps (hpcgfmd.solvers.stepping): contact-edge motion per step in relaxed
+# cohesive-zone widths, load deviation from linear extrapolation in load scales.
+DEFAULT_EDGE_FRACTION = 0.5
+DEFAULT_LOAD_TOLERANCE = 1e-2
+DT_MIN_PER_DEFAULT = 1.0 / 64.0     # dt_min: this fraction of the first step (at most the fixed one)
+FIRST_STEP_PER_DEFAULT = 1.0 / 16.0  # adaptive: the first step, doubling while errors allow
+DT_MAX_DEPTH_FRACTION = 0.02        # dt_max: the indenter rises by this fraction of h0,
+DT_MAX_RELAXATION = 0.25            # ... and at most this fraction of tau (the time error is
+#                                     first order in dt/tau where the edge creeps)
+PAPER_EQUILIBRATION_PER_ROOT_N = 1024  # the paper authors' code: 256 * 4 * sqrt(nx) pseudo steps
+SOLVERS = ("cg", "paper")  # the names of hpcgfmd.solvers' registry
+STEP_CONTROLS = ("adaptive", "fixed")
+MIN_TOLERANCE = 1e-13      # the residual's round-off floor (max norm relative to sigma_a)
+BYTES_PER_POINT = 320      # about 40 float64 work arrays per grid point
+
+CASE_KEYS = ("maugis", "modulus_ratio", "velocity", "depth", "cell", "adhesion")
+PHYSICAL_KEYS = ("radius", "modulus_relaxed", "modulus_instantaneous", "relaxation_time",
+                 "work_of_adhesion", "interaction_range", "velocity", "depth", "cell_length")
+NUMERICS_KEYS = ("nx", "dt", "tolerance", "max_iterations", "solver", "step_control", "dt_min",
+                 "dt_max", "edge_fraction", "load_tolerance", "equilibration_steps")
+OUTPUT_KEYS = ("snapshot_times", "snapshot_contact_widths", "snapshot_zero_load",
+               "progress_interval", "checkpoint_interval", "checkpoint_steps")
+SECTIONS = {"case": CASE_KEYS, "physical": PHYSICAL_KEYS, "numerics": NUMERICS_KEYS,
+            "output": OUTPUT_KEYS}
+
+
+@dataclass(frozen=True)
+class Units:
+    """The case's units expressed in the internal units R = E0 = tau = 1.
+
+    Attributes
+    ----------
+    length, stress, time : float
+        R, E0 and tau in the case's units (metre, pascal, second; or 1 with ``[case]``).
+    """
+
+    length: float = 1.0
+    stress: float = 1.0
+    time: float = 1.0
+
+    @property
+    def load(self) -> float:
+        """Load per unit length: E0 R."""
+        return self.stress * self.length
+
+
+@dataclass(frozen=True)
+class Numerics:
+    """Discretisation: grid points, time steps (internal units of tau), solver and its tolerance.
+
+    With ``step_control = "adaptive"`` ``dt`` is the first step; ``edge_fraction`` (of the
+    relaxed cohesive-zone width) and ``load_tolerance`` (in load scales) are the error
+    targets of :mod:`hpcgfmd.solvers.stepping`. ``equilibration_steps`` is the paper solver's
+    fixed number of pseudo time steps per time step.
+    """
+
+    nx: int
+    nx_automatic: bool
+    dt: float
+    tolerance: float
+    max_iterations: int
+    solver: str = "cg"
+    step_control: str = "adaptive"
+    dt_min: float = 0.0
+    dt_max: float = math.inf
+    edge_fraction: float = DEFAULT_EDGE_FRACTION
+    load_tolerance: float = DEFAULT_LOAD_TOLERANCE
+    equilibration_steps: int = 0
+
+
+@dataclass(frozen=True)
+class Output:
+    """What is written besides the series (internal units R, tau; intervals in wall seconds)."""
+
+    snapshot_times: tuple = ()
+    snapshot_contact_widths: tuple = ()  # descending
+    snapshot_zero_load: bool = False
+    progress_interval: float = 10.0
+    checkpoint_interval: float = 600.0
+    checkpoint_steps: int = 0  # also every this many steps (0: only by wall time)
+
+
+@dataclass(frozen=True)
+class Case:
+    """One retraction case, validated; the dimensionless groups under their case-file names.
+
+    Parameters
+    ----------
+    maugis, modulus_ratio, velocity, depth, cell, adhesion : float
+        lambda0, k = E0/Einf in (0, 1], V_z, h0/R, L/R and alpha = dgamma0/(E0 R), all
+        dimensionless (docs/model.md, "Scales and dimensionless groups").
+    numerics, output : dict or Numerics / Output, optional
+        The ``[numerics]`` and ``[output]`` keys of a case file (in the case's units), or the
+        resolved objects; left out, every default applies.
+    units : Units
+        The case's units (``[physical]`` input); the internal units are R = E0 = tau = 1.
+    text : str
+        The case file (stored in the output); made from the keys when not given.
+    form : {"case", "physical"}
+        Which section the case came from (error messages name its keys).
+
+    Raises
+    ------
+    CaseError
+        A value out of range, a cell too small for the contact, an unresolved grid.
+    """
+
+    maugis: float
+    modulus_ratio: float
+    velocity: float
+    depth: float
+    cell: float
+    adhesion: float
+    numerics: Numerics | dict | None = None
+    output: Output | dict | None = None
+    units: Units = field(default_factory=Units)
+    text: str = ""
+    form: str = "case"
+
+    def __post_init__(self):
+        given = {"numerics": self.numerics, "output": self.output}
+        if self.form == "case":
+            groups = {key: getattr(self, key) for key in CASE_KEYS}
+            for key in CASE_KEYS:
+                object.__setattr__(self, key, _number(groups, "case", key))
+            if self.modulus_ratio > 1.0:
+                raise CaseError(f"[case] modulus_ratio = {self.modulus_ratio}: expected"
+                                " k = E0/Einf in (0, 1] (1 is the elastic solid)")
+        min_cell = MIN_CELL_PER_CONTACT * math.sqrt(2.0 * self.depth)
+        if self.cell < min_cell:
+            raise CaseError(f"{self.cell_key()} = {self.cell * self.units.length:.6g}: too"
+                            f" small for the contact; need L >= {MIN_CELL_PER_CONTACT:g}"
+                            f" sqrt(2 R h0) = {min_cell * self.units.length:.4g}")
+        if not isinstance(self.numerics, Numerics):
+            object.__setattr__(self, "numerics", self._resolve_numerics(self.numerics or {}))
+        if not isinstance(self.output, Output):
+            object.__setattr__(self, "output", _resolve_output(self.output or {}, self.units))
+        if not self.text:  # built from keywords: the case file that gives this case
+            doc = {"case": {key: getattr(self, key) for key in CASE_KEYS}}
+            doc.update({name: value for name, value in given.items()
+                        if isinstance(value, dict) and value})
+            object.__setattr__(self, "text", tomli_w.dumps(doc))
+
+    # --- construction -------------------------------------------------------------------
+    @classmethod
+    def from_toml(cls, source) -> "Case":
+        """The case of a case file (a path) or of its text (a string holding a ``[`` section).
+
+        Raises :class:`~hpcgfmd.errors.CaseError`, also for an unreadable file.
+        """
+        if isinstance(source, os.PathLike) or (isinstance(source, str) and "[" not in source):
+            return load_case(source)
+        return parse_case(source)
+
+    def _resolve_numerics(self, num: dict) -> Numerics:
+        """``[numerics]`` keys (case units) -> :class:`Numerics` (internal units), defaults."""
+        _unknown(num, "numerics", NUMERICS_KEYS)
+        nx, automatic = self._grid(num)
+        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+        if nx * BYTES_PER_POINT > memory:
+            raise CaseError(f"[numerics] nx = {nx}{' (automatic)' if automatic else ''}: needs"
+                            f" about {nx * BYTES_PER_POINT / 2**30:.1f} GiB, more than the"
+                            f" {memory / 2**30:.1f} GiB of this machine")
+        time_unit = self.units.time
+        solver = _choice(num, "numerics", "solver", SOLVERS)
+        step_control = _choice(num, "numerics", "step_control", STEP_CONTROLS)
+        speed = self.Vz * self.alpha ** (2.0 / 3.0)  # v_z = V_z beta^2, beta^2 = alpha^(2/3)
+        dmax = self.alpha ** (2.0 / 3.0) / self.lambda0
+        fixed_default = DEFAULT_STEP_PER_RANGE * dmax / speed
+        # adaptive steps start short: the retraction starts with the steepest load change
+        dt = (_number(num, "numerics", "dt") / time_unit if "dt" in num
+              else fixed_default * (1.0 if step_control == "fixed" else FIRST_STEP_PER_DEFAULT))
+        dt_min = (_number(num, "numerics", "dt_min") / time_unit if "dt_min" in num
+                  else DT_MIN_PER_DEFAULT * min(dt, fixed_default))
+        dt_max = (_number(num, "numerics", "dt_max") / time_unit if "dt_max" in num
+                  else max(min(DT_MAX_DEPTH_FRACTION * self.depth / speed,
+                               DT_MAX_RELAXATION), dt))
+        if dt_min > dt_max:
+            raise CaseError(f"[numerics] dt_min = {dt_min * time_unit:g}: must not exceed"
+                            f" dt_max = {dt_max * time_unit:g}")
+        if "equilibration_steps" in num:
+            equilibration = _integer(num, "numerics", "equilibration_steps", 1)
+        else:
+            equilibration = round(PAPER_EQUILIBRATION_PER_ROOT_N * math.sqrt(nx))
+        tolerance = (_number(num, "numerics", "tolerance") if "tolerance" in num
+                     else DEFAULT_TOLERANCE)
+        if not MIN_TOLERANCE <= tolerance < 1e-2:
+            raise CaseError(f"[numerics] tolerance = {tolerance}: expected a number in"
+                            f" [{MIN_TOLERANCE:g}, 0.01)")
+        return Numerics(
+            nx=nx, nx_automatic=automatic, dt=dt, tolerance=tolerance,
+            max_iterations=(_integer(num, "numerics", "max_iterations", 1)
+                            if "max_iterations" in num else DEFAULT_MAX_ITERATIONS),
+            solver=solver, step_control=step_control, dt_min=dt_min, dt_max=dt_max,
+            edge_fraction=(_number(num, "numerics", "edge_fraction") if "edge_fraction" in num
+                           else DEFAULT_EDGE_FRACTION),
+            load_tolerance=(_number(num, "numerics", "load_tolerance")
+                            if "load_tolerance" in num else DEFAULT_LOAD_TOLERANCE),
+            equilibration_steps=equilibration)
+
+    def _grid(self, num):
+        """(nx, chosen automatically): given and checked, or the smallest power of two with
+        w/dx >= TARGET_ZONE_POINTS."""
+        if "nx" not in num:
+            return 2 ** max(6, math.ceil(math.log2(TARGET_ZONE_POINTS * self.cell
+                                                   / self.zone_width))), True
+        nx = num["nx"]
+        if isinstance(nx, bool) or not isinstance(nx, int) or nx < 64 or nx % 2:
+            raise CaseError(f"[numerics] nx = {_fmt(nx)}: expected an even integer >= 64")
+        points = self.zone_width / (self.cell / nx)
+        if points < MIN_ZONE_POINTS:
+            need = 2 ** math.ceil(math.log2(MIN_ZONE_POINTS * self.cell / self.zone_width))
+            raise CaseError(f"[numerics] nx = {nx}: resolves the cohesive zone with w/dx ="
+                            f" {points:.3g} points; at least {MIN_ZONE_POINTS:g} is needed"
+                            f" (nx >= {need}; w/dx >= {TARGET_ZONE_POINTS:g} for 1 % accuracy)")
+        return nx, False
+
+    def cell_key(self) -> str:
+        """The case file's name for the cell length ([case] cell or [physical] cell_length)."""
+        return "[case] cell" if self.form == "case" else "[physical] cell_length"
+
+    # --- the groups under the paper's symbols, and derived quantities (internal units) --
+    @property
+    def lambda0(self) -> float:
+        """Relaxed Maugis parameter lambda0 (docs/model.md, (M20))."""
+        return self.maugis
+
+    @property
+    def k(self) -> float:
+        """Modulus ratio k = E0 / Einf."""
+        return self.modulus_ratio
+
+    @property
+    def Vz(self) -> float:
+        """Dimensionless retraction velocity V_z = v_z tau R / beta^2."""
+        return self.velocity
+
+    @property
+    def alpha(self) -> float:
+        """alpha = dgamma0 / (E0 R) = (beta / R)^3."""
+        return self.adhesion
+
+    @property
+    def beta(self) -> float:
+        """Length scale (R^2 dgamma0 / E0)^(1/3) = alpha^(1/3)."""
+        return self.alpha ** (1.0 / 3.0)
+
+    @property
+    def load_scale(self) -> float:
+        """Load scale (R dgamma0^2 E0)^(1/3) = alpha^(2/3)."""
+        return self.alpha ** (2.0 / 3.0)
+
+    @property
+    def sigma_a(self) -> float:
+        """Adhesive traction sigma_a = lambda0 (E0^2 dgamma0 / R)^(1/3)."""
+        return self.lambda0 * self.alpha ** (1.0 / 3.0)
+
+    @property
+    def dmax(self) -> float:
+        """Interaction range dgamma0 / sigma_a."""
+        return self.alpha / self.sigma_a
+
+    @property
+    def indenter_speed(self) -> float:
+        """Retraction velocity v_z = V_z beta^2 / (R tau)."""
+        return self.Vz * self.beta**2
+
+    @property
+    def lambda_inf(self) -> float:
+        """Instantaneous Maugis parameter lambda0 k^(2/3)."""
+        return self.lambda0 * self.k ** (2.0 / 3.0)
+
+    @property
+    def chi_ve(self) -> float:
+        """chi_ve = V_z lambda0^2 (paper Eq. 22)."""
+        return theory.chi_ve(self.Vz, self.lambda0)
+
+    @property
+    def zone_width(self) -> float:
+        """Relaxed cohesive-zone width w = pi E0 dmax / (4 sigma_a) = beta pi / (4 lambda0^2)."""
+        return self.beta * theory.cohesive_width(self.lambda0)
+
+    @property
+    def dx(self) -> float:
+        """Grid spacing L / nx."""
+        return self.cell / self.numerics.nx
+
+    def identity(self) -> str:
+        """Hash of everything that determines the series (groups, units, numerics).
+
+        A checkpoint stores it; a restart with a case of another identity is refused. The
+        ``[output]`` settings are left out: they change what is written, not the solution.
+        """
+        n = self.numerics
+        content = {"groups": [self.lambda0, self.k, self.Vz, self.depth, self.cell, self.alpha],
+                   "units": [self.units.length, self.units.stress, self.units.time],
+                   "numerics": [n.nx, n.dt, n.tolerance, n.max_iterations, n.solver,
+                                n.step_control, n.dt_min, n.dt_max, n.edge_fraction,
+                                n.load_tolerance, n.equilibration_steps]}
+        return hashlib.sha256(json.dumps(content).encode()).hexdigest()[:16]
+
+    def groups(self) -> dict:
+        """Every derived dimensionless group, as printed at start and stored in the output."""
+        return {"lambda0": self.lambda0, "lambda_inf": self.lambda_inf, "k": self.k,
+                "Vz": self.Vz, "chi_ve": self.chi_ve, "alpha": self.alpha,
+                "depth": self.depth, "cell": self.cell,
+                "zone_points": self.zone_width / self.dx}
+
+
+def _fmt(value) -> str:
+    if isinstance(value, str):
+        return repr(value)
+    if isinstance(value, bool):
+        return str(value).lower()
+    return str(value)
+
+
+def _number(table, section, key):
+    """A finite number > 0 from ``table[key]`` (CaseError naming the key otherwise)."""
+    if key not in table:
+        raise CaseError(f"[{section}] {key} is missing: a number > 0 is required")
+    value = table[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected a number")
+    value = float(value)
+    if not math.isfinite(value) or value <= 0.0:
+        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected a finite number > 0")
+    return value
+
+
+def _integer(table, section, key, smallest):
+    value = table[key]
+    if isinstance(value, bool) or not isinstance(value, int) or value < smallest:
+        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected an integer >= {smallest}")
+    return value
+
+
+def _choice(table, section, key, accepted):
+    value = table.get(key, accepted[0])
+    if value not in accepted:
+        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected one of"
+                        f" {', '.join(repr(a) for a in accepted)}")
+    return value
+
+
+def _unknown(table, section, allowed):
+    for key in table:
+        if key not in allowed:
+            raise CaseError(f"[{section}] {key}: unknown key; accepted: {', '.join(allowed)}")
+
+
+def _numbers_list(table, section, key, units_scale):
+    value = table.get(key, [])
+    if not isinstance(value, list) or any(isinstance(v, bool) or not isinstance(v, (int, float))
+                                          or not math.isfinite(v) or v < 0 for v in value):
+        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected a list of numbers >= 0")
+    return tuple(sorted(float(v) / units_scale for v in value))
+
+
+def _resolve_output(out: dict, units: Units) -> Output:
+    """``[output]`` keys (case units) -> :class:`Output` (internal units), defaults."""
+    _unknown(out, "output", OUTPUT_KEYS)
+    zero_load = out.get("snapshot_zero_load", False)
+    if not isinstance(zero_load, bool):
+        raise CaseError(f"[output] snapshot_zero_load = {_fmt(zero_load)}: expected true or false")
+    return Output(
+        snapshot_times=_numbers_list(out, "output", "snapshot_times", units.time),
+        snapshot_contact_widths=tuple(reversed(_numbers_list(
+            out, "output", "snapshot_contact_widths", units.length))),
+        snapshot_zero_load=zero_load,
+        progress_interval=(_number(out, "output", "progress_interval")
+                           if "progress_interval" in out else Output.progress_interval),
+        checkpoint_interval=(_number(out, "output", "checkpoint_interval")
+                             if "checkpoint_interval" in out else Output.checkpoint_interval),
+        checkpoint_steps=(_integer(out, "output", "checkpoint_steps", 0)
+                          if "checkpoint_steps" in out else 0))
+
+
+def _groups_from_physical(t):
+    """``[physical]`` SI values -> (the dimensionless groups, the units)."""
+    radius, e0, einf, tau, work, dmax, velocity, depth, cell = (
+        _number(t, "physical", key) for key in PHYSICAL_KEYS)
+    if einf < e0:
+        raise CaseError(f"[physical] modulus_instantaneous = {einf}: must be >= modulus_relaxed"
+                        f" = {e0} (k = E0/Einf in (0, 1])")
+    beta = (radius**2 * work / e0) ** (1.0 / 3.0)
+    groups = {"maugis": (work**2 * radius / (e0**2 * dmax**3)) ** (1.0 / 3.0),
+              "modulus_ratio": e0 / einf, "velocity": velocity * tau * radius / beta**2,
+              "depth": depth / radius, "cell": cell / radius,
+              "adhesion": work / (e0 * radius)}
+    return groups, Units(length=radius, stress=e0, time=tau)
+
+
+def parse_case(text: str) -> Case:
+    """Validate a case file's text and build the :class:`Case` (raises :class:`CaseError`)."""
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise CaseError(f"not valid TOML: {err}") from None
+    for name, value in doc.items():
+        if name not in SECTIONS:
+            raise CaseError(f"[{name}]: unknown section; accepted: [case] or [physical],"
+                            " [numerics], [output]")
+        if not isinstance(value, dict):
+            raise CaseError(f"{name} = {_fmt(value)}: expected a section [{name}]")
+    if ("case" in doc) == ("physical" in doc):
+        raise CaseError("exactly one of [case] (dimensionless groups) or [physical] (SI values)"
+                        " is required")
+    form = "case" if "case" in doc else "physical"
+    _unknown(doc[form], form, SECTIONS[form])
+    if form == "case":
+        groups = {key: _number(doc["case"], "case", key) for key in CASE_KEYS}
+        units = Units()
+    else:
+        groups, units = _groups_from_physical(doc["physical"])
+    return Case(**groups, numerics=doc.get("numerics", {}), output=doc.get("output", {}),
+                units=units, text=text, form=form)
+
+
+def load_case(path) -> Case:
+    """Read and validate a case file (raises :class:`CaseError`, also for unreadable files)."""
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read()
+    except OSError as err:
+        raise CaseError(f"cannot read case file: {err.strerror}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise CaseError("case file is not UTF-8 text") from None
+    return parse_case(text)

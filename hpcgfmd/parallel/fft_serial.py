@@ -1,0 +1,140 @@
+"""Real FFT of the whole surface on one rank: a pyfftw rfft/irfft pair on aligned buffers.
+
+Same interface as :class:`hpcgfmd.parallel.fft_transposed.TransposedRealFFT` (see
+:mod:`hpcgfmd.parallel.fft` for what the solvers use of it). Plans are made once; nothing is
+allocated per call.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pyfftw
+from mpi4py import MPI
+
+
+class SerialRealFFT:
+    """rfft/irfft pair of length n on persistent aligned buffers, on one rank.
+
+    Parameters
+    ----------
+    n : int
+        Number of grid nodes (even).
+    planner_effort : str
+        FFTW planner flag; FFTW_MEASURE pays for itself after a few hundred transforms.
+    comm : mpi4py.MPI.Comm, optional
+        One-rank communicator to report as ``comm`` (default ``MPI.COMM_SELF``).
+
+    Attributes
+    ----------
+    comm : mpi4py.MPI.Comm
+    n : int
+    x_start, x_stop : int
+        Owned node range, here ``0, n``.
+    x_blocks : list of (int, int)
+        ``[(0, n)]``.
+    spectrum_shape : tuple of int
+        ``(n//2 + 1,)``.
+    wavenumber : ndarray of int64, shape (n//2 + 1,)
+        Mode index m of each spectrum entry, ``arange(n//2 + 1)`` (q = 2 pi m / L).
+    spectrum : ndarray of complex128, shape spectrum_shape
+        The transforms' own spectrum buffer; passing it to :meth:`forward` or
+        :meth:`inverse` saves a copy (contents valid until the next transform call).
+    pairs : int
+        Number of forward+backward pairs done, for the statistics (``apply_diagonal`` and
+        ``inverse`` count one each).
+    communication_time : float
+        Seconds spent in MPI calls, always 0.
+    """
+
+    def __init__(self, n: int, planner_effort: str = "FFTW_MEASURE", comm=None):
+        self.comm = MPI.COMM_SELF if comm is None else comm
+        self.n = n
+        self.x_start, self.x_stop = 0, n
+        self.x_blocks = [(0, n)]
+        self.spectrum_shape = (n // 2 + 1,)
+        self.wavenumber = np.arange(n // 2 + 1, dtype=np.int64)
+        self.real = pyfftw.empty_aligned(n, dtype="float64")
+        self.spectrum = pyfftw.empty_aligned(n // 2 + 1, dtype="complex128")
+        flags = (planner_effort, "FFTW_DESTROY_INPUT")
+        self._forward = pyfftw.FFTW(self.real, self.spectrum, flags=flags, threads=1)
+        self._backward = pyfftw.FFTW(self.spectrum, self.real, direction="FFTW_BACKWARD",
+                                     flags=flags, threads=1)
+        self.pairs = 0
+        self.communication_time = 0.0
+
+    def apply_diagonal(self, field, diagonal, out):
+        """out = irfft(diagonal * rfft(field)) without the 1/n (fold it into ``diagonal``).
+
+        Local (no communication).
+
+        Parameters
+        ----------
+        field : ndarray of float64, shape (n,)
+            Real input field, in its own units (e.g. m).
+        diagonal : ndarray, shape (n//2 + 1,)
+            Multiplier per mode (units of out / units of field, times 1/n).
+        out : ndarray of float64, shape (n,)
+            Output buffer (may be ``field``).
+
+        Returns
+        -------
+        out : ndarray
+        """
+        self.real[:] = field
+        self._forward.execute()
+        self.spectrum *= diagonal
+        self._backward.execute()
+        out[:] = self.real
+        self.pairs += 1
+        return out
+
+    def forward(self, field, spectrum_out):
+        """spectrum_out = rfft(field): the local modes of the real field (no normalisation).
+
+        Local. Half of a pair: ``inverse(d * forward(f))`` equals ``apply_diagonal(f, d)``
+        bitwise (same plans, same operations); ``pairs`` is counted in :meth:`inverse`.
+
+        Parameters
+        ----------
+        field : ndarray of float64, shape (n,)
+            Real input field.
+        spectrum_out : ndarray of complex128, shape spectrum_shape
+            Output; may be :attr:`spectrum`, the transform's own buffer, which saves one
+            copy (it then stays valid only until the next call of any transform method).
+
+        Returns
+        -------
+        spectrum_out : ndarray
+        """
+        self.real[:] = field
+        self._forward.execute()
+        if spectrum_out is not self.spectrum:
+            spectrum_out[:] = self.spectrum
+        return spectrum_out
+
+    def inverse(self, spectrum, field_out):
+        """field_out = irfft(spectrum) without the 1/n (unnormalised, like apply_diagonal).
+
+        Local. Counts one pair in ``pairs`` (the forward transform of the pair counts none).
+        ``spectrum`` must be the half spectrum of a real field (modes 0 and n/2 real, their
+        imaginary parts are ignored, as by numpy's irfft).
+
+        Parameters
+        ----------
+        spectrum : ndarray of complex128, shape spectrum_shape
+            Input modes; left unchanged unless it is :attr:`spectrum` itself, which the c2r
+            transform overwrites (that saves one copy).
+        field_out : ndarray of float64, shape (n,)
+
+        Returns
+        -------
+        field_out : ndarray
+        """
+        if spectrum is not self.spectrum:
+            self.spectrum[:] = spectrum
+        self._backward.execute()
+        field_out[:] = self.real
+        self.pairs += 1
+        return field_out
+
+    def close(self):
+        """Nothing to release (the transposed class frees its shared window here)."""

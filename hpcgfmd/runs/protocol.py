@@ -1,0 +1,290 @@
+"""The retraction protocol of one case (docs/model.md, "Protocol"; paper Eq. 16).
+
+1. Preload (t = 0): adhesive indentation of the RELAXED substrate (elastic, E0) from a flat
+   surface to u_z = -h0, solved as one elastic problem (the loading-branch equilibrium); the
+   material history starts fully relaxed, p_n = (|q| E0 / 2) u_n.
+2. Retraction: u_z(t) = -h0 + v_z t, one exact SLS step of length dt per time step, each an
+   elastic problem of stiffness (|q|/2) Eeff with the history traction
+   H = a p_n + (|q|/2)(E0 (1 - a) - Eeff) u_n, until no node has g <= dmax (complete
+   detachment). Displacement control: jumps of the contact are recorded, never a stop.
+
+Internal units R = E0 = tau = 1 throughout; the output file converts to the case's units.
+Every method is collective over the case's communicator: each rank holds its block of the
+surface (:class:`hpcgfmd.parallel.domain.Domain`) and its share of the Fourier modes.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import NonConvergenceError
+from ..model.case import Case
+from ..model.interface import DugdaleMaugis, edge_positions
+from ..model.material import StandardLinearSolid, ViscoelasticHalfSpace
+from ..parallel.domain import Domain
+from ..parallel.fft import plan_real_fft
+from ..solvers import EdgeWatch, make_solver
+from ..solvers.predictor import Predictor
+from ..solvers.stepping import make_step_control
+
+
+@dataclass
+class StepRecord:
+    """Observables of one time step (internal units)."""
+
+    time: float
+    indenter: float
+    load: float
+    contact_half_width: float
+    cohesive_half_width: float
+    iterations: int
+    residual: float
+    dt: float
+
+    def as_dict(self):
+        return dict(self.__dict__)
+
+
+class Retraction:
+    """State and stepping of one case on the ranks of ``comm``.
+
+    Parameters
+    ----------
+    case : Case
+        The validated case (internal units).
+    comm : mpi4py.MPI.Comm
+        The ranks sharing this case (collective construction: plans the FFT).
+    planner_effort : str
+        FFTW planner flag (FFTW_MEASURE for runs, FFTW_ESTIMATE for quick tests).
+    """
+
+    FIELDS = ("u", "u_previous", "substrate_traction", "traction")
+
+    def __init__(self, case: Case, comm, planner_effort="FFTW_MEASURE"):
+        self.case = case
+        n = case.numerics.nx
+        self.n = n
+        self.dx = case.cell / n
+        self.fft = plan_real_fft(comm, n, planner_effort=planner_effort)
+        self.domain = Domain(comm, n, case.cell, self.fft.x_blocks)
+        self.x = self.domain.x  # this rank's nodes; the indenter axis is on node n/2
+        self.profile = self.x**2 / 2.0  # h(x) = x^2 / (2R), paper Eq. 1, R = 1
+        self.half_q = np.pi * np.abs(self.fft.wavenumber) / case.cell  # |q|/2 per local mode
+        self.substrate = ViscoelasticHalfSpace(StandardLinearSolid(1.0, 1.0 / case.k, 1.0),
+                                               self.half_q, n)
+        self.law = DugdaleMaugis(case.sigma_a, case.dmax)
+        self.solver = make_solver(case, self.domain, self.fft, self.law, self.half_q)
+        self.steps = make_step_control(case)
+        self.predictor = Predictor(self.domain, 4.0 * case.zone_width / case.k)
+        n = self.domain.local_n  # from here on: this rank's block
+        self.u = np.zeros(n)  # surface displacement, upward positive
+        self.substrate_traction = np.zeros(n)  # p_n (q != 0 part) of the SLS history
+        self.history = np.zeros(n)
+        self.wall = np.empty(n)
+        self.traction = np.zeros(n)  # interface traction on the substrate, attractive positive
+        self.time = 0.0
+        self.indenter = -case.depth
+        self.step_index = 0
+        self.total_iterations = 0
+        self.rejected_steps = 0  # adaptive steps repeated with a shorter dt
+        self.preload_iterations = 0
+        self.dt_previous = None  # length of the last accepted step (None after the preload)
+        self._edges = (np.nan, np.nan)  # contact edges of the last step
+        self._edges_previous = None
+        self._saved = {name: np.empty(n) for name in self.FIELDS}
+
+    # --- one equilibrium -------------------------------------------------------------
+    def _equilibrate(self, ops, dt, solver, edge_watch=None):
+        """Solve the step; None when the solve was abandoned by ``edge_watch``."""
+        np.add(self.profile, self.indenter, out=self.wall)
+        result = solver.solve(self.u, self.wall, ops, self.history, edge_watch=edge_watch)
+        self.total_iterations += result.iterations
+        if result.abandoned:
+            return None
+        if not math.isfinite(result.residual):
+            raise FloatingPointError(f"solver produced a non-finite residual at t = {self.time}")
+        if not result.converged:
+            raise NonConvergenceError(
+                f"step {self.step_index} (t = {self.time:.6g}): residual {result.residual:.3g}"
+                f" above tolerance {self.case.numerics.tolerance:g} after"
+                f" {result.iterations} iterations; raise [numerics] max_iterations or reduce dt")
+        solver.interface_traction(self.u, self.wall, self.history, result.mean_traction,
+                                  self.traction)
+        # Substrate traction of the new state, p_{n+1} = K u + H (zero mean).
+        np.add(solver.elastic_traction(), self.history, out=self.substrate_traction)
+        return self._record(result, dt)
+
+    def _record(self, result, dt):
+        gap = self.wall - self.u
+        left, right = edge_positions(self.domain, gap, 0.0, 1.5)
+        self._edges_previous, self._edges = self._edges, (left, right)
+        zl, zr = edge_positions(self.domain, gap, self.case.dmax, 1.0)
+        return StepRecord(time=self.time, indenter=self.indenter,
+                          load=-self.domain.sum(self.traction.sum()) * self.dx,
+                          contact_half_width=0.5 * (right - left) if left == left else 0.0,
+                          cohesive_half_width=0.5 * (zr - zl) if zl == zl else 0.0,
+                          iterations=result.iterations, residual=result.residual, dt=dt)
+
+    # --- protocol ----------------------------------------------------------------------
+    def preload(self) -> StepRecord:
+        """Relaxed adhesive indentation to u_z = -h0 (the t = 0 state)."""
+        self.history[:] = 0.0
+        record = self._equilibrate(self.substrate.operators(math.inf), 0.0,
+                                   self.solver.preload_solver())
+        self.preload_iterations = record.iterations
+        self.steps.accept(record.time, record.load)
+        return record
+
+    def step(self) -> StepRecord:
+        """Advance one accepted retraction time step (fixed or error-controlled length).
+
+        A step whose error ratios exceed the rejection bounds (:mod:`hpcgfmd.solvers.stepping`)
+        is undone and repeated with the shorter step the controller proposes; the iterations
+        of the rejected attempts count in ``total_iterations``.
+        """
+        dt = self.steps.dt
+        while True:
+            self._save()
+            record = self._advance(dt)
+            if record is None:  # abandoned: its edges moved too far, the verdict is known
+                decision = self.steps.judge(dt, self.time, None, math.inf)
+            else:
+                decision = self.steps.judge(dt, record.time, record.load, self._edge_motion())
+            if decision.accepted:
+                break
+            self.rejected_steps += 1
+            self._revert()
+            dt = decision.next_dt
+        self.steps.accept(record.time, record.load)
+        self.dt_previous = dt
+        return record
+
+    def _advance(self, dt) -> StepRecord | None:
+        """One SLS step of length dt from the current state (paper Eq. 14, docs/model.md).
+
+        None when the solve was abandoned because its contact edges strayed beyond what the
+        step control accepts (:meth:`~hpcgfmd.solvers.stepping.AdaptiveSteps.edge_limit`).
+        """
+        self.substrate.history(self.fft, self.u, self.substrate_traction, dt, self.history)
+        gap_before = self.wall - self.u
+        contact = gap_before <= 0.0
+        self.step_index += 1
+        if self.steps.adaptive:
+            self.time += dt
+        else:  # no accumulated round-off over many equal steps
+            self.time = self.step_index * dt
+        self.indenter = -self.case.depth + self.case.indenter_speed * self.time
+        ops = self.substrate.operators(dt)
+        np.add(self.profile, self.indenter, out=self.wall)
+        if self.solver.starts_from_prediction:
+            ratio = 1.0 if self.dt_previous is None else dt / self.dt_previous
+            self.predictor.start(
+                self.u, self.wall, gap_before, contact, self.case.indenter_speed * dt, ratio,
+                self._edges, self._edges_previous,
+                lambda v: self.solver.energy(v, self.wall, ops, self.history))
+        return self._equilibrate(ops, dt, self.solver, self._edge_watch(dt))
+
+    def _edge_watch(self, dt):
+        """The limit on the solve's edge motion, or None (no contact before, or at dt_min)."""
+        limit = self.steps.edge_limit(dt)
+        left, right = self._edges
+        if not (math.isfinite(limit) and math.isfinite(left) and math.isfinite(right)):
+            return None
+        return EdgeWatch(left, right, limit)
+
+    def _edge_motion(self):
+        """Largest contact-edge displacement of the last step; inf if the contact (dis)appeared."""
+        if self._edges_previous is None:
+            return math.nan
+        before = np.isfinite(self._edges_previous)
+        after = np.isfinite(self._edges)
+        if not before.any() and not after.any():
+            return math.nan
+        if not (before.all() and after.all()):
+            return math.inf
+        return float(np.max(np.abs(np.subtract(self._edges, self._edges_previous))))
+
+    def _save(self):
+        """Keep the state before a step, to undo a rejected one."""
+        fields, attrs = self.state()
+        for name, value in fields.items():
+            self._saved[name][:] = value
+        self._saved_attrs = attrs
+
+    def _revert(self):
+        self.restore(self._saved, self._saved_attrs, statistics=False)
+
+    def detached(self) -> bool:
+        """Collective: True when no node is within the interaction range (complete detachment)."""
+        return self.domain.all(self.wall - self.u > self.case.dmax)
+
+    def close(self):
+        """Collective: release the transform's resources (its shared-memory window)."""
+        self.fft.close()
+
+    def gap(self):
+        """This rank's block of the gap g = h + u_z - u (length)."""
+        return self.wall - self.u
+
+    # --- checkpoint ----------------------------------------------------------------------
+    def state(self):
+        """The full state after a step: (this rank's field blocks, rank-independent scalars).
+
+        With it, :meth:`restore` continues the run exactly (the history H and the wall are
+        recomputed from it at the next step): the fields of :attr:`FIELDS`, the clock, the
+        contact edges of the last two steps, the predictor's, the step control's and the
+        solver's state.
+        """
+        u_previous, attrs = self.predictor.state(self.u)
+        fields = {"u": self.u, "substrate_traction": self.substrate_traction,
+                  "traction": self.traction, "u_previous": u_previous}
+        attrs.update(time=self.time, indenter=self.indenter, step_index=self.step_index,
+                     total_iterations=self.total_iterations, fft_pairs=self.fft.pairs,
+                     rejected_steps=self.rejected_steps,
+                     dt_previous=math.nan if self.dt_previous is None else self.dt_previous,
+                     edges=np.array(self._edges),
+                     edges_previous=np.array(self._edges_previous or (np.nan, np.nan)),
+                     has_edges_previous=self._edges_previous is not None)
+        attrs.update(self.solver.statistics())
+        attrs.update(self.steps.state())
+        return fields, attrs
+
+    def restore(self, fields, attrs, statistics=True):
+        """Continue from :meth:`state` (this rank's blocks, possibly of another rank count).
+
+        ``statistics=False`` keeps the counters of the work done (undoing a rejected step:
+        its work was done).
+        """
+        self.u[:] = fields["u"]
+        self.substrate_traction[:] = fields["substrate_traction"]
+        self.traction[:] = fields["traction"]
+        self.time = float(attrs["time"])
+        self.indenter = float(attrs["indenter"])
+        self.step_index = int(attrs["step_index"])
+        self._edges = tuple(float(v) for v in attrs["edges"])
+        self._edges_previous = (tuple(float(v) for v in attrs["edges_previous"])
+                                if attrs["has_edges_previous"] else None)
+        if statistics:
+            self.predictor.restore(fields["u_previous"], attrs)
+            self.total_iterations = int(attrs["total_iterations"])
+            self.fft.pairs = int(attrs["fft_pairs"])
+            self.rejected_steps = int(attrs["rejected_steps"])
+            dt_previous = float(attrs["dt_previous"])
+            self.dt_previous = None if math.isnan(dt_previous) else dt_previous
+            self.solver.restore_statistics(attrs)
+            self.steps.restore(attrs)
+        else:  # the predictor's u_{n-1} goes back too, its counters stay
+            choices, rejected = self.predictor.choices, self.predictor.rejected
+            self.predictor.restore(fields["u_previous"], attrs)
+            self.predictor.choices, self.predictor.rejected = choices, rejected
+        np.add(self.profile, self.indenter, out=self.wall)
+
+    def summary(self) -> dict:
+        """Counters of the run so far (rank-independent), for the output file's summary."""
+        return {"steps": self.step_index, "iterations": self.total_iterations,
+                "fft_pairs": self.fft.pairs, "rejected_steps": self.rejected_steps,
+                "rejected_predictions": self.predictor.rejected,
+                "moving_edge_predictions": self.predictor.choices[1],
+                **self.solver.statistics()}

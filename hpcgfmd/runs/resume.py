@@ -1,0 +1,67 @@
+"""Whether ``run`` continues a case from its checkpoint, decided before anything is computed.
+
+The same command resumes when the output file and its checkpoint both exist (``--restart``
+demands it); the checkpoint must belong to the same case (its identity hash) and the output
+file must hold at least the steps and snapshots the checkpoint counts. Anything else is a
+:class:`~hpcgfmd.errors.UsageError` naming the file, with nothing touched.
+"""
+from __future__ import annotations
+
+import os
+
+import h5py
+
+from ..errors import UsageError
+from ..storage.checkpoint import checkpoint_path, read_checkpoint_attrs
+
+
+def resume_wanted(comm, case, output, restart, overwrite):
+    """Collective: whether to continue from the checkpoint next to ``output``.
+
+    Rank 0 reads the files and broadcasts its verdict, so every rank decides alike even on a
+    file system whose caches differ between nodes.
+    """
+    verdict = None
+    if comm.Get_rank() == 0:
+        try:
+            verdict = (_check_resume(case, output, restart, overwrite), None)
+        except UsageError as err:
+            verdict = (False, str(err))
+    resume, error = comm.bcast(verdict, root=0)
+    if error:
+        raise UsageError(error)
+    return resume
+
+
+def _check_resume(case, output, restart, overwrite):
+    """Rank 0's verdict (module docstring); UsageError naming the file that does not fit."""
+    checkpoint = checkpoint_path(output)
+    have_output, have_checkpoint = os.path.exists(output), os.path.exists(checkpoint)
+    if not restart and (overwrite or not (have_output and have_checkpoint)):
+        return False
+    if not have_checkpoint:
+        raise UsageError(f"--restart: no checkpoint {checkpoint} for -o {output}")
+    if not have_output:
+        raise UsageError(f"--restart: checkpoint {checkpoint} exists but its output {output}"
+                         " does not")
+    try:
+        saved = read_checkpoint_attrs(checkpoint)
+        identity = str(saved["case_identity"])
+    except (OSError, KeyError, ValueError) as err:
+        raise UsageError(f"{checkpoint}: not an hpcgfmd checkpoint ({err})") from None
+    if identity != case.identity():
+        raise UsageError(f"{checkpoint}: checkpoint of a different case (identity {identity},"
+                         f" this case {case.identity()}); choose another -o or remove it")
+    try:
+        with h5py.File(output, "r") as f:
+            written = (str(f.attrs["case_identity"]), int(f.attrs["steps_complete"]),
+                       int(f["snapshots"].attrs["complete"]))
+    except (OSError, KeyError) as err:
+        raise UsageError(f"-o {output}: not the output of this checkpoint ({err})") from None
+    needed = (identity, int(saved["step_index"]) + 1, int(saved["snapshots_written"]))
+    if written[0] != needed[0] or written[1] < needed[1] or written[2] < needed[2]:
+        raise UsageError(f"-o {output}: does not match checkpoint {checkpoint} (case"
+                         f" {written[0]}, {written[1]} steps, {written[2]} snapshots written;"
+                         f" the checkpoint needs case {needed[0]}, {needed[1]} steps,"
+                         f" {needed[2]} snapshots)")
+    return True

@@ -1,0 +1,143 @@
+"""The active set of the hard wall: nodes on the wall that the residual pushes into it.
+
+The search space of CG is the free nodes with zero mean displacement; the uniform traction mu
+(the Lagrange multiplier of the zero mean) and the pressed set depend on each other and are
+iterated to a fixed point. Only the near span [lo, hi) of the current point holds nodes on
+the wall, so every mask here lives on that span (views of the first hi - lo entries).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+class ActiveSet:
+    """Masks and rules of the wall constraint on this rank's block (Polonsky-Keer).
+
+    Parameters
+    ----------
+    domain : hpcgfmd.parallel.domain.Domain
+    """
+
+    def __init__(self, domain):
+        self.domain = domain
+        n = domain.local_n
+        self._n = n
+        self.on_wall = np.empty(n, dtype=bool)
+        self.pressed = np.empty(n, dtype=bool)
+        self.pushed = np.empty(n, dtype=bool)
+        self._held = np.empty(n, dtype=bool)
+        self._excluded = np.empty(n, dtype=bool)
+        self._pressed_before = np.zeros(n, dtype=bool)  # the active set of the last iteration
+        self._before = (0, 0)
+        self.held_steps = 0  # iterations whose direction held on-wall nodes
+
+    def begin(self):
+        """Forget the last solve's active set."""
+        self._pressed_before[:] = False
+        self._before = (0, 0)
+
+    def multiplier(self, r, gap, lo, hi, on_wall_tolerance, mu):
+        """Collective: the pressed set and the uniform traction mu at their fixed point.
+
+        A node on the wall (gap <= tolerance) is pressed when r - mu > 0 pushes it into the
+        wall; mu = mean of r over the free nodes. The sum over the free nodes is the total
+        minus the pressed ones (2-3 passes). Returns (mu, count, n_free, on_s, pressed_s):
+        this rank's pressed count, the global number of free nodes and the masks on the
+        near span.
+        """
+        n = self._n
+        on_s, r_s = self.on_wall[:hi - lo], r[lo:hi]
+        np.less_equal(gap[lo:hi], on_wall_tolerance, out=on_s)
+        pressed_s = self.pressed[:hi - lo]
+        total = r.sum()
+        for _ in range(10):
+            np.greater(r_s, mu, out=pressed_s)
+            pressed_s &= on_s
+            count = np.count_nonzero(pressed_s)
+            r_free, n_free = self.domain.sums(
+                total - r_s.sum(where=pressed_s) if count else total, n - count)
+            mu_new = r_free / n_free
+            if mu_new == mu:
+                break
+            mu = mu_new
+        return mu, count, n_free, on_s, pressed_s
+
+    def joined(self, lo, hi, pressed_s):
+        """Local: True when a node joined the pressed set since :meth:`remember`."""
+        joined = self.pushed[:hi - lo]
+        np.greater(pressed_s, self._pressed_before[lo:hi], out=joined)
+        return bool(joined.any())
+
+    def remember(self, lo, hi, pressed_s):
+        """Keep this iteration's pressed set for the next :meth:`joined`."""
+        before = self._pressed_before
+        before[self._before[0]:self._before[1]] = False
+        before[lo:hi] = pressed_s
+        self._before = (lo, hi)
+
+    def hold(self, r, mu, d, lo, hi, pressed_s, on_s):
+        """Collective: hold the on-wall nodes the direction d pushes into the wall.
+
+        They cannot move this iteration: zero them in d and keep the zero mean on the others
+        (removing the mean can push another node in, so repeat). Returns r.d of the
+        projected direction, or, when that does not descend, sets d to the projected residual
+        r - mu (zero on the pressed nodes) and returns r.d of it. Returns None when no node
+        is pushed in (d unchanged).
+        """
+        dom, n = self.domain, self._n
+        d_s = d[lo:hi]
+        pushed_s = self.pushed[:hi - lo]
+        np.greater(d_s, 0.0, out=pushed_s)
+        pushed_s &= on_s
+        if not dom.any(pushed_s):
+            return None
+        self.held_steps += 1
+        held_s = self._held[:d_s.size]
+        excluded_s = self._excluded[:d_s.size]
+        held_s[:] = False
+        while True:  # removing the mean can push another node in
+            held_s |= pushed_s
+            np.logical_or(held_s, pressed_s, out=excluded_s)
+            excluded = np.count_nonzero(excluded_s)
+            d_keep, n_keep = dom.sums(d.sum() - d_s.sum(where=excluded_s), n - excluded)
+            if n_keep == 0:  # every free node held: fall back to the residual below
+                d[:] = 0.0
+                break
+            d -= d_keep / n_keep
+            np.copyto(d_s, 0.0, where=excluded_s)
+            np.greater(d_s, 0.0, out=pushed_s)
+            pushed_s &= on_s
+            if not dom.any(pushed_s):
+                break
+        rd = dom.dot(r, d)
+        if rd <= 0.0:  # the projected residual lifts on-wall nodes off: descent
+            np.subtract(r, mu, out=d)
+            rd = dom.dot(d, d)
+        return rd
+
+    def contact_nodes(self, on_s, lo):
+        """Local: positions of this rank's first and last node on the wall (+inf, -inf if none).
+
+        ``on_s`` is the on-wall mask of the near span starting at node ``lo``; argmax finds
+        the first True without allocating.
+        """
+        if on_s.size == 0 or not on_s.any():
+            return math.inf, -math.inf
+        x = self.domain.x
+        return float(x[lo + int(on_s.argmax())]), float(x[lo + on_s.size - 1
+                                                          - int(on_s[::-1].argmax())])
+
+    def strayed(self, watch, left, right):
+        """True when an edge of the iterate's contact is farther than ``watch.limit`` away.
+
+        The iterate's edges are nodes, the watched ones interpolated between nodes: two node
+        spacings are allowed for the difference. An iterate without contact is no verdict: the
+        start of a step (the wall has risen) and the iterates between a projection and the
+        next contact have none.
+        """
+        if not (math.isfinite(left) and math.isfinite(right)):
+            return False
+        motion = max(abs(left - watch.left), abs(right - watch.right))
+        return motion > watch.limit + 2.0 * self.domain.dx

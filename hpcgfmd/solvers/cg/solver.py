@@ -1,0 +1,388 @@
+"""Equilibrium of one time step: constrained, preconditioned conjugate gradients.
+
+Each time step (docs/model.md, "Interface") minimises over the surface displacement u
+
+    E(u) = 1/2 u.K u + (H - p_applied).u + sum_e Phi_e(h + u_z - u)   (per unit length)
+
+subject to the hard wall u <= h + u_z (gap >= 0) and zero mean displacement (the q = 0 mode
+of u is held at zero; its traction, the load, is the Lagrange multiplier). K is diagonal in
+Fourier space, k_q = (|q|/2) Eeff, and H is the SLS history traction
+(:mod:`hpcgfmd.model.material`).
+
+Method. Polonsky-Keer-type active-set CG in the displacement, preconditioned by the Green's
+function K^-1 (so the elastic part is the identity and the iteration count does not grow
+like sqrt(n_x) as for plain CG or damped dynamics). Nodes on the wall that are pushed into it
+form the active set (:mod:`.active_set`); the search space is the free nodes with zero mean.
+CG restarts whenever nodes join the active set (Polonsky and Keer, Wear 231 (1999) 206).
+
+Path following. The Dugdale energy is concave in u (the mean of the convex ramp
+max(dmax - g, 0) over each element, times -sigma_a), so the quadratic model built from K and
+the linearised adhesion is an upper bound of E: every step of length in (0, 2 alpha*) along a
+CG direction, alpha* the bound's minimiser, lowers E. The same holds from every point of the
+line with its own slope, so the line search goes on beyond alpha* while the energy provably
+falls (:mod:`.line_search`). Steps that would cross the wall are projected or cut at the
+first contact so that E still drops (:mod:`.wall_steps`). Every iteration lowers E: the
+solver goes downhill from its start, the previous step's equilibrium or a guess of lower
+energy, and ends in the local minimum of that basin, the physical branch.
+
+Cost per iteration. Two FFT pairs, both intrinsic: the preconditioner K^-1 r and K d. Between
+them the direction is projected in real space (pressed nodes zeroed, mean removed, nodes the
+direction pushes into the wall held), so K d is not K K^-1 r = r and needs its own pair
+whenever a node is pressed, i.e. while there is contact. One more pair per projected
+backtracking trial and for the residual direction when a step reaches the wall (rare). Per
+solve, one pair at the end (exact K u of the solution) and one at the start unless the
+predictor evaluated the start (:meth:`.energy.StepEnergy.recall`). K u is updated
+incrementally. The elementwise work is about 15 passes over the block: r = t - (K u + H -
+p_applied), its sum and extrema, the mean of z, one pass for the three CG dot products (a
+2 x 2 matmul of the stacked r, r_old and z, d_old), one axpy for d, d.Kd, the trial point's
+gaps, the axpy on u and the one on K u + H - p_applied, plus the point's gaps and its span
+per line-search extension. Everything about the wall, the active set and the cohesive law
+works on the span of nodes with gap < dmax (:mod:`.points`), and the traction of a trial
+point that is taken is not evaluated again. Buffers are swapped, not copied, and no array
+of the block's size is allocated in a CG iteration or a line-search extension; the rare
+projected step evaluates the energy, whose cohesive part makes temporaries of the
+interaction span's size. docs/results.md has the measured cost.
+
+Parallel layout. Every real-space vector is this rank's block of nodes
+(:class:`hpcgfmd.parallel.domain.Domain`); the transforms inside ``fft.apply_diagonal`` are
+the only bulk communication. An iteration adds reductions of one to four doubles (the
+multiplier's fixed point, the residual's maximum with the restart test and the edge watch,
+the mean of z, the CG dot products, the hold test, d.K d, the trial point's slope; one per
+line-search extension) and one ghost-node exchange per point evaluated; every branch is
+decided on those reduced values, so all ranks take it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg.blas import daxpy
+
+from ..base import EdgeWatch, EquilibriumSolver, SolveResult, register
+from ..projection import project_feasible
+from . import line_search
+from .active_set import ActiveSet
+from .energy import StepEnergy
+from .points import Point, PointEvaluator
+from .wall_steps import WallSteps
+
+
+@dataclass
+class _Descent:
+    """The state of one solve's iteration (CG rows, multiplier, restart flags, counts)."""
+
+    cur: Point
+    trial: Point
+    probe: Point
+    ir: int = 0  # rows of r and z in the stacked buffers; r_old and d_old are the other rows
+    iz: int = 0
+    restart: bool = True
+    first_pass: bool = True
+    rz_old: float = 1.0
+    residual: float = np.inf
+    mu: float = 0.0
+    iteration: int = 0
+
+
+@register("cg")
+class ConstrainedCG(EquilibriumSolver):
+    """Active-set preconditioned CG for one step's equilibrium (see module docstring).
+
+    Parameters
+    ----------
+    domain : hpcgfmd.parallel.domain.Domain
+        This rank's block of nodes and the collectives.
+    fft : SerialRealFFT or TransposedRealFFT
+        Planned transforms of the grid (same block layout as ``domain``).
+    law : hpcgfmd.model.interface.DugdaleMaugis
+        Cohesive law.
+    tolerance : float
+        Convergence when max |projected residual| <= tolerance * traction_scale.
+    max_iterations : int
+        Iteration cap per solve.
+    traction_scale : float
+        Traction used to make the residual dimensionless (stress units).
+    """
+
+    starts_from_prediction = True
+
+    def __init__(self, domain, fft, law, tolerance: float, max_iterations: int,
+                 traction_scale: float):
+        self.domain, self.fft, self.law = domain, fft, law
+        self.tolerance = tolerance
+        self.max_iterations = max_iterations
+        self.traction_scale = traction_scale
+        n = domain.local_n
+        self._n = n
+        self._energy = StepEnergy(domain, fft, law)
+        self._evaluator = PointEvaluator(domain, law)
+        self._active = ActiveSet(domain)
+        self._walls = WallSteps(domain, fft, self._energy)
+        # Every buffer of a solve is made here: an iteration allocates nothing of size n.
+        self._k_u = np.empty(n)       # K u; exact at the end of a solve (elastic_traction)
+        self._load = np.empty(n)      # K u + H - p_applied during a solve (updated by steps)
+        self._linear = np.empty(n)    # H - p_applied when a traction is applied
+        self._k_d = np.empty(n)
+        self._points = (Point(n), Point(n), Point(n))  # current, trial, line-search probe
+        self._residuals = np.zeros((2, n))   # r and the previous r (rows swap roles)
+        self._directions = np.zeros((2, n))  # z and d (rows swap roles)
+        self._dots = np.empty((2, 2))
+        self._start = np.empty(n)
+        self._scratch = np.empty(n)
+        self._gap_ext = np.empty(n + 2)
+        self._work = np.empty((3, n + 2), dtype=bool)
+        self._mask = np.empty(n, dtype=bool)
+        self._wall_scale = 0.0
+        self.recalled = 0    # transforms saved by StepEnergy.recall
+        self.abandoned = 0   # solves stopped by their edge watch
+        self.extensions = 0  # line-search points beyond the bound's minimiser
+
+    @classmethod
+    def from_case(cls, case, domain, fft, law, half_q):
+        """CG to the case's tolerance, residuals relative to sigma_a."""
+        return cls(domain, fft, law, case.numerics.tolerance, case.numerics.max_iterations,
+                   case.sigma_a)
+
+    @classmethod
+    def describe(cls, numerics):
+        return f"active-set CG to tolerance {numerics.tolerance:g}"
+
+    def preload_solver(self):
+        return self
+
+    def solve(self, u, wall, ops, history, applied=None,
+              edge_watch: EdgeWatch | None = None) -> SolveResult:
+        """Collective: relax ``u`` in place to the equilibrium of the step (module docstring).
+
+        Parameters
+        ----------
+        u : ndarray, shape (local_n,)
+            This rank's block of the start (previous step's displacement), overwritten by
+            the solution (length).
+        wall : ndarray, shape (local_n,)
+            h(x) + u_z: the largest admissible displacement (length).
+        ops : StepOperators
+            Stiffness and preconditioner of the step.
+        history : ndarray, shape (local_n,)
+            SLS history traction H with zero mean (stress).
+        applied : ndarray, optional
+            Prescribed external traction on the surface, positive upward (stress); tests only.
+        edge_watch : EdgeWatch, optional
+            Abandon the solve once the iterate's contact edges (first and last node on the
+            wall) are farther than ``limit`` from the given edges: the caller (the adaptive
+            step control) would reject that step whatever the rest of the descent does. A
+            step beyond the fold of the attached branch otherwise descends through the whole
+            snap-off only to be repeated shorter.
+        """
+        linear, on_wall_tolerance = self._begin(u, wall, ops, history, applied)
+        it = _Descent(*self._points)
+        while True:
+            if not it.cur.ready:
+                self._evaluator.evaluate(it.cur)
+            r, lo, hi, count, n_free, on_s, pressed_s = self._residual(it, on_wall_tolerance)
+            joined = self._active.joined(lo, hi, pressed_s)
+            local_max = max(r.max() - it.mu, it.mu - r.min()) if self._n else 0.0
+            if edge_watch is None:
+                r_max, joined_any = self.domain.maxes(local_max, 1.0 if joined else 0.0)
+            else:  # the iterate's contact edges in the same reduction
+                left, right = self._active.contact_nodes(on_s, lo)
+                r_max, joined_any, minus_left, right = self.domain.maxes(
+                    local_max, 1.0 if joined else 0.0, -left, right)
+                if self._active.strayed(edge_watch, -minus_left, right):
+                    self.abandoned += 1
+                    return SolveResult(iterations=it.iteration,
+                                       residual=r_max / self.traction_scale,
+                                       converged=False, mean_traction=it.mu, abandoned=True)
+            it.residual = r_max / self.traction_scale
+            if it.residual <= self.tolerance or it.iteration >= self.max_iterations:
+                break
+            if it.first_pass or joined_any > 0.0:
+                it.restart = True
+            it.first_pass = False
+            self._active.remember(lo, hi, pressed_s)
+            d, rd, rz = self._direction(it, r, ops, lo, hi, count, n_free, on_s, pressed_s)
+            self._step(it, u, wall, r, d, rd, ops, linear)
+            it.ir = 1 - it.ir
+            it.rz_old = rz
+            it.iteration += 1
+        # Put the nodes counted as contact exactly on the wall, so that every later use of
+        # the state (reaction, load, contact width, predictor) sees the same contact set.
+        np.copyto(u[lo:hi], wall[lo:hi], where=self._active.on_wall[:hi - lo])
+        self._points = (it.cur, it.trial, it.probe)
+        self.fft.apply_diagonal(u, ops.stiffness, self._k_u)
+        return SolveResult(iterations=it.iteration, residual=it.residual,
+                           converged=it.residual <= self.tolerance, mean_traction=it.mu)
+
+    def _begin(self, u, wall, ops, history, applied):
+        """Collective: the feasible start, K u and the running load K u + H - p_applied.
+
+        Returns the linear term H - p_applied and the gap at or below which a node counts
+        as on the wall (round-off of sums of steps).
+        """
+        dom = self.domain
+        self._wall_scale = dom.max_abs(wall)
+        project_feasible(dom, u, wall, self._start, work=self._mask,
+                         wall_scale=self._wall_scale)
+        np.copyto(u, self._start)
+        linear = history if applied is None else np.subtract(history, applied, out=self._linear)
+        if self._energy.recall(u, ops.stiffness, self._k_u):
+            self.recalled += 1
+        else:
+            self.fft.apply_diagonal(u, ops.stiffness, self._k_u)
+        self._energy.forget()  # the kept vector lives within one step
+        np.add(self._k_u, linear, out=self._load)
+        on_wall_tolerance = 1e-14 * self._wall_scale
+        # Nodes that matter for the wall and the law: gap < level (PointEvaluator).
+        self._evaluator.level = max(self.law.dmax if self.law.sigma_a > 0.0 else 0.0,
+                                    np.nextafter(on_wall_tolerance, np.inf))
+        cur = self._points[0]
+        np.subtract(wall, u, out=cur.gap)
+        cur.ready = False
+        self._active.begin()
+        return linear, on_wall_tolerance
+
+    def _residual(self, it, on_wall_tolerance):
+        """Collective: the residual r (row ir) with its pressed nodes set to mu.
+
+        r = cohesive + applied - elastic - history traction on every node (the cohesive part
+        is zero outside its span). The projected residual is r - mu on the free nodes and 0
+        on the pressed ones; it is kept as r with the pressed nodes set to mu: K^-1 ignores
+        the uniform part, and so do the dot products with the zero-mean z and d.
+        """
+        cur = it.cur
+        lo, hi = cur.near
+        p, q = cur.traction_span
+        r = self._residuals[it.ir]
+        np.negative(self._load, out=r)
+        r[p:q] += cur.traction[p:q]
+        it.mu, count, n_free, on_s, pressed_s = self._active.multiplier(
+            r, cur.gap, lo, hi, on_wall_tolerance, it.mu)
+        if count:
+            np.copyto(r[lo:hi], it.mu, where=pressed_s)
+        return r, lo, hi, count, n_free, on_s, pressed_s
+
+    def _direction(self, it, r, ops, lo, hi, count, n_free, on_s, pressed_s):
+        """Collective: the search direction d (row iz) and r.d, r.z.
+
+        z = K^-1 r projected on the free nodes with zero mean (z has zero sum: K^-1 has no
+        q = 0 mode); d = z + beta d_old (Polak-Ribiere+), formed in z's row by one axpy once
+        r.d = r.z + beta r.d_old says it descends, else d = z. On-wall nodes that d pushes
+        into the wall are held (:meth:`ActiveSet.hold`).
+        """
+        dom, R, Z = self.domain, self._residuals, self._directions
+        z = Z[it.iz]
+        self.fft.apply_diagonal(r, ops.compliance, z)
+        z_s = z[lo:hi]
+        z -= dom.sum(-z_s.sum(where=pressed_s) if count else 0.0) / n_free
+        if count:
+            np.copyto(z_s, 0.0, where=pressed_s)
+        if it.restart:
+            rz = rd = dom.sum(r @ z)
+        else:
+            np.matmul(R, Z.T, out=self._dots)  # r.z, r.d_old, r_old.z in one pass
+            dots, ir, iz = self._dots, it.ir, it.iz
+            rz, r_old_z, r_d = dom.sums(dots[ir, iz], dots[1 - ir, iz], dots[ir, 1 - iz])
+            # r.z = 0 (z = K^-1 r, K^-1 positive definite: r = 0 on the free nodes) ends
+            # the conjugacy: steepest descent
+            beta = max(0.0, (rz - r_old_z) / it.rz_old) if it.rz_old > 0.0 else 0.0
+            rd = beta * r_d + rz
+            if rd <= 0.0 or beta == 0.0:  # not a descent direction any more: steepest
+                rd = rz
+            elif self._n:
+                daxpy(Z[1 - iz], z, a=beta)
+        it.iz = 1 - it.iz
+        held = self._active.hold(r, it.mu, z, lo, hi, pressed_s, on_s)
+        return z, (rd if held is None else held), rz
+
+    def _step(self, it, u, wall, r, d, rd, ops, linear):
+        """Collective: move u along d to the trial point, on by the line search, or to the wall.
+
+        The trial point u + alpha d (alpha = r.d / d.K d, the quadratic bound's minimiser)
+        is evaluated; with adhesion phi'(alpha) = -((t(u + alpha d) - t(u)).d + r.d - alpha
+        d.K d) needs two dots on the spans of the tractions. Off the wall the line search
+        goes on from it and the point reached becomes the current one; a trial point
+        beyond the wall hands the step to :class:`WallSteps` (CG restarts).
+        """
+        dom, k_d, cur, trial = self.domain, self._k_d, it.cur, it.trial
+        adhesive = self.law.sigma_a > 0.0
+        self.fft.apply_diagonal(d, ops.stiffness, k_d)
+        d_kd = dom.dot(d, k_d)
+        alpha = rd / d_kd
+        np.multiply(d, -alpha, out=trial.gap)  # only the gaps: u follows if it is taken
+        trial.gap += cur.gap
+        below = self._evaluator.evaluate(trial) < 0.0
+        if adhesive:
+            a, b = trial.traction_span
+            p, q = cur.traction_span
+            t_trial_d, t_cur_d, reaching = dom.sums(
+                trial.traction[a:b] @ d[a:b], cur.traction[p:q] @ d[p:q],
+                1.0 if below else 0.0)
+        else:
+            reaching = dom.max(1.0 if below else 0.0)
+        if reaching == 0.0:
+            length = alpha
+            if adhesive:  # the trial point becomes the line search's point
+                length, trial, it.probe, taken = line_search.extend(
+                    self._evaluator, cur, trial, it.probe, d, alpha, rd, d_kd, rd - t_cur_d,
+                    t_trial_d)
+                self.extensions += taken
+            if self._n:
+                daxpy(d, u, a=length)
+                daxpy(k_d, self._load, a=length)
+            it.cur, it.trial = trial, cur
+            it.restart = False
+        else:
+            self._walls.take(u, cur, wall, self._wall_scale, self._load, linear, r, it.mu,
+                             d, k_d, alpha, ops)
+            it.restart = True
+
+    # --- the rest of the solver interface ------------------------------------------------
+    def energy(self, u, wall, ops, history, applied=None):
+        """Collective: energy of the step per unit length, divided by dx (one FFT pair)."""
+        return self._energy.energy(u, wall, ops, history, applied)
+
+    def energy_with(self, u, k_u, wall, history, applied=None):
+        """Collective: energy (per unit length, divided by dx) of u with K u given."""
+        return self._energy.energy_with(u, k_u, wall, history, applied)
+
+    def elastic_traction(self):
+        """K u of the last solve's displacement (stress; a view, valid until the next solve)."""
+        return self._k_u
+
+    def interface_traction(self, u, wall, history, mean_traction, out, applied=None):
+        """Collective: traction of the indenter on the surface at equilibrium (stress, upward).
+
+        Cohesive traction on free nodes; on the wall the total reaction
+        K u + H + mean_traction - applied, which balances the substrate.
+        """
+        gap_ext = self._gap_ext
+        gap = gap_ext[1:-1]
+        np.subtract(wall, u, out=gap)
+        self.domain.fill_halo(gap_ext)
+        self.law.traction(gap_ext, out=out, work=self._work)
+        contact = np.less_equal(gap, 0.0, out=self._mask)
+        balance = np.add(self._k_u, history, out=self._scratch)
+        balance += mean_traction
+        if applied is not None:
+            balance -= applied
+        np.copyto(out, balance, where=contact)
+        return out
+
+    def statistics(self) -> dict:
+        """projections, cut_steps, residual_steps, held_steps, recalled, abandoned_solves,
+        extensions (see the module docstring and :mod:`.wall_steps`)."""
+        walls = self._walls
+        return {"projections": walls.projections, "cut_steps": walls.cut_steps,
+                "residual_steps": walls.residual_steps, "held_steps": self._active.held_steps,
+                "recalled": self.recalled, "abandoned_solves": self.abandoned,
+                "extensions": self.extensions}
+
+    def restore_statistics(self, saved):
+        walls = self._walls
+        walls.projections = int(saved.get("projections", 0))
+        walls.cut_steps = int(saved.get("cut_steps", 0))
+        walls.residual_steps = int(saved.get("residual_steps", 0))
+        self._active.held_steps = int(saved.get("held_steps", 0))
+        self.recalled = int(saved.get("recalled", 0))
+        self.abandoned = int(saved.get("abandoned_solves", 0))
+        self.extensions = int(saved.get("extensions", 0))

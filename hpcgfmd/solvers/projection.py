@@ -1,0 +1,62 @@
+"""The feasible set of one step: zero mean displacement and the hard wall u <= h + u_z.
+
+Used by every solver (the start of a CG solve, its projected steps, the exact projections of
+the damped dynamics) and by the predictor's guesses.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def project_feasible(domain, u, wall, out, work=None, wall_scale=None, shift=0.0):
+    """Collective: the displacement min(u - c, wall) whose mean is zero, into ``out``.
+
+    The shift c solves f(c) = sum min(u - c, wall) = 0. f is concave, decreasing and piecewise
+    linear with f'(c) = -(number of free nodes), so Newton's method from any start converges
+    monotonically after its first step, exactly once the free set settles; it stops when the
+    update falls below 1e-15 of the wall's magnitude. With c the Lagrange multiplier of the
+    zero mean, this is the Euclidean projection onto {mean u = 0, u <= wall} for the nodes
+    off the wall.
+
+    Parameters
+    ----------
+    domain : hpcgfmd.parallel.domain.Domain
+        This rank's block and the collectives (one reduction of two numbers per Newton step).
+    u, wall : ndarray, shape (local_n,)
+        This rank's blocks of the displacement and of the wall h + u_z (length).
+    out : ndarray, shape (local_n,)
+        The projection (must not be ``u``).
+    work : ndarray of bool, shape (local_n,), optional
+        Scratch mask (allocated when not given).
+    wall_scale : float, optional
+        ``domain.max_abs(wall)`` when the caller has it (saves a reduction).
+    shift : float
+        Start of the Newton iteration for c (a warm start: the last projection's shift).
+
+    Returns
+    -------
+    float
+        The shift after the last Newton update (length), the warm start of the next call.
+
+    Raises
+    ------
+    FloatingPointError
+        The wall leaves no node free, so no shift gives zero mean.
+    """
+    c = shift
+    if wall_scale is None:
+        wall_scale = domain.max_abs(wall)
+    tolerance = 1e-15 * (wall_scale + 1e-300)
+    free = np.empty(u.shape, dtype=bool) if work is None else work
+    for _ in range(100):
+        np.subtract(u, c, out=out)
+        np.less(out, wall, out=free)
+        np.minimum(out, wall, out=out)
+        total, count = domain.sums(out.sum(), np.count_nonzero(free))
+        if count == 0:
+            raise FloatingPointError("the wall leaves no free node for zero mean displacement")
+        step = total / count
+        if abs(step) <= tolerance:
+            return c + step
+        c += step
+    return c

@@ -1,0 +1,1 @@
+"""Studies built on :mod:`hpcgfmd.runs`: the speed-against-error benchmark."""

@@ -1,0 +1,112 @@
+"""The package's layers (README, "Layout"): which part may import which, read from the imports.
+
+Every module of hpcgfmd is parsed (ast, nothing is run) and each import of another hpcgfmd
+module, at the top or inside a function, is checked against the rules below.
+"""
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[1] / "hpcgfmd"
+
+# Which parts each part may import (besides itself). The foundation (``errors``, ``signals``,
+# the package's ``__version__``) may be imported by every part.
+FOUNDATION = {"errors", "signals", "hpcgfmd", "__version__"}
+ALLOWED = {
+    "errors": set(),
+    "signals": set(),
+    "model": set(),
+    "parallel": set(),
+    "solvers": {"model", "parallel"},
+    "storage": {"model"},
+    "runs": {"model", "parallel", "solvers", "storage"},
+    "studies": {"model", "parallel", "solvers", "storage", "runs"},
+    "api": {"model", "storage", "runs"},
+    "logs": set(),
+    "cli": {"model", "runs", "storage", "studies", "logs"},
+    "entry": {"cli"},
+    "__main__": {"entry"},
+    "hpcgfmd": {"api", "model", "storage"},  # __init__: the lazy API names
+}
+
+
+def part(module):
+    """The part of a dotted module name inside hpcgfmd ('hpcgfmd.solvers.cg.x' -> 'solvers')."""
+    names = module.split(".")
+    return names[1] if len(names) > 1 else "hpcgfmd"
+
+
+def module_name(path):
+    relative = path.relative_to(PACKAGE.parent).with_suffix("")
+    names = list(relative.parts)
+    if names[-1] == "__init__":
+        names.pop()
+    return ".".join(names)
+
+
+def imported(path, source=None):
+    """Absolute names of the hpcgfmd modules a file imports (relative imports resolved);
+    ``source`` stands in for the file's text."""
+    tree = ast.parse(path.read_text() if source is None else source)
+    here = module_name(path).split(".")
+    package = here if path.name == "__init__.py" else here[:-1]
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found += [a.name for a in node.names if a.name.split(".")[0] == "hpcgfmd"]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package[:len(package) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+                if node.module is None:  # from . import x: each x is a module or a name
+                    found += [f"{target}.{a.name}" for a in node.names]
+                    continue
+            else:
+                target = node.module or ""
+            if target.split(".")[0] == "hpcgfmd":
+                found.append(target)
+    # __init__'s lazy table names its modules as strings
+    if path == PACKAGE / "__init__.py":
+        table = next(n for n in tree.body if isinstance(n, ast.Assign)
+                     and getattr(n.targets[0], "id", "") == "_API")
+        found += [f"hpcgfmd.{value.elts[0].value}" for value in table.value.values]
+    return found
+
+
+MODULES = sorted(PACKAGE.rglob("*.py"))
+
+
+def test_every_part_has_rules():
+    parts = {part(module_name(p)) for p in MODULES}
+    assert parts <= set(ALLOWED), parts - set(ALLOWED)
+    assert {"model", "parallel", "solvers", "storage", "runs"} <= parts
+
+
+def violations(path, source=None):
+    """The imports of ``path`` that its part may not make."""
+    mine = part(module_name(path))
+    wrong = []
+    for target in imported(path, source):
+        name = part(target)
+        if name == mine or name in FOUNDATION:
+            continue
+        if name not in ALLOWED[mine]:
+            wrong.append(target)
+    return wrong
+
+
+@pytest.mark.parametrize("path", MODULES, ids=[module_name(p) for p in MODULES])
+def test_imports_follow_the_layers(path):
+    wrong = violations(path)
+    assert not wrong, f"{module_name(path)} ({part(module_name(path))}) may not import {wrong}"
+
+
+def test_an_upward_import_is_caught():
+    # The checker itself: the model importing the protocol, or the storage a solver.
+    case = PACKAGE / "model" / "case.py"
+    assert violations(case, case.read_text() + "\nfrom ..runs.protocol import Retraction\n") \
+        == ["hpcgfmd.runs.protocol"]
+    casefile = PACKAGE / "storage" / "casefile.py"
+    assert violations(casefile, "from hpcgfmd.solvers import cg\n") == ["hpcgfmd.solvers"]
+    assert violations(casefile, "def f():\n    from ..runs import farm\n") == ["hpcgfmd.runs"]
