@@ -7,7 +7,7 @@ the finest run is printed and appended to a CSV file.
     python scripts/convergence_study.py --out convergence.csv \
         --case 7:0.45 --case 7:4.5 --nx 32768 65536 131072 --dt-factors 0.5 --dt-nx 65536
 
-Each --case is lambda0:V_z (k = 0.1, h0/R = 0.1, L/R = 10, alpha = 5e-5, as in physics.md).
+Each --case is lambda0:V_z (k = 0.1, h0/R = 0.1, L/R = 10, alpha = 5e-5, as in docs/model.md).
 """
 import argparse
 import csv

@@ -27,8 +27,8 @@ class Grid:
         self.domain = Domain(MPI.COMM_SELF, n, cell, self.fft.x_blocks)
 
     def solver(self, sigma_a=0.0, dmax=1.0, tolerance=1e-10, scale=1.0, max_iterations=5000):
-        return ConstrainedCG(self.domain, self.fft, DugdaleMaugis(sigma_a, dmax), tolerance, max_iterations,
-                             scale)
+        return ConstrainedCG(self.domain, self.fft, DugdaleMaugis(sigma_a, dmax), tolerance,
+                             max_iterations, scale)
 
 
 @pytest.fixture

@@ -1,5 +1,4 @@
 """The command line as a user meets it: subprocesses of `python -m hpcgfmd`."""
-import os
 import signal
 import subprocess
 import sys
@@ -55,7 +54,8 @@ BAD = [
      ["checkpoint_steps", "-1", "integer >= 0"]),
     ("checkpoint interval", case_text(output="checkpoint_interval = 0"),
      ["checkpoint_interval", "0", "> 0"]),
-    ("solver", case_text(numerics='nx = 1024\nsolver = "fire"'), ["solver", "'fire'", "'cg'", "'paper'"]),
+    ("solver", case_text(numerics='nx = 1024\nsolver = "fire"'),
+     ["solver", "'fire'", "'cg'", "'paper'"]),
     ("step control", case_text(numerics='nx = 1024\nstep_control = "auto"'),
      ["step_control", "'auto'", "'adaptive'", "'fixed'"]),
     ("edge fraction", case_text(numerics="nx = 1024\nedge_fraction = 0"), ["edge_fraction", "> 0"]),

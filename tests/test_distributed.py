@@ -21,8 +21,9 @@ import pytest
 from cases import case_text
 
 MPIRUN = shutil.which("mpirun")
-pytestmark = [pytest.mark.mpi,
+pytestmark = [pytest.mark.mpi, pytest.mark.slow,
               pytest.mark.skipif(MPIRUN is None, reason="OpenMPI's mpirun is not installed")]
+
 
 def case(nx=2048, checkpoint_steps=0, tolerance="1e-13", more="", **groups):
     """The tests' case at the solver's round-off floor, with snapshots and checkpoints."""

@@ -82,6 +82,7 @@ def summary(path):
         return {int(row["index"]): row for row in csv.DictReader(fh)}
 
 
+@pytest.mark.slow
 @pytest.mark.mpi
 def test_farm_records_failures_goes_on_and_resumes(tmp_path):
     # 4 cases: two fine, one invalid (too coarse a grid), one that cannot converge
@@ -110,6 +111,7 @@ def test_farm_records_failures_goes_on_and_resumes(tmp_path):
     assert os.path.getmtime(tmp_path / "out" / rows[0]["file"]) == before  # not rewritten
 
 
+@pytest.mark.slow
 @pytest.mark.mpi
 def test_farm_signal_checkpoints_and_the_same_command_finishes(tmp_path):
     # Three cases on two single-rank groups; SIGUSR1 (forwarded by mpirun) stops them with
@@ -153,6 +155,7 @@ def test_farm_signal_checkpoints_and_the_same_command_finishes(tmp_path):
     assert np.max(np.abs(a.load - b.load)) <= 1e-10 * np.max(np.abs(a.load))
 
 
+@pytest.mark.slow
 @pytest.mark.mpi
 def test_one_case_of_the_sweep_for_a_job_array(tmp_path):
     (tmp_path / "sweep.toml").write_text(BASE + "[grid]\nvelocity = [1.0, 2.0]\n")
@@ -178,6 +181,7 @@ def test_dry_run_lists_cases_groups_and_cost(tmp_path):
     assert not (tmp_path / "sweep").exists()  # nothing written
 
 
+@pytest.mark.mpi
 @pytest.mark.parametrize("args, words", [
     (["--case", "5"], ["--case 5", "0 to 1"]),
     (["--ranks-per-case", "0"], ["--ranks-per-case 0", "divisor"]),

@@ -290,6 +290,7 @@ def test_retraction_with_few_pseudo_steps_lags_cg_only_slightly():
     assert max(r.residual for r in records[1:]) < 1e-6
 
 
+@pytest.mark.slow
 def test_whole_retraction_same_branch_as_cg():
     """The paper's method follows the same branch as the fast solver over a whole retraction
     (preload to detachment, pull-off and jump included) at the same fixed dt: the baseline

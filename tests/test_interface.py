@@ -45,7 +45,8 @@ def test_traction_values_inside_outside_and_continuity():
     assert np.all(np.abs(np.diff(t[:-1])) <= 0.6)  # no jump larger than the element's share
     # continuity in the gaps: moving the edge node across dmax changes t smoothly
     g = np.array([0.5, 0.999, 1.5, 2.0])
-    g2 = g.copy(); g2[1] = 1.001
+    g2 = g.copy()
+    g2[1] = 1.001
     assert np.abs(law.traction(periodic(g)) - law.traction(periodic(g2))).max() < 0.01
 
 
@@ -57,7 +58,8 @@ def test_edge_interpolation_of_a_three_halves_gap():
     left, right = edge_positions(one_rank(200, 2.0), gap, 0.0, 1.5)
     assert right == pytest.approx(a, abs=1e-12)
     assert left == pytest.approx(-a, abs=1e-12)
-    assert np.all(np.isnan(edge_positions(one_rank(200, 2.0), gap + 1.0, 0.0, 1.5)))  # no contact at all
+    # no contact at all
+    assert np.all(np.isnan(edge_positions(one_rank(200, 2.0), gap + 1.0, 0.0, 1.5)))
 
 
 def test_edge_interpolation_of_a_linear_crossing():

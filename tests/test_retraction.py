@@ -62,6 +62,7 @@ def elastic_lambda7(tmp_path_factory):
     return retraction(tmp_path_factory.mktemp("lam7"), 7.0, 1.0, 1.0, 16384, dt=1.0 / 7.0)
 
 
+@pytest.mark.slow
 def test_elastic_retraction_lambda7_follows_baney_hui(elastic_lambda7):
     s = elastic_lambda7
     m = middle(s)
@@ -69,10 +70,11 @@ def test_elastic_retraction_lambda7_follows_baney_hui(elastic_lambda7):
     assert worst_error(s, m, md_reference(s, 7.0, m)) < 0.01
 
 
+@pytest.mark.slow
 def test_slow_viscoelastic_retraction_follows_relaxed_curve(tmp_path):
     # V_z = 1e-6 (chi_ve = 1.2e-5): dt = 7e4 tau, the overstress (Einf - E0) tau / dt of the
     # moving edge is 1e-4 of E0. (At V_z = 1e-4 it was 1.2 % and the curve lay 1.15 % off:
-    # small chi_ve alone does not make the edge relaxed, as physics.md warns.)
+    # small chi_ve alone does not make the edge relaxed.)
     s = retraction(tmp_path, 3.5, 0.1, 1e-6, 4096)
     m = middle(s)
     assert worst_error(s, m, md_reference(s, 3.5, m)) < 0.01

@@ -27,6 +27,9 @@ import slurm_cluster
 from slurm_cluster import ClusterError
 from cases import case_text
 
+# each job starts real daemons and MPI steps: seconds each; mpirun inside srun too
+pytestmark = [pytest.mark.slurm, pytest.mark.mpi, pytest.mark.slow]
+
 REPO = Path(__file__).resolve().parents[1]
 JOBS = REPO / "jobs"
 # nx = 8192 makes one serial run last about 6 s here: long enough to signal the chain's first

@@ -43,7 +43,7 @@ def hertz(grid, depth):
 
 
 def test_hertz_load_against_contact_half_width(grid_factory):
-    # 2D Hertz with the periodic-image factor (physics.md numerical notes, O((a/L)^4) left);
+    # 2D Hertz with the periodic-image factor (docs/model.md (M29), O((a/L)^4) left);
     # a from the (x - a)^(3/2) edge model. Asked: within 1 %; measured 0.04 % at n = 4096,
     # so 0.3 % leaves room for the O(dx^2) discretisation and the O((a/L)^4) remainder.
     grid = grid_factory(4096, 4.0)
@@ -118,6 +118,7 @@ def _retraction(k, velocity):
     return pull_off_run(case_text("nx = 2048", modulus_ratio=k, velocity=velocity))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("k, velocity", [(1.0, 1.0), (0.1, 9.0)])
 def test_line_search_extensions_same_branch_fewer_iterations(monkeypatch, k, velocity):
     # Going on along d while the energy provably falls (hpcgfmd.solvers.cg.line_search) changes

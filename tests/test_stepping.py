@@ -119,6 +119,7 @@ def test_coarse_first_step_does_not_make_pull_off_early(converged):
     assert sim.rejected_steps >= 1  # the controller threw away the coarse first attempts
 
 
+@pytest.mark.slow
 def test_abandoned_solves_change_nothing_but_the_cost(monkeypatch):
     # A solve whose contact edges stray beyond twice the allowance is stopped and the step
     # repeated with dt / 4, which the finished solve would have got too (stepping module

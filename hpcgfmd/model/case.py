@@ -46,7 +46,7 @@ DEFAULT_MAX_ITERATIONS = 5000
 # cohesive-zone widths, load deviation from linear extrapolation in load scales.
 DEFAULT_EDGE_FRACTION = 0.5
 DEFAULT_LOAD_TOLERANCE = 1e-2
-DT_MIN_PER_DEFAULT = 1.0 / 64.0     # dt_min: this fraction of the first step (at most the fixed one)
+DT_MIN_PER_DEFAULT = 1.0 / 64.0     # dt_min: this fraction of the first step (<= the fixed one)
 FIRST_STEP_PER_DEFAULT = 1.0 / 16.0  # adaptive: the first step, doubling while errors allow
 DT_MAX_DEPTH_FRACTION = 0.02        # dt_max: the indenter rises by this fraction of h0,
 DT_MAX_RELAXATION = 0.25            # ... and at most this fraction of tau (the time error is

@@ -32,7 +32,7 @@ def jkr_load(abar, work_ratio=1.0):
 
 
 def _md_closure(m, abar, lam):
-    """Left side minus right side of the Baney-Hui closure (paper Eq. 13, corrected: docs/model.md)."""
+    """Left side minus right side of the Baney-Hui closure (paper Eq. 13; docs/model.md (M27))."""
     s = np.sqrt(m * m - 1.0)
     ach = np.arccosh(m)
     return (lam * abar**2 / 2.0 * (m * s - ach)
@@ -74,7 +74,7 @@ def maugis_dugdale(abar, lam):
 def periodic_load_factor(a, cell):
     """Factor by which the periodic cell raises the load at contact half-width a.
 
-    docs/model.md, "Periodic cell": with zero mean displacement and period L the images add a
+    docs/model.md (M29): with zero mean displacement and period L the images add a
     curvature 2 pi L_n / (3 E* L^2), so L_n(a) = L_isolated(a) / (1 - pi^2 a^2 / (6 L^2)) to
     O((a/L)^4), for Hertz, JKR and Maugis-Dugdale alike.
 
@@ -104,7 +104,7 @@ def persson_brener(vbar, k):
 
     Solves cbar = [1 - (1 - k) (sqrt(1 + (cbar/vbar)^2) - cbar/vbar)]^(-1) for cbar in [1, 1/k].
 
-    Convention (docs/model.md, "Analytic references"): this closed form equals the quadrature of Eq. 6 when
+    Convention (docs/model.md, (M31)): this closed form equals the quadrature of Eq. 6 when
     vbar = 2 pi rhodot tau_r / c0 with the RETARDATION time tau_r = tau / k of the SLS whose
     relaxation time is tau; see :func:`peel_velocity` and :func:`persson_brener_quadrature`.
 
@@ -147,7 +147,10 @@ def persson_brener_quadrature(vbar, k):
 
     def enhancement(cbar):
         omega_c = vbar / cbar  # 2 pi rhodot / c in units of 1/tau_r (c = cbar c0)
-        integrand = lambda w: np.sqrt(1.0 - w * w) / w * inverse_modulus_im(omega_c * w)
+
+        def integrand(w):
+            return np.sqrt(1.0 - w * w) / w * inverse_modulus_im(omega_c * w)
+
         val, _ = integrate.quad(integrand, 0.0, 1.0, limit=200, epsabs=1e-13, epsrel=1e-12)
         return 1.0 / (1.0 + 2.0 / np.pi * val)  # Im(1/E) < 0 here: dissipation raises cbar
 

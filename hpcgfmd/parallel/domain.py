@@ -2,8 +2,8 @@
 
 The surface has n nodes x_i = (i - n/2) dx on a cell of length L (indenter axis on node n/2).
 Each rank owns one contiguous block [x_start, x_stop) of nodes (the block layout comes from
-the distributed FFT, :mod:`hpcgfmd.parallel.fft`); a rank may own none. Everything the solver does in
-real space is pointwise on the block, except:
+the distributed FFT, :mod:`hpcgfmd.parallel.fft`); a rank may own none. Everything the solver
+does in real space is pointwise on the block, except:
 
 - global reductions (dot products, sums, counts, extrema) for CG and the stop decisions: one
   ``Allreduce`` of a few doubles each, so every rank takes every decision from the same value;

@@ -1,6 +1,7 @@
 """A single length-n real FFT split over the ranks of a communicator (four-step algorithm).
 
-Same interface as :class:`hpcgfmd.parallel.fft_serial.SerialRealFFT` (see :mod:`hpcgfmd.parallel.fft`).
+Same interface as :class:`hpcgfmd.parallel.fft_serial.SerialRealFFT` (see
+:mod:`hpcgfmd.parallel.fft`).
 
 Four-step algorithm
 -------------------
@@ -48,9 +49,9 @@ One application, on each rank (``apply_diagonal``)
     Every FFT runs on a contiguous, cache-resident work array (batched along axis 1, FFTW's
     best case), every large array is written sequentially, and each transposition is done by
     the reads of a gather: strided reads of rows padded to an odd number of cache lines (see
-    :func:`_padded_width`) cost about as much as sequential ones, whereas strided writes cost
-    about twice as much. What a rank reads from another rank is always one contiguous block.
-    The ranks synchronise between steps 1-2, 2-3, 3-4 and 4-5.
+    :func:`~.transport.padded_width`) cost about as much as sequential ones, whereas strided
+    writes cost about twice as much. What a rank reads from another rank is always one
+    contiguous block. The ranks synchronise between steps 1-2, 2-3, 3-4 and 4-5.
 
 Transport (``transport``) and communication per call
     ``"shared"`` (default when all ranks share a node): the blocks of steps 1-4 live in an
@@ -75,11 +76,9 @@ import time
 
 import numpy as np
 import pyfftw
-from mpi4py import MPI
 
 from .blocks import block_range
-
-TRANSPORTS = ("auto", "shared", "messages")
+from .transport import TRANSPORTS, StageBuffers, padded_width
 
 # Work-array sizes of the chunked stages, in elements: a stage-A/C chunk of columns holds
 # about _COLUMN_CHUNK reals (plus its half spectrum), a stage-B chunk about _ROW_CHUNK complex
@@ -106,7 +105,7 @@ def split_length(n):
     n1, n2 : int
         ``n1`` is the even divisor of ``n`` closest to ``sqrt(n)`` (the smaller one on a tie),
         which balances the two FFT stages and the two transposes (other splits were measured
-        no faster at n = 2**20 on 2 ranks, see the module docstring).
+        no faster at n = 2**20 on 2 ranks: docs/results.md).
     """
     if n < 2 or n % 2:
         raise ValueError(f"the transform length must be even and >= 2, got {n}")
@@ -115,73 +114,12 @@ def split_length(n):
     return n1, n // n1
 
 
-def _padded_width(count, itemsize):
-    """Row length in elements, >= count, whose size in bytes is an odd multiple of 64.
-
-    Why: the gathers read a few elements from each of many rows. With a power-of-two row
-    stride (e.g. 1024 doubles at n = 2**20) those rows map onto a few cache sets and the reads
-    ran 2-3 times slower; an odd number of 64-byte lines spreads them over all sets and keeps
-    every row aligned for SIMD.
-    """
-    lines = -(-count * itemsize // 64)
-    return (lines + (lines % 2 == 0)) * 64 // itemsize if count else 0
-
-
 def _chunks(count, size):
     """Split ``range(count)`` into balanced ``(start, stop)`` chunks of at most ``size``."""
     if count == 0:
         return []
     number = -(-count // max(1, size))
     return [block_range(count, number, i) for i in range(number)]
-
-
-_DTYPES = {"pack": np.dtype(np.float64), "xt": np.dtype(np.complex128),
-           "z": np.dtype(np.complex128), "h": np.dtype(np.float64)}
-_MPI_TYPES = {np.dtype(np.float64): MPI.DOUBLE, np.dtype(np.complex128): MPI.C_DOUBLE_COMPLEX}
-
-
-class _BlockArray:
-    """A sequence of 2-D blocks stored one after the other in one flat array.
-
-    Block ``t`` is what rank ``t`` reads (or what was received from rank ``t``), so the flat
-    array with :attr:`counts` and :attr:`displacements` is directly an ``Alltoallv`` buffer.
-
-    Parameters
-    ----------
-    shapes : list of (int, int)
-        ``(rows, width)`` of each block, ``width`` padded (:func:`_padded_width`) so that every
-        block is a whole number of cache lines and stays 64-byte aligned.
-    dtype : numpy.dtype
-    memory : ndarray of uint8, optional
-        ``nbytes(shapes, dtype)`` bytes to use (e.g. in a shared window), 64-byte aligned;
-        default: a new zeroed aligned array.
-
-    Attributes
-    ----------
-    flat : ndarray, 1-D
-    blocks : list of ndarray
-        The ``(rows, width)`` views.
-    counts, displacements : list of int
-        Elements and offsets (in elements) of the blocks in ``flat``.
-    """
-
-    def __init__(self, shapes, dtype, memory=None):
-        total = max(1, sum(rows * width for rows, width in shapes))  # MPI wants a buffer
-        if memory is None:
-            self.flat = pyfftw.zeros_aligned(total, dtype=dtype)
-        else:
-            self.flat = memory[:total * dtype.itemsize].view(dtype)
-        self.counts = [rows * width for rows, width in shapes]
-        self.displacements = [int(d) for d in np.cumsum([0] + self.counts[:-1])]
-        self.blocks = [self.flat[d:d + c].reshape(shape)
-                       for d, c, shape in zip(self.displacements, self.counts, shapes)]
-        self.mpi_type = _MPI_TYPES[np.dtype(dtype)]
-
-    @staticmethod
-    def nbytes(shapes, dtype):
-        """Bytes to reserve for the blocks, rounded up to whole cache lines."""
-        total = max(1, sum(rows * width for rows, width in shapes)) * dtype.itemsize
-        return -(-total // 64) * 64
 
 
 class TransposedRealFFT:
@@ -255,49 +193,25 @@ class TransposedRealFFT:
         self.wavenumber = np.where(k <= n // 2, k, k - n).astype(np.int64)
 
         # Outputs of step 1 and stages A, B, C of rank s, each split into one block per
-        # destination rank t (rows padded, see _padded_width), so that what t reads is one
+        # destination rank t (rows padded, see transport.padded_width), so that what t reads is one
         # contiguous block: "pack" (R_s, C_t) field columns (none for t = s), "xt" (C_s, M_t)
         # stage A, "z" (M_s, C_t) stage B, "h" (C_s, R_t) stage C, each [rows, columns].
         nrows, ncols, nmodes = ([b - a for a, b in blocks] for blocks in (rows, cols, modes))
 
         def outputs(s):
             Rs, Cs, Ms = (b - a for a, b in (rows[s], cols[s], modes[s]))
-            return {"pack": [(Rs if t != s else 0, _padded_width(ncols[t], 8))
+            return {"pack": [(Rs if t != s else 0, padded_width(ncols[t], 8))
                              for t in range(size)],
-                    "xt": [(Cs, _padded_width(nmodes[t], 16)) for t in range(size)],
-                    "z": [(Ms, _padded_width(ncols[t], 16)) for t in range(size)],
-                    "h": [(Cs, _padded_width(nrows[t], 8)) for t in range(size)]}
+                    "xt": [(Cs, padded_width(nmodes[t], 16)) for t in range(size)],
+                    "z": [(Ms, padded_width(ncols[t], 16)) for t in range(size)],
+                    "h": [(Cs, padded_width(nrows[t], 8)) for t in range(size)]}
 
-        self._window = None
-        if size == 1:
-            self.transport = "none"
-        else:
-            self.transport = self._choose_transport(transport)
-        if self.transport == "shared":
-            mine, theirs = self._shared_buffers(outputs)
-        if self.transport != "shared":
-            mine = {stage: _BlockArray(shapes, _DTYPES[stage])
-                    for stage, shapes in outputs(rank).items()}
-        self._out = mine
-
-        # The blocks of the other ranks that the gathers read, as (rows, columns) views:
-        # A: peer s's field rows in my columns (nr_s, C); B: peer s's columns in my mode rows
-        # (nc_s, M); C: peer s's mode rows in my columns (nm_s, C); F: peer s's columns in my
-        # rows (nc_s, R). Shared: the peers' own output blocks; messages: receive blocks.
-        if self.transport == "shared":
-            self._from = {stage: {s: theirs[s][stage].blocks[rank][:, :width]
-                                  for s in self._peers}
-                          for stage, width in (("pack", C), ("xt", M), ("z", C), ("h", R))}
-        else:
-            self._receive = {
-                stage: _BlockArray([(count[s] if s != rank else 0,
-                                     _padded_width(width, _DTYPES[stage].itemsize))
-                                    for s in range(size)], _DTYPES[stage])
-                for stage, count, width in (("pack", nrows, C), ("xt", ncols, M),
-                                            ("z", nmodes, C), ("h", ncols, R))}
-            self._from = {stage: {s: self._receive[stage].blocks[s][:, :width]
-                                  for s in self._peers}
-                          for stage, width in (("pack", C), ("xt", M), ("z", C), ("h", R))}
+        self._buffers = StageBuffers(comm, outputs, {
+            stage: [(count[s] if s != rank else 0, width) for s in range(size)]
+            for stage, count, width in (("pack", nrows, C), ("xt", ncols, M),
+                                        ("z", nmodes, C), ("h", ncols, R))}, transport)
+        self.transport = self._buffers.transport
+        self._out, self._from = self._buffers.mine, self._buffers.read
 
         # Twiddles w**(n2*k1) for the local columns, [n2, k1]; the integer product is reduced
         # mod n before the float division so that the angle is exact for any n.
@@ -311,161 +225,15 @@ class TransposedRealFFT:
         col_chunks = _chunks(C, min(_MAX_COLUMNS, max(1, _COLUMN_CHUNK // n1)))
         row_chunks = _chunks(M, max(1, _ROW_CHUNK // n2))
         self._row_blocks = _chunks(R, _ROW_BLOCK)
-        tall = max((b - a for a, b in col_chunks), default=1)
-        high = max((b - a for a, b in row_chunks), default=1)
-        f8, c16 = np.dtype(np.float64), np.dtype(np.complex128)
-        work_real = pyfftw.zeros_aligned((tall, n1), dtype=f8)
-        work_half = pyfftw.zeros_aligned((tall, k1_count), dtype=c16)
-        work_rows = pyfftw.zeros_aligned((high, n2), dtype=c16)
-        flags = (planner_effort, "FFTW_DESTROY_INPUT")
-        column_plans, row_plans = {}, {}
-        for h in {b - a for a, b in col_chunks}:
-            real, half = work_real[:h], work_half[:h]
-            column_plans[h] = (
-                pyfftw.FFTW(real, half, axes=(1,), flags=flags, threads=1),
-                pyfftw.FFTW(half, real, axes=(1,), direction="FFTW_BACKWARD", flags=flags,
-                            threads=1))
-        for h in {b - a for a, b in row_chunks}:
-            work = work_rows[:h]
-            row_plans[h] = (
-                pyfftw.FFTW(work, work, axes=(1,), flags=flags, threads=1),
-                pyfftw.FFTW(work, work, axes=(1,), direction="FFTW_BACKWARD", flags=flags,
-                            threads=1))
-        self._build_steps(col_chunks, row_chunks, column_plans, row_plans,
-                          work_real, work_half, work_rows)
+        work_real, work_half, work_rows, column_plans, row_plans = _plans(
+            col_chunks, row_chunks, n1, n2, planner_effort)
+        (self._packs, self._stage_a, self._stage_b, self._stage_c, self._final_own,
+         self._final_peers) = _stage_steps(self, col_chunks, row_chunks, column_plans,
+                                           row_plans, work_real, work_half, work_rows)
         # Spectrum buffer for forward/inverse callers (same role as SerialRealFFT.spectrum).
-        self.spectrum = pyfftw.zeros_aligned(self.spectrum_shape, dtype=c16)
+        self.spectrum = pyfftw.zeros_aligned(self.spectrum_shape, dtype=np.complex128)
         self.pairs = 0
         self.communication_time = 0.0
-
-    def _build_steps(self, col_chunks, row_chunks, column_plans, row_plans, work_real,
-                     work_half, work_rows):
-        """Prebuild the views the stages copy between; a call only slices the caller's arrays.
-
-        (Less Python work per call; the gain was below the noise at n = 2**17.)
-        """
-        rank, size = self.comm.Get_rank(), self.comm.Get_size()
-        rows, cols, modes = self._rows, self._cols, self._modes
-        row0, col0, mode0 = rows[rank][0], cols[rank][0], modes[rank][0]
-        C, M, R = self._C, self._M, self._R
-        out, read = self._out, self._from
-        blocks = {stage: out[stage].blocks for stage in out}
-        self._packs = [(blocks["pack"][s][:, :cols[s][1] - cols[s][0]], slice(*cols[s]))
-                       for s in self._peers]
-        self._stage_a, self._stage_b, self._stage_c = [], [], []
-        for a, b in col_chunks:
-            real, half = work_real[:b - a], work_half[:b - a]
-            forward, backward = column_plans[b - a]
-            # A: peers' rows of these columns, then (per call) this rank's rows from field;
-            # rfft; twiddle while writing each destination's mode block.
-            self._stage_a.append((
-                [(real[:, slice(*rows[s])], part[:, a:b].T) for s, part in read["pack"].items()],
-                [(real[:, row0 + p:row0 + q], slice(p, q)) for p, q in self._row_blocks],
-                slice(col0 + a, col0 + b), forward,
-                [(half[:, slice(*modes[t])], self._twiddle[a:b, slice(*modes[t])],
-                  blocks["xt"][t][a:b, :modes[t][1] - modes[t][0]]) for t in range(size)]))
-            # C: every rank's mode rows of these columns, conjugate twiddle, c2r, then each
-            # destination's row block.
-            self._stage_c.append((
-                [(half[:, slice(*modes[s])], part[:, a:b].T) for s, part in read["z"].items()]
-                + [(half[:, mode0:mode0 + M], blocks["z"][rank][:, a:b].T)],
-                half, self._twiddle_conj[a:b], backward,
-                [(blocks["h"][t][a:b, :rows[t][1] - rows[t][0]], real[:, slice(*rows[t])])
-                 for t in range(size)]))
-        for a, b in row_chunks:
-            work = work_rows[:b - a]
-            forward, backward = row_plans[b - a]
-            # B: every rank's columns of these mode rows, FFT, multiplier, inverse FFT, then
-            # each destination's column block.
-            self._stage_b.append((
-                [(work[:, slice(*cols[s])], part[:, a:b].T) for s, part in read["xt"].items()]
-                + [(work[:, col0:col0 + C], blocks["xt"][rank][:, a:b].T)],
-                forward, work, slice(a, b), backward,
-                [(blocks["z"][t][a:b, :cols[t][1] - cols[t][0]], work[:, slice(*cols[t])])
-                 for t in range(size)]))
-        # Final gather: this rank's rows from every rank's h (own part first, see
-        # apply_diagonal), as (rows slice, columns slice, source view).
-        own_h = blocks["h"][rank][:, :R]
-        self._final_own = [(slice(p, q), slice(col0, col0 + C), own_h[:, p:q].T)
-                           for p, q in self._row_blocks]
-        self._final_peers = [(slice(p, q), slice(*cols[s]), part[:, p:q].T)
-                             for s, part in read["h"].items() for p, q in self._row_blocks]
-
-    def _choose_transport(self, transport):
-        """Collective: ``"shared"`` or ``"messages"``, the same on every rank."""
-        if transport == "messages":
-            return transport
-        node = self.comm.Split_type(MPI.COMM_TYPE_SHARED)
-        on_one_node = node.Get_size() == self.comm.Get_size()
-        node.Free()
-        on_one_node = self.comm.allreduce(on_one_node, op=MPI.LAND)
-        if transport == "shared" and not on_one_node:
-            raise ValueError("transport='shared' needs all ranks of comm on one node")
-        return "shared" if on_one_node else "messages"
-
-    def _shared_buffers(self, outputs):
-        """Allocate the stage outputs in a shared window; return mine and the peers'.
-
-        Returns ``(mine, theirs)``: a dict stage -> :class:`_BlockArray` for this rank and
-        one such dict per peer. Falls back to ``transport = "messages"`` (on every rank) if
-        the window cannot be made, e.g. where the MPI library has no shared-memory one-sided
-        component; then returns ``(None, None)``.
-        """
-        comm, rank = self.comm, self.comm.Get_rank()
-
-        def nbytes(s):
-            return sum(_BlockArray.nbytes(shapes, _DTYPES[stage])
-                       for stage, shapes in outputs(s).items())
-
-        try:
-            window = MPI.Win.Allocate_shared(nbytes(rank) + 64, 1, comm=comm)
-            ok = True
-        except MPI.Exception:
-            window, ok = None, False
-        if not comm.allreduce(ok, op=MPI.LAND):
-            if window is not None:
-                window.Free()
-            self.transport = "messages"
-            return None, None
-        self._window = window
-
-        def arrays(s):
-            memory = np.frombuffer(window.Shared_query(s)[0], dtype=np.uint8)
-            start = -memory.ctypes.data % 64  # align every block to a cache line
-            found = {}
-            for stage, shapes in outputs(s).items():
-                size = _BlockArray.nbytes(shapes, _DTYPES[stage])
-                found[stage] = _BlockArray(shapes, _DTYPES[stage],
-                                           memory[start:start + size])
-                start += size
-            return found
-
-        mine = arrays(rank)
-        for stage in mine.values():
-            stage.flat[...] = 0
-        window.Lock_all(MPI.MODE_NOCHECK)
-        self._synchronise()
-        return mine, {s: arrays(s) for s in self._peers}
-
-    def _synchronise(self):
-        """Make every rank's writes to the shared window visible to all ranks."""
-        self._window.Sync()
-        self.comm.Barrier()
-        self._window.Sync()
-
-    def _exchange(self, stage):
-        """Make the peers' blocks of ``stage`` readable (collective on ``comm``)."""
-        start = time.perf_counter()
-        if self.transport == "shared":
-            self._synchronise()
-        elif self.transport == "messages":
-            send, receive = self._out[stage], self._receive[stage]
-            rank = self.comm.Get_rank()
-            counts = [0 if t == rank else c for t, c in enumerate(send.counts)]
-            self.comm.Alltoallv([send.flat, (counts, send.displacements), send.mpi_type],
-                                [receive.flat, (receive.counts, receive.displacements),
-                                 receive.mpi_type])
-        self.communication_time += time.perf_counter() - start
 
     def apply_diagonal(self, field, diagonal, out):
         """out = irfft(diagonal * rfft(field)) on the distributed field, without the 1/n.
@@ -601,15 +369,108 @@ class TransposedRealFFT:
         for block, columns, part in self._final_peers:
             copy(target[block, columns], part)
 
+    def _exchange(self, stage):
+        """Make the peers' blocks of ``stage`` readable (collective on ``comm``)."""
+        start = time.perf_counter()
+        self._buffers.exchange(stage)
+        self.communication_time += time.perf_counter() - start
+
     def close(self):
         """Free the shared window (collective; the object is unusable afterwards).
 
         Optional: without it the window lives until ``MPI.Finalize``.
         """
-        if self._window is not None:
+        if self._buffers.shared:
             self._out = self._from = {}
             self._packs = self._stage_a = self._stage_b = self._stage_c = []
             self._final_own = self._final_peers = []
-            self._window.Unlock_all()
-            self._window.Free()
-            self._window = None
+            self._buffers.free()
+
+
+def _plans(col_chunks, row_chunks, n1, n2, planner_effort):
+    """Work arrays and FFTW plans of the chunked stages: one plan pair per distinct chunk height
+    (pyfftw refuses zero-size arrays, so a rank without columns or mode rows has none).
+
+    Returns (work_real, work_half, work_rows, column_plans, row_plans); the plans map a chunk
+    height to its (forward, backward) pair on the leading rows of the work arrays.
+    """
+    k1_count = n1 // 2 + 1
+    tall = max((b - a for a, b in col_chunks), default=1)
+    high = max((b - a for a, b in row_chunks), default=1)
+    f8, c16 = np.dtype(np.float64), np.dtype(np.complex128)
+    work_real = pyfftw.zeros_aligned((tall, n1), dtype=f8)
+    work_half = pyfftw.zeros_aligned((tall, k1_count), dtype=c16)
+    work_rows = pyfftw.zeros_aligned((high, n2), dtype=c16)
+    flags = (planner_effort, "FFTW_DESTROY_INPUT")
+    column_plans, row_plans = {}, {}
+    for h in {b - a for a, b in col_chunks}:
+        real, half = work_real[:h], work_half[:h]
+        column_plans[h] = (
+            pyfftw.FFTW(real, half, axes=(1,), flags=flags, threads=1),
+            pyfftw.FFTW(half, real, axes=(1,), direction="FFTW_BACKWARD", flags=flags,
+                        threads=1))
+    for h in {b - a for a, b in row_chunks}:
+        work = work_rows[:h]
+        row_plans[h] = (
+            pyfftw.FFTW(work, work, axes=(1,), flags=flags, threads=1),
+            pyfftw.FFTW(work, work, axes=(1,), direction="FFTW_BACKWARD", flags=flags,
+                        threads=1))
+    return work_real, work_half, work_rows, column_plans, row_plans
+
+
+def _stage_steps(self, col_chunks, row_chunks, column_plans, row_plans, work_real,
+                 work_half, work_rows):
+    """The views the stages of ``self`` (a TransposedRealFFT) copy between, built once, so
+    that a call only slices the caller's arrays.
+
+    Returns (packs, stage_a, stage_b, stage_c, final_own, final_peers): the per-chunk lists of
+    (destination, source) views, plans and twiddles that ``_to_rows``, ``apply_diagonal`` and
+    ``_from_rows`` walk through.
+    """
+    rank, size = self.comm.Get_rank(), self.comm.Get_size()
+    rows, cols, modes = self._rows, self._cols, self._modes
+    row0, col0, mode0 = rows[rank][0], cols[rank][0], modes[rank][0]
+    C, M, R = self._C, self._M, self._R
+    out, read = self._out, self._from
+    blocks = {stage: out[stage].blocks for stage in out}
+    packs = [(blocks["pack"][s][:, :cols[s][1] - cols[s][0]], slice(*cols[s]))
+             for s in self._peers]
+    stage_a, stage_b, stage_c = [], [], []
+    for a, b in col_chunks:
+        real, half = work_real[:b - a], work_half[:b - a]
+        forward, backward = column_plans[b - a]
+        # A: peers' rows of these columns, then (per call) this rank's rows from field;
+        # rfft; twiddle while writing each destination's mode block.
+        stage_a.append((
+            [(real[:, slice(*rows[s])], part[:, a:b].T) for s, part in read["pack"].items()],
+            [(real[:, row0 + p:row0 + q], slice(p, q)) for p, q in self._row_blocks],
+            slice(col0 + a, col0 + b), forward,
+            [(half[:, slice(*modes[t])], self._twiddle[a:b, slice(*modes[t])],
+              blocks["xt"][t][a:b, :modes[t][1] - modes[t][0]]) for t in range(size)]))
+        # C: every rank's mode rows of these columns, conjugate twiddle, c2r, then each
+        # destination's row block.
+        stage_c.append((
+            [(half[:, slice(*modes[s])], part[:, a:b].T) for s, part in read["z"].items()]
+            + [(half[:, mode0:mode0 + M], blocks["z"][rank][:, a:b].T)],
+            half, self._twiddle_conj[a:b], backward,
+            [(blocks["h"][t][a:b, :rows[t][1] - rows[t][0]], real[:, slice(*rows[t])])
+             for t in range(size)]))
+    for a, b in row_chunks:
+        work = work_rows[:b - a]
+        forward, backward = row_plans[b - a]
+        # B: every rank's columns of these mode rows, FFT, multiplier, inverse FFT, then
+        # each destination's column block.
+        stage_b.append((
+            [(work[:, slice(*cols[s])], part[:, a:b].T) for s, part in read["xt"].items()]
+            + [(work[:, col0:col0 + C], blocks["xt"][rank][:, a:b].T)],
+            forward, work, slice(a, b), backward,
+            [(blocks["z"][t][a:b, :cols[t][1] - cols[t][0]], work[:, slice(*cols[t])])
+             for t in range(size)]))
+    # Final gather: this rank's rows from every rank's h (own part first, see
+    # apply_diagonal), as (rows slice, columns slice, source view).
+    own_h = blocks["h"][rank][:, :R]
+    final_own = [(slice(p, q), slice(col0, col0 + C), own_h[:, p:q].T)
+                 for p, q in self._row_blocks]
+    final_peers = [(slice(p, q), slice(*cols[s]), part[:, p:q].T)
+                   for s, part in read["h"].items() for p, q in self._row_blocks]
+    return packs, stage_a, stage_b, stage_c, final_own, final_peers

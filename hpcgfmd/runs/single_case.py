@@ -29,7 +29,7 @@ logger = logging.getLogger(__name__)
 # The indenter must have left the surface long before it is one radius above it.
 MAX_INDENTER_HEIGHT = 1.0
 # After the preload the cohesive zone must stay within a quarter of the cell: beyond that the
-# periodic images change the load by more than about 10 % (docs/model.md, "Periodic cell").
+# periodic images change the load by more than about 10 % (docs/model.md (M29)).
 MAX_ZONE_PER_CELL = 0.25
 
 
@@ -70,8 +70,8 @@ def describe(case: Case) -> str:
     g = case.groups()
     u = case.units
     num = case.numerics
-    auto = (f" (chosen automatically: the smallest power of two with w/dx >= {TARGET_ZONE_POINTS:g})"
-            if num.nx_automatic else "")
+    auto = (" (chosen automatically: the smallest power of two with"
+            f" w/dx >= {TARGET_ZONE_POINTS:g})" if num.nx_automatic else "")
     if num.step_control == "fixed":
         steps = "fixed steps dt"
     else:

@@ -25,7 +25,6 @@ from the swept values (``velocity_0.45-depth_0.1.h5``).
 from __future__ import annotations
 
 import itertools
-import math
 import os
 import re
 import tomllib

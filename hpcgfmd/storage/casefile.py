@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import os
 
-import h5py
 import numpy as np
 
 from .. import __version__

@@ -246,8 +246,8 @@ def cached_run(text, comm, path):
     return result
 
 
-SCALARS = ("wall_s", "cpu_s", "setup_s", "retraction_s", "retraction_iterations", "steps", "iterations",
-           "fft_pairs")
+SCALARS = ("wall_s", "cpu_s", "setup_s", "retraction_s", "retraction_iterations", "steps",
+           "iterations", "fft_pairs")
 
 
 def bench_case(key, comm, nxs, sweep, equilibrations, paper_steps, geometry, say,
@@ -333,7 +333,7 @@ def plot(rows, path, clock="wall"):
     os.replace(tmp, path)
 
 
-def main(comm, argv=None):
+def _parser():
     parser = argparse.ArgumentParser(prog="python -m hpcgfmd bench", description=__doc__.split(
         "\n")[0])
     parser.add_argument("--cases", nargs="+", default=list(CASES),
@@ -360,48 +360,53 @@ def main(comm, argv=None):
         " (e.g. one job per case) into PREFIX.csv and PREFIX.png"))
     parser.add_argument("--reference-only", action="store_true",
                         help="compute (or check) the reference runs only")
+    return parser
+
+
+def _settings(args, geometry):
+    """(the fast-solver sweep to run, None), or (None, the one-line error) for bad arguments."""
+    sweep = [s for s in SWEEP if not (args.no_fixed and s[1].get("step_control") == "fixed")]
+    if args.only:
+        unknown = [o for o in args.only if not any(s[0].split(" ")[0] == o for s in SWEEP)]
+        if unknown:
+            return None, (f"--only {' '.join(unknown)}: expected among"
+                          f" {', '.join(s[0].split(' ')[0] for s in SWEEP)}")
+        sweep = [s for s in sweep if s[0].split(" ")[0] in args.only]
+    if args.reference_only:  # the references alone: no sweep, no other grid, no paper rows
+        sweep, args.nx, args.paper_equilibration = [], [max(args.nx)], []
+    if args.paper_steps < 1:
+        return None, f"--paper-steps {args.paper_steps}: expected an integer >= 1"
+    if any(e < 1 for e in args.paper_equilibration):
+        return None, f"--paper-equilibration {args.paper_equilibration}: expected integers >= 1"
+    if any(not 6 <= e <= 26 for e in args.nx):
+        return None, f"--nx {args.nx}: expected log2 of the grid sizes, between 6 and 26"
+    for key in args.cases:
+        try:
+            lambda0, vz = (float(v) for v in key.split(":"))
+        except ValueError:
+            return None, f"--cases {key}: expected lambda0:V_z, e.g. 7:4.5"
+        try:  # the reference's case file: bad groups or geometry are refused before any run
+            parse_case(case_text(lambda0, vz, {"nx": 2 ** max(args.nx), **REFERENCE}, geometry))
+        except CaseError as err:
+            return None, f"--cases {key} (--nx {max(args.nx)}, --geometry): {err}"
+    return sweep, None
+
+
+def main(comm, argv=None):
+    """Collective: the benchmark's command line (``python -m hpcgfmd bench``); exit status."""
     try:
-        args = parser.parse_args(argv)
+        args = _parser().parse_args(argv)
     except SystemExit as exit_:
         return int(exit_.code or 0)
     geometry = dict(GEOMETRY)
     if args.geometry:
         geometry.update(depth=args.geometry[0], cell=args.geometry[1], adhesion=args.geometry[2])
     rank0 = comm.Get_rank() == 0
-
-    say = logger.info  # rank 0 prints (hpcgfmd.logs)
-
-    rows = []
-
-    def usage(message):
+    sweep, error = _settings(args, geometry)
+    if error:
         if rank0:
-            print(f"bench: {message}", file=sys.stderr)
+            print(f"bench: {error}", file=sys.stderr)
         return 2
-
-    sweep = [s for s in SWEEP if not (args.no_fixed and s[1].get("step_control") == "fixed")]
-    if args.only:
-        unknown = [o for o in args.only if not any(s[0].split(" ")[0] == o for s in SWEEP)]
-        if unknown:
-            return usage(f"--only {' '.join(unknown)}: expected among"
-                         f" {', '.join(s[0].split(' ')[0] for s in SWEEP)}")
-        sweep = [s for s in sweep if s[0].split(" ")[0] in args.only]
-    if args.reference_only:  # the references alone: no sweep, no other grid, no paper rows
-        sweep, args.nx, args.paper_equilibration = [], [max(args.nx)], []
-    if args.paper_steps < 1:
-        return usage(f"--paper-steps {args.paper_steps}: expected an integer >= 1")
-    if any(e < 1 for e in args.paper_equilibration):
-        return usage(f"--paper-equilibration {args.paper_equilibration}: expected integers >= 1")
-    if any(not 6 <= e <= 26 for e in args.nx):
-        return usage(f"--nx {args.nx}: expected log2 of the grid sizes, between 6 and 26")
-    for key in args.cases:
-        try:
-            lambda0, vz = (float(v) for v in key.split(":"))
-        except ValueError:
-            return usage(f"--cases {key}: expected lambda0:V_z, e.g. 7:4.5")
-        try:  # the reference's case file: bad groups or geometry are refused before any run
-            parse_case(case_text(lambda0, vz, {"nx": 2 ** max(args.nx), **REFERENCE}, geometry))
-        except CaseError as err:
-            return usage(f"--cases {key} (--nx {max(args.nx)}, --geometry): {err}")
     if args.collect:
         if rank0:
             rows = collect(args.out)
@@ -409,16 +414,17 @@ def main(comm, argv=None):
             plot(rows, args.out + ".png", args.clock)
             logger.info(f"collected {len(rows)} rows into {args.out}.csv and {args.out}.png")
         return 0
+    rows = []
     for key in args.cases:
         case_rows = bench_case(key, comm, [2**e for e in args.nx], sweep,
-                               args.paper_equilibration, args.paper_steps, geometry, say,
-                               args.out)
+                               args.paper_equilibration, args.paper_steps, geometry,
+                               logger.info, args.out)
         rows += case_rows
         if rank0:  # after every case: a long benchmark keeps what it measured
             write_csv(case_rows, f"{args.out}-{key.replace(':', '-')}.csv")
             write_csv(rows, args.out + ".csv")
             plot(rows, args.out + ".png", args.clock)
-    say(f"wrote {args.out}.csv and {args.out}.png")
+    logger.info(f"wrote {args.out}.csv and {args.out}.png")
     return 0
 
 

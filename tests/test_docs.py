@@ -1,0 +1,184 @@
+"""The documentation is true: its TOML parses, its defaults are the code's, its commands exist.
+
+- Every ```toml block of README.md and docs/*.md is parsed by the case or the sweep parser (a
+  block holding only [numerics] or [output] is completed with the default case's [case]).
+- docs/case-file.md states each [numerics] and [output] default as a Python expression in a
+  table (key | meaning | default); each is evaluated and compared with what the parser makes of
+  default_case.toml and of two other cases (the [physical] form, and fixed steps).
+- Every `python -m hpcgfmd ...` in a ```sh block uses a subcommand and options that the
+  command's --help lists; every scripts/ and jobs/ path named there exists.
+"""
+import math
+import re
+import shlex
+import subprocess
+import sys
+import tomllib
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+
+import pytest
+
+from hpcgfmd.errors import SweepError
+from hpcgfmd.model.case import NUMERICS_KEYS, OUTPUT_KEYS, parse_case
+from hpcgfmd.runs.sweep import parse_sweep
+
+from cases import case_text
+
+REPO = Path(__file__).resolve().parents[1]
+DOCS = [REPO / "README.md"] + sorted((REPO / "docs").glob("*.md"))
+DEFAULT_CASE = resources.files("hpcgfmd").joinpath("default_case.toml").read_text()
+PHYSICAL = ("[physical]\nradius = 1e-3\nmodulus_relaxed = 1e6\nmodulus_instantaneous = 1e7\n"
+            "relaxation_time = 2.0\nwork_of_adhesion = 0.05\ninteraction_range = 1e-6\n"
+            "velocity = 1e-6\ndepth = 3e-5\ncell_length = 2e-3\n")
+
+
+def blocks(language):
+    """(file, index, text) of every fenced block of ``language`` in the docs."""
+    found = []
+    for path in DOCS:
+        text = path.read_text()
+        for i, match in enumerate(re.finditer(rf"^```{language}\n(.*?)^```", text,
+                                              re.M | re.S)):
+            found.append((path.relative_to(REPO), i, match.group(1)))
+    return found
+
+
+def test_the_docs_exist_and_have_blocks():
+    names = {p.name for p in DOCS}
+    assert {"README.md", "model.md", "case-file.md", "output.md", "numerics.md",
+            "parallel.md", "api.md", "results.md", "testing.md"} <= names
+    assert len(blocks("toml")) >= 5 and len(blocks("sh")) >= 5
+    assert len((REPO / "README.md").read_text().splitlines()) < 200
+
+
+TOML = blocks("toml")
+
+
+@pytest.mark.parametrize("source, index, text", TOML, ids=[f"{s}#{i}" for s, i, _ in TOML])
+def test_toml_blocks_parse(source, index, text, tmp_path):
+    if re.search(r"^(base|\[grid\]|\[\[cases\]\])", text, re.M):
+        (tmp_path / "case.toml").write_text(case_text("nx = 1024"))
+        try:
+            sweep = parse_sweep(text, str(tmp_path))
+        except SweepError as err:
+            pytest.fail(f"{source} block {index}: {err}")
+        assert sweep.cases
+        return
+    if not re.search(r"^\[(case|physical)\]", text, re.M):  # a [numerics]/[output] fragment
+        assert re.search(r"^\[(numerics|output)\]", text, re.M), text
+        text = DEFAULT_CASE.split("[numerics]")[0] + text
+    parse_case(text)
+
+
+def default_rows(section):
+    """{key: expression} of the defaults table under '## [section]' in docs/case-file.md."""
+    text = (REPO / "docs" / "case-file.md").read_text()
+    part = text.split(f"## [{section}]\n", 1)[1].split("\n## ", 1)[0]
+    rows = {}
+    for line in part.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) >= 3 and cells[0].startswith("`"):
+            expression = re.fullmatch(r"`([^`]+)`", cells[-1])
+            assert expression, f"[{section}] {cells[0]}: default {cells[-1]!r} is not one `...`"
+            rows[cells[0].strip("`")] = expression.group(1)
+    return rows
+
+
+def namespace(case):
+    """The names the default expressions use, in the case's units."""
+    u, num = case.units, case.numerics
+    return {"dmax": case.dmax * u.length, "v_z": case.indenter_speed * u.length / u.time,
+            "h0": case.depth * u.length, "tau": u.time, "L": case.cell * u.length,
+            "w": case.zone_width * u.length, "nx": num.nx, "dt": num.dt * u.time,
+            "fixed": num.step_control == "fixed", "ceil": math.ceil, "log2": math.log2,
+            "sqrt": math.sqrt, "min": min, "max": max, "round": round}
+
+
+def parsed(case, key):
+    """The value the parser resolved for ``key``, in the case's units."""
+    u, num, out = case.units, case.numerics, case.output
+    if key in ("dt", "dt_min", "dt_max"):
+        return getattr(num, key) * u.time
+    if key in NUMERICS_KEYS:
+        return getattr(num, key)
+    if key == "snapshot_times":
+        return [t * u.time for t in out.snapshot_times]
+    if key == "snapshot_contact_widths":
+        return [a * u.length for a in out.snapshot_contact_widths]
+    return getattr(out, key)
+
+
+CASES = {"default_case.toml": DEFAULT_CASE, "physical": PHYSICAL,
+         "fixed steps": case_text('step_control = "fixed"')}
+
+
+@pytest.mark.parametrize("section, keys", [("numerics", NUMERICS_KEYS),
+                                           ("output", OUTPUT_KEYS)])
+def test_every_key_has_a_documented_default(section, keys):
+    assert set(default_rows(section)) == set(keys)
+
+
+@pytest.mark.parametrize("name", CASES)
+def test_documented_defaults_are_the_parsed_ones(name):
+    text = CASES[name]
+    case = parse_case(text)
+    document = tomllib.loads(text)
+    given = {key for section in ("numerics", "output") for key in document.get(section, {})}
+    checked = 0
+    for section in ("numerics", "output"):
+        for key, expression in default_rows(section).items():
+            if key in given:  # set by this case file, not a default
+                continue
+            want = eval(expression, {"__builtins__": {}}, namespace(case))  # noqa: S307
+            got = parsed(case, key)
+            if isinstance(want, float) or isinstance(got, float):
+                assert got == pytest.approx(want, rel=1e-12), (name, key, expression)
+            else:
+                assert list(got) == list(want) if isinstance(want, list) else got == want, \
+                    (name, key, expression, got)
+            checked += 1
+    assert checked >= 10
+
+
+@lru_cache(maxsize=None)
+def help_text(subcommand):
+    command = [sys.executable, "-m", "hpcgfmd"] + ([subcommand] if subcommand else []) + ["--help"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert done.returncode == 0, done.stderr
+    return done.stdout
+
+
+def commands():
+    """(file, line) of every shell line of the docs that runs hpcgfmd, a script or a job."""
+    found = []
+    for source, _, text in blocks("sh"):
+        for line in text.splitlines():
+            line = line.split(" #")[0].strip()
+            if line and not line.startswith("#"):
+                found.append((str(source), line))
+    return found
+
+
+COMMANDS = commands()
+
+
+@pytest.mark.parametrize("source, line", COMMANDS, ids=[f"{s}: {c[:50]}" for s, c in COMMANDS])
+def test_shell_commands_exist(source, line):
+    words = shlex.split(line)
+    for word in words:  # repository paths named in the command
+        if re.match(r"(scripts|jobs|docs)/", word):
+            assert (REPO / word).exists(), f"{source}: {word} does not exist"
+    if "hpcgfmd" not in words or "-m" not in words:
+        return
+    rest = words[words.index("hpcgfmd") + 1:]
+    subcommand = rest[0] if rest and not rest[0].startswith("-") else None
+    if subcommand is not None:
+        assert subcommand in ("run", "farm", "info", "plot", "bench"), (source, line)
+    text = help_text(subcommand)
+    for word in rest:
+        if word.startswith("-") and word != "-":
+            option = word.split("=")[0]
+            assert re.search(rf"(^|[\s,\[]){re.escape(option)}\b", text), \
+                f"{source}: {line}: {option} is not an option of {subcommand or 'hpcgfmd'}"
