@@ -168,7 +168,7 @@ COMMANDS = commands()
 def test_shell_commands_exist(source, line):
     words = shlex.split(line)
     for word in words:  # repository paths named in the command
-        if re.match(r"(scripts|jobs|docs)/", word):
+        if re.match(r"(scripts|jobs)/", word):
             assert (REPO / word).exists(), f"{source}: {word} does not exist"
     if "hpcgfmd" not in words or "-m" not in words:
         return
