@@ -33,7 +33,7 @@ from ..errors import CaseError
 from . import theory
 
 # Cohesive-zone resolution w/dx (w: relaxed zone width pi E0 dmax / (4 sigma_a)); the
-# accuracy it buys is measured in docs/results.md ("Grid convergence").
+# accuracy it buys is measured in docs/results.md ("Grid and time-step convergence").
 MIN_ZONE_POINTS = 1.0      # below this nx is rejected
 TARGET_ZONE_POINTS = 3.0   # the automatic nx is the smallest power of two reaching this
 # The geometric contact width sqrt(2 R h0) bounds a_c; with L >= 6 sqrt(2 R h0) the periodic

@@ -37,13 +37,10 @@ from ..model.case import (DEFAULT_STEP_PER_RANGE, NUMERICS_KEYS, OUTPUT_KEYS, SE
                           parse_case)
 
 FARM_KEYS = ("ranks_per_case", "output")
-# Cost model of the dry run and of the longest-first order, measured at 2^17 nodes on one
-# rank with the default numerics: the default case (lambda0 = 7, V_z = 0.45) took 1169
-# adaptive steps, 18,252 CG iterations (15.6 per step) and 79 s of CPU time (4.35 ms per
-# iteration); its indenter travelled 1.2 h0 before detachment. The adaptive steps were
-# 0.47x (V_z = 0.45), 0.69x (4.5), 1.7x (9) and 0.83x (lambda0 = 14, V_z = 0.9) the count
-# of the fixed default step (the indenter moving dmax/4 per step), at 20-30 iterations per
-# step at high speed (speed-against-error benchmark, README).
+# Cost model of the dry run and of the longest-first order: seconds per CG iteration and
+# node, iterations per step, the indenter's travel before detachment in units of h0, and the
+# adaptive steps as a fraction of the fixed default's count; calibrated on the default case
+# at 2^17 on one rank (docs/results.md, "Task farm").
 SECONDS_PER_NODE_ITERATION = 4.35e-3 / 2**17
 ITERATIONS_PER_STEP = 15.6
 TRAVEL_PER_DEPTH = 1.2

@@ -275,9 +275,7 @@ class DampedVerletGFMD(EquilibriumSolver):
         self._work = np.zeros((3, n + 2), dtype=bool)
         shape = fft.spectrum_shape
         # The transform's own spectrum buffer (saves the copies in the serial transform).
-        self._spectrum = getattr(fft, "spectrum", None)
-        if self._spectrum is None:
-            self._spectrum = np.zeros(shape, dtype=np.complex128)
+        self._spectrum = fft.spectrum
         self._v_old = np.zeros(shape, dtype=np.complex128).view(np.float64)  # a0 U / n
         self._v_new = np.zeros(shape, dtype=np.complex128).view(np.float64)
         self._load_hat = np.zeros(shape, dtype=np.complex128)
