@@ -11,6 +11,8 @@ import math
 
 import numpy as np
 
+from . import kernels
+
 
 class ActiveSet:
     """Masks and rules of the wall constraint on this rank's block (Polonsky-Keer).
@@ -38,37 +40,33 @@ class ActiveSet:
         self._pressed_before[:] = False
         self._before = (0, 0)
 
-    def multiplier(self, r, gap, lo, hi, on_wall_tolerance, mu):
+    def multiplier(self, r, total, gap, lo, hi, on_wall_tolerance, mu):
         """Collective: the pressed set and the uniform traction mu at their fixed point.
 
         A node on the wall (gap <= tolerance) is pressed when r - mu > 0 pushes it into the
         wall; mu = mean of r over the free nodes. The sum over the free nodes is the total
-        minus the pressed ones (2-3 passes). Returns (mu, count, n_free, on_s, pressed_s):
-        this rank's pressed count, the global number of free nodes and the masks on the
-        near span.
+        (``total``, this rank's sum of r) minus the pressed ones (2-3 passes over the span).
+        Returns (mu, count, n_free, on_s, pressed_s): this rank's pressed count, the global
+        number of free nodes and the masks on the near span.
         """
         n = self._n
-        on_s, r_s = self.on_wall[:hi - lo], r[lo:hi]
-        np.less_equal(gap[lo:hi], on_wall_tolerance, out=on_s)
+        on_s = self.on_wall[:hi - lo]
+        kernels.on_wall(gap, lo, hi, on_wall_tolerance, on_s)
         pressed_s = self.pressed[:hi - lo]
-        total = r.sum()
         for _ in range(10):
-            np.greater(r_s, mu, out=pressed_s)
-            pressed_s &= on_s
-            count = np.count_nonzero(pressed_s)
-            r_free, n_free = self.domain.sums(
-                total - r_s.sum(where=pressed_s) if count else total, n - count)
+            pressed_sum, count = kernels.press(r, lo, hi, on_s, mu, pressed_s)
+            r_free, n_free = self.domain.sums(total - pressed_sum if count else total,
+                                              n - count)
             mu_new = r_free / n_free
             if mu_new == mu:
                 break
             mu = mu_new
         return mu, count, n_free, on_s, pressed_s
 
-    def joined(self, lo, hi, pressed_s):
-        """Local: True when a node joined the pressed set since :meth:`remember`."""
-        joined = self.pushed[:hi - lo]
-        np.greater(pressed_s, self._pressed_before[lo:hi], out=joined)
-        return bool(joined.any())
+    def settle(self, r, lo, hi, pressed_s, mu):
+        """Local: r = mu on the pressed nodes; returns (max and min of r on the span, whether
+        a node joined the pressed set since :meth:`remember`)."""
+        return kernels.settle(r, lo, hi, pressed_s, self._pressed_before, mu)
 
     def remember(self, lo, hi, pressed_s):
         """Keep this iteration's pressed set for the next :meth:`joined`."""

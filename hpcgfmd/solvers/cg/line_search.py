@@ -15,8 +15,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 MAX_EXTENSIONS = 8  # points per iteration beyond the trial point
 
 
@@ -40,7 +38,7 @@ def extend(evaluator, cur, trial, probe, d, alpha, rd, d_kd, c0, t_trial_d):
         ``point`` holds the gaps and traction of u + length d; ``spare`` is a free buffer
         (``cur`` is free too); ``extensions`` counts the points taken beyond ``trial``.
     """
-    dom, n = evaluator.domain, d.size
+    dom = evaluator.domain
     a_prev, s_prev = 0.0, -rd
     a, s = alpha, -(t_trial_d + c0 - alpha * d_kd)
     best, taken = trial, 0
@@ -57,12 +55,8 @@ def extend(evaluator, cur, trial, probe, d, alpha, rd, d_kd, c0, t_trial_d):
         if extension == MAX_EXTENSIONS and capped:
             target = reach  # the last point is not evaluated further: no slope needed
         # probe = u + target d, from the gaps of u (cur) as the trial point was
-        np.multiply(d, -target, out=probe.gap)
-        probe.gap += cur.gap
-        below = evaluator.evaluate(probe) < 0.0
-        lo, hi = probe.traction_span
-        t_probe_d, reaching = dom.sums(probe.traction[lo:hi] @ d[lo:hi] if n else 0.0,
-                                       1.0 if below else 0.0)
+        smallest, t_probe_d = evaluator.evaluate_shifted(probe, cur.gap, d, target)
+        t_probe_d, reaching = dom.sums(t_probe_d, 1.0 if smallest < 0.0 else 0.0)
         if reaching > 0.0:  # beyond the wall: stay at the last point
             break
         taken += 1

@@ -2,13 +2,13 @@
 
 Everything about the wall and the cohesive law is confined to the span of nodes with
 gap < level (level = dmax with adhesion: the contact and its cohesive zone, a few % of the
-cell), so a point is evaluated on that span only.
+cell), so a point's law is evaluated on that span only.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ...model.interface import true_span
+from . import kernels
 
 
 class Point:
@@ -54,42 +54,43 @@ class PointEvaluator:
     def __init__(self, domain, law):
         self.domain = domain
         self.law = law
-        n = domain.local_n
-        self._n = n
-        self._near = np.empty(n + 2, dtype=bool)
-        self._work = np.empty((3, n + 2), dtype=bool)
+        self._n = domain.local_n
         self.level = 0.0  # gap below which a node interacts (set per solve)
 
-    def evaluate(self, point):
+    def evaluate(self, point, d=None):
         """Collective (one ghost exchange): spans and cohesive traction of ``point.gap``.
 
-        One comparison pass finds the node range ``near`` holding every node with
-        gap < level; the law is evaluated on that range and one node more each side (a
-        straddling element reaches them), the ghosts included, and the rest of the traction
-        buffer is zeroed where it was not zero. Returns this rank's smallest gap on ``near``
-        (+inf if empty): negative when the point is beyond the wall.
+        Returns (this rank's smallest gap, negative when the point is beyond the wall; the
+        traction's dot product with ``d`` on its span, 0 without ``d`` or adhesion).
         """
+        first, last, smallest = kernels.near(point.gap, self.level)
+        return self._finish(point, first, last, smallest, d)
+
+    def evaluate_shifted(self, point, base, d, length):
+        """Collective: ``point`` at gaps base - length d (the gaps of u + length d when base is
+        the gaps of u), evaluated as :meth:`evaluate` with the slope along d."""
+        first, last, smallest = kernels.shifted_gaps(base, d, length, point.gap, self.level)
+        return self._finish(point, first, last, smallest, d)
+
+    def _finish(self, point, first, last, smallest, d):
+        """The ghost exchange, the spans, the law on the traction span and t.d there."""
         m = self._n
         self.domain.fill_halo(point.gap_ext)
-        near = self._near
-        np.less(point.gap_ext, self.level, out=near)
-        span = true_span(near) if m else None
-        if span is None:
+        if m:
+            lo, hi, p, q = kernels.spans(first, last, m, point.gap_ext[0] < self.level,
+                                         point.gap_ext[-1] < self.level)
+        else:
             lo = hi = p = q = 0
-        else:  # near[e] is node e - 1
-            lo, hi = max(span[0] - 1, 0), min(span[1], m)
-            p, q = max(span[0] - 2, 0), min(span[1] + 1, m)
         point.near = (lo, hi)
-        if self.law.sigma_a > 0.0:
-            t = point.traction
-            po, qo = point.traction_span
-            if p < q:
-                t[po:max(po, min(qo, p))] = 0.0
-                t[min(qo, max(q, po)):qo] = 0.0
-                self.law.traction(point.gap_ext[p:q + 2], out=t[p:q],
-                                  work=self._work[:, :q - p + 2])
-            else:
-                t[po:qo] = 0.0
+        slope = 0.0
+        law = self.law
+        if law.sigma_a > 0.0:
+            old_p, old_q = point.traction_span
+            slope = kernels.traction_on_span(point.gap_ext, point.traction, old_p, old_q, p, q,
+                                             law.dmax, law.sigma_a,
+                                             point.traction if d is None else d)
+            if d is None:
+                slope = 0.0
             point.traction_span = (p, q)
         point.ready = True
-        return point.gap[lo:hi].min() if hi > lo else np.inf
+        return smallest, slope

@@ -56,11 +56,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg.blas import daxpy
 
 from ..base import EdgeWatch, EquilibriumSolver, SolveResult, register
 from ..projection import project_feasible
-from . import line_search
+from . import kernels, line_search
 from .active_set import ActiveSet
 from .energy import StepEnergy
 from .points import Point, PointEvaluator
@@ -126,7 +125,6 @@ class ConstrainedCG(EquilibriumSolver):
         self._points = (Point(n), Point(n), Point(n))  # current, trial, line-search probe
         self._residuals = np.zeros((2, n))   # r and the previous r (rows swap roles)
         self._directions = np.zeros((2, n))  # z and d (rows swap roles)
-        self._dots = np.empty((2, 2))
         self._start = np.empty(n)
         self._scratch = np.empty(n)
         self._gap_ext = np.empty(n + 2)
@@ -179,9 +177,8 @@ class ConstrainedCG(EquilibriumSolver):
         while True:
             if not it.cur.ready:
                 self._evaluator.evaluate(it.cur)
-            r, lo, hi, count, n_free, on_s, pressed_s = self._residual(it, on_wall_tolerance)
-            joined = self._active.joined(lo, hi, pressed_s)
-            local_max = max(r.max() - it.mu, it.mu - r.min()) if self._n else 0.0
+            r, lo, hi, count, n_free, on_s, pressed_s, local_max, joined = self._residual(
+                it, on_wall_tolerance)
             if edge_watch is None:
                 r_max, joined_any = self.domain.maxes(local_max, 1.0 if joined else 0.0)
             else:  # the iterate's contact edges in the same reduction
@@ -253,13 +250,13 @@ class ConstrainedCG(EquilibriumSolver):
         lo, hi = cur.near
         p, q = cur.traction_span
         r = self._residuals[it.ir]
-        np.negative(self._load, out=r)
-        r[p:q] += cur.traction[p:q]
+        total, high, low = kernels.residual(self._load, cur.traction, p, q, lo, hi, r)
         it.mu, count, n_free, on_s, pressed_s = self._active.multiplier(
-            r, cur.gap, lo, hi, on_wall_tolerance, it.mu)
-        if count:
-            np.copyto(r[lo:hi], it.mu, where=pressed_s)
-        return r, lo, hi, count, n_free, on_s, pressed_s
+            r, total, cur.gap, lo, hi, on_wall_tolerance, it.mu)
+        span_high, span_low, joined = self._active.settle(r, lo, hi, pressed_s, it.mu)
+        local_max = (max(max(high, span_high) - it.mu, it.mu - min(low, span_low))
+                     if self._n else 0.0)
+        return r, lo, hi, count, n_free, on_s, pressed_s, local_max, joined
 
     def _direction(self, it, r, ops, lo, hi, count, n_free, on_s, pressed_s):
         """Collective: the search direction d (row iz) and r.d, r.z.
@@ -270,26 +267,24 @@ class ConstrainedCG(EquilibriumSolver):
         into the wall are held (:meth:`ActiveSet.hold`).
         """
         dom, R, Z = self.domain, self._residuals, self._directions
-        z = Z[it.iz]
+        ir, iz = it.ir, it.iz
+        z = Z[iz]
         self.fft.apply_diagonal(r, ops.compliance, z)
-        z_s = z[lo:hi]
-        z -= dom.sum(-z_s.sum(where=pressed_s) if count else 0.0) / n_free
-        if count:
-            np.copyto(z_s, 0.0, where=pressed_s)
+        shift = dom.sum(-kernels.masked_sum(z, lo, hi, pressed_s) if count else 0.0) / n_free
+        rz, r_old_z, r_d = kernels.project_direction(z, shift, lo, hi, pressed_s, r, R[1 - ir],
+                                                     Z[1 - iz], it.restart)
         if it.restart:
-            rz = rd = dom.sum(r @ z)
+            rz = rd = dom.sum(rz)
         else:
-            np.matmul(R, Z.T, out=self._dots)  # r.z, r.d_old, r_old.z in one pass
-            dots, ir, iz = self._dots, it.ir, it.iz
-            rz, r_old_z, r_d = dom.sums(dots[ir, iz], dots[1 - ir, iz], dots[ir, 1 - iz])
+            rz, r_old_z, r_d = dom.sums(rz, r_old_z, r_d)
             # r.z = 0 (z = K^-1 r, K^-1 positive definite: r = 0 on the free nodes) ends
             # the conjugacy: steepest descent
             beta = max(0.0, (rz - r_old_z) / it.rz_old) if it.rz_old > 0.0 else 0.0
             rd = beta * r_d + rz
             if rd <= 0.0 or beta == 0.0:  # not a descent direction any more: steepest
                 rd = rz
-            elif self._n:
-                daxpy(Z[1 - iz], z, a=beta)
+            else:
+                kernels.axpy(z, Z[1 - iz], beta)
         it.iz = 1 - it.iz
         held = self._active.hold(r, it.mu, z, lo, hi, pressed_s, on_s)
         return z, (rd if held is None else held), rz
@@ -306,17 +301,15 @@ class ConstrainedCG(EquilibriumSolver):
         dom, k_d, cur, trial = self.domain, self._k_d, it.cur, it.trial
         adhesive = self.law.sigma_a > 0.0
         self.fft.apply_diagonal(d, ops.stiffness, k_d)
-        d_kd = dom.dot(d, k_d)
+        d_kd = dom.sum(kernels.dot(d, k_d))
         alpha = rd / d_kd
-        np.multiply(d, -alpha, out=trial.gap)  # only the gaps: u follows if it is taken
-        trial.gap += cur.gap
-        below = self._evaluator.evaluate(trial) < 0.0
+        # only the gaps of u + alpha d: u follows if it is taken
+        smallest, t_trial_d = self._evaluator.evaluate_shifted(trial, cur.gap, d, alpha)
+        below = smallest < 0.0
         if adhesive:
-            a, b = trial.traction_span
             p, q = cur.traction_span
             t_trial_d, t_cur_d, reaching = dom.sums(
-                trial.traction[a:b] @ d[a:b], cur.traction[p:q] @ d[p:q],
-                1.0 if below else 0.0)
+                t_trial_d, kernels.span_dot(cur.traction, d, p, q), 1.0 if below else 0.0)
         else:
             reaching = dom.max(1.0 if below else 0.0)
         if reaching == 0.0:
@@ -326,9 +319,7 @@ class ConstrainedCG(EquilibriumSolver):
                     self._evaluator, cur, trial, it.probe, d, alpha, rd, d_kd, rd - t_cur_d,
                     t_trial_d)
                 self.extensions += taken
-            if self._n:
-                daxpy(d, u, a=length)
-                daxpy(k_d, self._load, a=length)
+            kernels.axpy2(u, d, self._load, k_d, length)
             it.cur, it.trial = trial, cur
             it.restart = False
         else:

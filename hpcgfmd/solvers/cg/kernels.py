@@ -1,0 +1,264 @@
+"""Compiled loops of a CG iteration: each fuses the elementwise work between two reductions.
+
+The CG iteration (:mod:`.solver`) alternates elementwise work on this rank's block with
+global reductions and transforms. Each kernel here does the whole stretch of elementwise work
+between two of them in one loop (numba, compiled once per machine and cached next to this
+file), so an iteration makes a dozen calls instead of hundreds of numpy calls. The kernels
+are local (no MPI); sums are sequential, hence deterministic for a given block.
+
+Index conventions: a block of m nodes; ``gap_ext`` holds its gaps with one ghost node each
+side (node i is ``gap_ext[i + 1]``); spans are half-open node ranges [lo, hi).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def _element(ga, gb, dmax, sigma_a):
+    """Tractions on the two ends of a straddling element (one end in the zone, one beyond).
+
+    With the ramp r = max(dmax - g, 0) and M = (r_a^2 - r_b^2) / (2 (g_b - g_a)), the mean of
+    r over the element, t_a = -sigma_a dM/dg_a and t_b = -sigma_a dM/dg_b.
+    """
+    ra = max(dmax - ga, 0.0)
+    rb = max(dmax - gb, 0.0)
+    dg = gb - ga
+    mean = (ra * ra - rb * rb) / (2.0 * dg)
+    return -sigma_a * (mean - ra) / dg, -sigma_a * (rb - mean) / dg
+
+
+@njit(cache=True)
+def cohesive_traction(gap_ext, out, p, q, dmax, sigma_a):
+    """Nodal traction of the element-integrated Dugdale law on nodes [p, q), into ``out``.
+
+    Element j joins ``gap_ext[j]`` and ``gap_ext[j + 1]``; node i gets half of sigma_a from
+    each element with both ends in the zone (g < dmax) and the exact share of each straddling
+    element (docs/model.md, (M35)); elements beyond the zone give nothing.
+    """
+    half = 0.5 * sigma_a
+    for i in range(p, q):
+        g0, g1, g2 = gap_ext[i], gap_ext[i + 1], gap_ext[i + 2]
+        in0, in1, in2 = g0 < dmax, g1 < dmax, g2 < dmax
+        both = (1.0 if (in0 and in1) else 0.0) + (1.0 if (in1 and in2) else 0.0)
+        t = both * half
+        if in1 != in2:  # element i: node i is its left end
+            t += _element(g1, g2, dmax, sigma_a)[0]
+        if in0 != in1:  # element i - 1: node i is its right end
+            t += _element(g0, g1, dmax, sigma_a)[1]
+        out[i] = t
+
+
+@njit(cache=True)
+def shifted_gaps(base, d, length, out, level):
+    """out = base - length d over the block (the gaps of u + length d, base = wall - u).
+
+    Returns (first, last, smallest): the first and last node with a gap below ``level``
+    (m, -1 when none) and the smallest gap of the block (+inf when empty).
+    """
+    m = base.shape[0]
+    first, last, smallest = m, -1, np.inf
+    for i in range(m):
+        g = base[i] - length * d[i]
+        out[i] = g
+        if g < level:
+            if first == m:
+                first = i
+            last = i
+        if g < smallest:
+            smallest = g
+    return first, last, smallest
+
+
+@njit(cache=True)
+def near(gap, level):
+    """(first, last, smallest) of :func:`shifted_gaps` for gaps already in place."""
+    m = gap.shape[0]
+    first, last, smallest = m, -1, np.inf
+    for i in range(m):
+        g = gap[i]
+        if g < level:
+            if first == m:
+                first = i
+            last = i
+        if g < smallest:
+            smallest = g
+    return first, last, smallest
+
+
+@njit(cache=True)
+def spans(first, last, m, ghost_left_near, ghost_right_near):
+    """(lo, hi, p, q): the near span of a point and the span its traction can reach.
+
+    [lo, hi) holds every node with gap < level (the ghosts, when near, stretch it to the
+    block's ends); [p, q) one node more each side, which a straddling element reaches.
+    """
+    if ghost_left_near:
+        first = -1
+    if ghost_right_near:
+        last = m
+    if first > last:  # nothing near, no ghost near
+        return 0, 0, 0, 0
+    return (max(first, 0), min(last + 1, m), max(first - 1, 0), min(last + 2, m))
+
+
+@njit(cache=True)
+def traction_on_span(gap_ext, traction, old_p, old_q, p, q, dmax, sigma_a, d):
+    """Zero the old traction span outside [p, q), evaluate the law on [p, q); return t.d there."""
+    for i in range(old_p, min(old_q, p)):
+        traction[i] = 0.0
+    for i in range(max(q, old_p), old_q):
+        traction[i] = 0.0
+    cohesive_traction(gap_ext, traction, p, q, dmax, sigma_a)
+    total = 0.0
+    for i in range(p, q):
+        total += traction[i] * d[i]
+    return total
+
+
+@njit(cache=True)
+def span_dot(a, b, p, q):
+    """sum a[p:q] b[p:q]."""
+    total = 0.0
+    for i in range(p, q):
+        total += a[i] * b[i]
+    return total
+
+
+@njit(cache=True)
+def residual(load, traction, p, q, lo, hi, r):
+    """r = traction - load (traction zero outside [p, q)).
+
+    Returns (sum of r, max and min of r outside the near span [lo, hi)) (-inf/+inf when
+    that is empty): the span's extremes follow once the pressed nodes are set to mu.
+    """
+    total, high, low = 0.0, -np.inf, np.inf
+    for i in range(r.shape[0]):
+        v = -load[i]
+        if p <= i < q:
+            v += traction[i]
+        r[i] = v
+        total += v
+        if i < lo or i >= hi:
+            if v > high:
+                high = v
+            if v < low:
+                low = v
+    return total, high, low
+
+
+@njit(cache=True)
+def on_wall(gap, lo, hi, tolerance, on):
+    """on[k] = gap[lo + k] <= tolerance on the near span; returns the count."""
+    count = 0
+    for k in range(hi - lo):
+        flag = gap[lo + k] <= tolerance
+        on[k] = flag
+        count += flag
+    return count
+
+
+@njit(cache=True)
+def press(r, lo, hi, on, mu, pressed):
+    """pressed = on and r > mu on the near span; returns (sum of r over pressed, count)."""
+    total, count = 0.0, 0
+    for k in range(hi - lo):
+        flag = on[k] and r[lo + k] > mu
+        pressed[k] = flag
+        if flag:
+            total += r[lo + k]
+            count += 1
+    return total, count
+
+
+@njit(cache=True)
+def settle(r, lo, hi, pressed, before, mu):
+    """Set r = mu on the pressed nodes; returns (max, min of r on the span, any node joined
+    the pressed set since ``before``, the last iteration's set on the span)."""
+    high, low, joined = -np.inf, np.inf, False
+    for k in range(hi - lo):
+        if pressed[k]:
+            r[lo + k] = mu
+            if not before[lo + k]:
+                joined = True
+        v = r[lo + k]
+        if v > high:
+            high = v
+        if v < low:
+            low = v
+    return high, low, joined
+
+
+@njit(cache=True)
+def masked_sum(a, lo, hi, mask):
+    """sum of a[lo + k] where mask[k], k < hi - lo."""
+    total = 0.0
+    for k in range(hi - lo):
+        if mask[k]:
+            total += a[lo + k]
+    return total
+
+
+@njit(cache=True)
+def project_direction(z, shift, lo, hi, pressed, r, r_old, d_old, restart):
+    """z -= shift, z = 0 on the pressed nodes; returns (r.z, r_old.z, r.d_old) (the last two
+    0 when ``restart``): the Polak-Ribiere dots in the same pass."""
+    rz, r_old_z, r_d = 0.0, 0.0, 0.0
+    for i in range(z.shape[0]):
+        v = z[i] - shift
+        if lo <= i < hi and pressed[i - lo]:
+            v = 0.0
+        z[i] = v
+        rz += r[i] * v
+        if not restart:
+            r_old_z += r_old[i] * v
+            r_d += r[i] * d_old[i]
+    return rz, r_old_z, r_d
+
+
+@njit(cache=True)
+def axpy(y, x, a):
+    """y += a x."""
+    for i in range(y.shape[0]):
+        y[i] += a * x[i]
+
+
+@njit(cache=True)
+def axpy2(y1, x1, y2, x2, a):
+    """y1 += a x1 and y2 += a x2 in one pass."""
+    for i in range(y1.shape[0]):
+        y1[i] += a * x1[i]
+        y2[i] += a * x2[i]
+
+
+@njit(cache=True)
+def dot(a, b):
+    """a.b, summed in order."""
+    total = 0.0
+    for i in range(a.shape[0]):
+        total += a[i] * b[i]
+    return total
+
+
+def compile_all():
+    """Compile every kernel for this machine into numba's cache (scripts/setup.sh calls it)."""
+    m = 8
+    gap_ext = np.linspace(0.0, 2.0, m + 2)
+    a, b, c, d = (np.linspace(-1.0, 1.0, m) for _ in range(4))
+    flags, flags2 = np.zeros(m, dtype=np.bool_), np.zeros(m, dtype=np.bool_)
+    cohesive_traction(gap_ext, a, 0, m, 1.0, 1.0)
+    first, last, smallest = shifted_gaps(b, c, 0.5, a, 1.0)
+    near(a, 1.0)
+    spans(first, last, m, True, False)
+    traction_on_span(gap_ext, a, 0, m, 1, m - 1, 1.0, 1.0, b)
+    span_dot(a, b, 0, m)
+    residual(a, b, 0, m, 1, m - 1, c)
+    on_wall(a, 0, m, 0.0, flags)
+    press(a, 0, m, flags, 0.0, flags2)
+    settle(a, 0, m, flags2, flags, 0.0)
+    masked_sum(a, 0, m, flags)
+    project_direction(a, 0.1, 0, m, flags, b, c, d, False)
+    axpy(a, b, 0.5)
+    axpy2(a, b, c, d, 0.5)
+    dot(a, b)
