@@ -21,7 +21,7 @@ buffer of ``spectrum_shape`` to pass to them.
 """
 from __future__ import annotations
 
-from .fft_serial import SerialRealFFT
+from .fft_serial import SerialRealFFT, aligned_empty
 from .fft_transposed import TransposedRealFFT
 
 
@@ -56,3 +56,6 @@ def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
     if size > 1:
         raise ValueError(f"a serial FFT cannot be spread over {size} ranks")
     return SerialRealFFT(n, planner_effort, comm=comm)
+
+
+__all__ = ["SerialRealFFT", "TransposedRealFFT", "aligned_empty", "plan_real_fft"]

@@ -2,13 +2,23 @@
 
 Same interface as :class:`hpcgfmd.parallel.fft_transposed.TransposedRealFFT` (see
 :mod:`hpcgfmd.parallel.fft` for what the solvers use of it). Plans are made once; nothing is
-allocated per call.
+allocated per call. The transforms read the caller's field and write the caller's output in
+place whenever those are aligned as the plans' buffers are (:func:`aligned_empty` makes such
+arrays): the copies in and out of the transform's own buffers would cost two more passes
+over the field, each evicting cache the transform needs. Other arrays go through the buffers.
 """
 from __future__ import annotations
 
 import numpy as np
 import pyfftw
 from mpi4py import MPI
+
+
+def aligned_empty(shape):
+    """An uninitialised float64 array aligned as the transforms' buffers, so that
+    :meth:`SerialRealFFT.apply_diagonal` reads or writes it without a copy (each row of a 2-D
+    array too, when a row's size is a multiple of the alignment)."""
+    return pyfftw.empty_aligned(shape, dtype="float64")
 
 
 class SerialRealFFT:
@@ -54,10 +64,13 @@ class SerialRealFFT:
         self.wavenumber = np.arange(n // 2 + 1, dtype=np.int64)
         self.real = pyfftw.empty_aligned(n, dtype="float64")
         self.spectrum = pyfftw.empty_aligned(n // 2 + 1, dtype="complex128")
-        flags = (planner_effort, "FFTW_DESTROY_INPUT")
-        self._forward = pyfftw.FFTW(self.real, self.spectrum, flags=flags, threads=1)
+        # The forward transform keeps its input (it may be the caller's field); the backward
+        # one may overwrite the spectrum, which is the transform's own.
+        self._forward = pyfftw.FFTW(self.real, self.spectrum, flags=(planner_effort,),
+                                    threads=1)
         self._backward = pyfftw.FFTW(self.spectrum, self.real, direction="FFTW_BACKWARD",
-                                     flags=flags, threads=1)
+                                     flags=(planner_effort, "FFTW_DESTROY_INPUT"), threads=1)
+        self._alignment = self._forward.input_alignment
         self.pairs = 0
         self.communication_time = 0.0
 
@@ -79,13 +92,36 @@ class SerialRealFFT:
         -------
         out : ndarray
         """
-        self.real[:] = field
-        self._forward.execute()
+        self._transform_from(field)
         self.spectrum *= diagonal
-        self._backward.execute()
-        out[:] = self.real
+        self._transform_to(out)
         self.pairs += 1
         return out
+
+    def _direct(self, array):
+        """True when ``array`` can be the plans' real array without a copy."""
+        return (array.ctypes.data % self._alignment == 0 and array.flags.c_contiguous
+                and array.shape == (self.n,) and array.dtype == np.float64)
+
+    def _transform_from(self, field):
+        """self.spectrum = rfft(field), reading ``field`` in place when aligned."""
+        if self._direct(field):
+            self._forward.update_arrays(field, self.spectrum)
+        else:
+            self.real[:] = field
+            self._forward.update_arrays(self.real, self.spectrum)
+        self._forward.execute()
+
+    def _transform_to(self, out):
+        """out = irfft(self.spectrum) unnormalised, writing ``out`` in place when aligned
+        (the spectrum is overwritten)."""
+        if self._direct(out):
+            self._backward.update_arrays(self.spectrum, out)
+            self._backward.execute()
+        else:
+            self._backward.update_arrays(self.spectrum, self.real)
+            self._backward.execute()
+            out[:] = self.real
 
     def forward(self, field, spectrum_out):
         """spectrum_out = rfft(field): the local modes of the real field (no normalisation).
@@ -105,8 +141,7 @@ class SerialRealFFT:
         -------
         spectrum_out : ndarray
         """
-        self.real[:] = field
-        self._forward.execute()
+        self._transform_from(field)
         if spectrum_out is not self.spectrum:
             spectrum_out[:] = self.spectrum
         return spectrum_out
@@ -131,8 +166,7 @@ class SerialRealFFT:
         """
         if spectrum is not self.spectrum:
             self.spectrum[:] = spectrum
-        self._backward.execute()
-        field_out[:] = self.real
+        self._transform_to(field_out)
         self.pairs += 1
         return field_out
 

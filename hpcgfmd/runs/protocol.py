@@ -24,7 +24,7 @@ from ..model.case import Case
 from ..model.interface import DugdaleMaugis, edge_positions
 from ..model.material import StandardLinearSolid, ViscoelasticHalfSpace
 from ..parallel.domain import Domain
-from ..parallel.fft import plan_real_fft
+from ..parallel.fft import aligned_empty, plan_real_fft
 from ..solvers import EdgeWatch, make_solver
 from ..solvers.predictor import Predictor
 from ..solvers.stepping import make_step_control
@@ -79,9 +79,12 @@ class Retraction:
         self.steps = make_step_control(case)
         self.predictor = Predictor(self.domain, 4.0 * case.zone_width / case.k)
         n = self.domain.local_n  # from here on: this rank's block
-        self.u = np.zeros(n)  # surface displacement, upward positive
+        # (aligned: the serial transform reads u and writes the history in place)
+        self.u = aligned_empty(n)  # surface displacement, upward positive
+        self.u[:] = 0.0
         self.substrate_traction = np.zeros(n)  # p_n (q != 0 part) of the SLS history
-        self.history = np.zeros(n)
+        self.history = aligned_empty(n)
+        self.history[:] = 0.0
         self.wall = np.empty(n)
         self.traction = np.zeros(n)  # interface traction on the substrate, attractive positive
         self.time = 0.0

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..parallel.fft import aligned_empty
 from .projection import project_feasible
 
 
@@ -81,7 +82,7 @@ class Predictor:
         for kind, guess in enumerate(guesses):
             if guess is None:
                 continue
-            start = np.empty(self.domain.local_n)
+            start = aligned_empty(self.domain.local_n)
             try:
                 project_feasible(self.domain, guess, wall, start)
             except FloatingPointError:  # no feasible point of that form (tiny grids): skip it

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...parallel.fft import aligned_empty
+
 
 class StepEnergy:
     """Energies of displacements of one step on this rank's block, and the K u they cost.
@@ -24,7 +26,7 @@ class StepEnergy:
         n = domain.local_n
         self._n = n
         self._gap_ext = np.empty(n + 2)
-        self._k_u = np.empty(n)
+        self._k_u = aligned_empty(n)
         self._mask = np.empty(n, dtype=bool)
         # The lowest-energy vector passed to energy() since the last solve began (the
         # predictor's start of the next solve) and its K: see recall.

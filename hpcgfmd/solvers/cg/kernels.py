@@ -4,7 +4,10 @@ The CG iteration (:mod:`.solver`) alternates elementwise work on this rank's blo
 global reductions and transforms. Each kernel here does the whole stretch of elementwise work
 between two of them in one loop (numba, compiled once per machine and cached next to this
 file), so an iteration makes a dozen calls instead of hundreds of numpy calls. The kernels
-are local (no MPI); sums are sequential, hence deterministic for a given block.
+are local (no MPI). Sums, maxima and minima may be reassociated (``FAST``: LLVM vectorises
+them, as numpy's own SIMD sums do), which makes them depend on the machine's vector width
+but not on the run: the same block gives the same bits every time. Loops over a whole block
+are split into branch-free segments around the contact span so that they vectorise.
 
 Index conventions: a block of m nodes; ``gap_ext`` holds its gaps with one ghost node each
 side (node i is ``gap_ext[i + 1]``); spans are half-open node ranges [lo, hi).
@@ -13,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+
+FAST = {"reassoc"}  # reductions may be reassociated (vectorised); inf and NaN keep their meaning
 
 
 @njit(cache=True)
@@ -72,6 +77,83 @@ def shifted_gaps(base, d, length, out, level):
 
 
 @njit(cache=True)
+def shifted_window(base, d, length, out, level, w0, w1):
+    """:func:`shifted_gaps` on the window [w0, w1) and the block's two end nodes only.
+
+    Valid when no node outside the window can come below ``level`` at this length (the
+    caller's bound :func:`dot_and_entry`); the ends feed the ghost exchange.
+    """
+    m = base.shape[0]
+    first, last, smallest = m, -1, np.inf
+    for i in range(w0, w1):
+        g = base[i] - length * d[i]
+        out[i] = g
+        if g < level:
+            if first == m:
+                first = i
+            last = i
+        if g < smallest:
+            smallest = g
+    if m:
+        out[0] = base[0] - length * d[0]
+        out[m - 1] = base[m - 1] - length * d[m - 1]
+    return first, last, smallest
+
+
+@njit(cache=True)
+def _entry_exact(d, gap, level, a, b, entry):
+    """min(entry, (gap - level) / d over nodes [a, b) with d > 0)."""
+    for i in range(a, b):
+        if d[i] > 0.0:
+            entry = min(entry, (gap[i] - level) / d[i])
+    return entry
+
+
+@njit(cache=True, fastmath=FAST)
+def dot_and_entry(d, kd, gap, lo, hi, level, margin):
+    """(d.kd, a length below which no node outside [lo, hi) comes below ``level`` along d).
+
+    Nodes within ``margin`` of the span (where the zone grows) contribute their exact entry
+    length (gap - level) / d; farther nodes the bound min(gap - level) / max(d), which is
+    below each of their own entry lengths. +inf when nothing can enter.
+    """
+    m = d.shape[0]
+    a, b = max(lo - margin, 0), min(hi + margin, m)
+    total = 0.0
+    for i in range(m):  # separate loops vectorise, one fused loop does not
+        total += d[i] * kd[i]
+    room, rise = np.inf, 0.0
+    for i in range(a):
+        room = min(room, gap[i])
+        rise = max(rise, d[i])
+    for i in range(b, m):
+        room = min(room, gap[i])
+        rise = max(rise, d[i])
+    entry = (room - level) / rise if rise > 0.0 else np.inf
+    entry = _entry_exact(d, gap, level, a, lo, entry)
+    return total, _entry_exact(d, gap, level, hi, b, entry)
+
+
+@njit(cache=True, fastmath=FAST)
+def update_and_residual(u, d, load, kd, gap, length, traction, p, q, lo, hi, r):
+    """The accepted step and the next residual in one pass: u += length d, load += length kd,
+    gap -= length d, then r as :func:`residual` (same returns)."""
+    total = 0.0
+    for i in range(u.shape[0]):
+        u[i] += length * d[i]
+        gap[i] = gap[i] - length * d[i]
+        v = load[i] + length * kd[i]
+        load[i] = v
+        r[i] = -v
+        total -= v
+    for i in range(p, q):
+        r[i] += traction[i]
+        total += traction[i]
+    high, low = _extremes(r, lo, hi)
+    return total, high, low
+
+
+@njit(cache=True)
 def near(gap, level):
     """(first, last, smallest) of :func:`shifted_gaps` for gaps already in place."""
     m = gap.shape[0]
@@ -126,25 +208,35 @@ def span_dot(a, b, p, q):
     return total
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
+def _extremes(r, lo, hi):
+    """max and min of r outside [lo, hi) (-inf, +inf when that is empty)."""
+    high, low = -np.inf, np.inf
+    for i in range(lo):
+        high = max(high, r[i])
+        low = min(low, r[i])
+    for i in range(hi, r.shape[0]):
+        high = max(high, r[i])
+        low = min(low, r[i])
+    return high, low
+
+
+@njit(cache=True, fastmath=FAST)
 def residual(load, traction, p, q, lo, hi, r):
     """r = traction - load (traction zero outside [p, q)).
 
     Returns (sum of r, max and min of r outside the near span [lo, hi)) (-inf/+inf when
     that is empty): the span's extremes follow once the pressed nodes are set to mu.
     """
-    total, high, low = 0.0, -np.inf, np.inf
+    total = 0.0
     for i in range(r.shape[0]):
         v = -load[i]
-        if p <= i < q:
-            v += traction[i]
         r[i] = v
         total += v
-        if i < lo or i >= hi:
-            if v > high:
-                high = v
-            if v < low:
-                low = v
+    for i in range(p, q):
+        r[i] += traction[i]
+        total += traction[i]
+    high, low = _extremes(r, lo, hi)
     return total, high, low
 
 
@@ -200,19 +292,23 @@ def masked_sum(a, lo, hi, mask):
     return total
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
 def project_direction(z, shift, lo, hi, pressed, r, r_old, d_old, restart):
     """z -= shift, z = 0 on the pressed nodes; returns (r.z, r_old.z, r.d_old) (the last two
     0 when ``restart``): the Polak-Ribiere dots in the same pass."""
-    rz, r_old_z, r_d = 0.0, 0.0, 0.0
     for i in range(z.shape[0]):
-        v = z[i] - shift
-        if lo <= i < hi and pressed[i - lo]:
-            v = 0.0
-        z[i] = v
-        rz += r[i] * v
-        if not restart:
-            r_old_z += r_old[i] * v
+        z[i] -= shift
+    for k in range(hi - lo):
+        if pressed[k]:
+            z[lo + k] = 0.0
+    rz, r_old_z, r_d = 0.0, 0.0, 0.0
+    if restart:
+        for i in range(z.shape[0]):
+            rz += r[i] * z[i]
+    else:
+        for i in range(z.shape[0]):
+            rz += r[i] * z[i]
+            r_old_z += r_old[i] * z[i]
             r_d += r[i] * d_old[i]
     return rz, r_old_z, r_d
 
@@ -232,7 +328,7 @@ def axpy2(y1, x1, y2, x2, a):
         y2[i] += a * x2[i]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
 def dot(a, b):
     """a.b, summed in order."""
     total = 0.0
@@ -249,6 +345,9 @@ def compile_all():
     flags, flags2 = np.zeros(m, dtype=np.bool_), np.zeros(m, dtype=np.bool_)
     cohesive_traction(gap_ext, a, 0, m, 1.0, 1.0)
     first, last, smallest = shifted_gaps(b, c, 0.5, a, 1.0)
+    shifted_window(b, c, 0.5, a, 1.0, 2, 6)
+    dot_and_entry(a, b, c, 2, 6, 1.0, 1)
+    update_and_residual(a, b, c, d, gap_ext[1:-1], 0.5, a, 0, m, 1, m - 1, b)
     near(a, 1.0)
     spans(first, last, m, True, False)
     traction_on_span(gap_ext, a, 0, m, 1, m - 1, 1.0, 1.0, b)

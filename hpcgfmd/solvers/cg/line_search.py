@@ -18,7 +18,7 @@ import math
 MAX_EXTENSIONS = 8  # points per iteration beyond the trial point
 
 
-def extend(evaluator, cur, trial, probe, d, alpha, rd, d_kd, c0, t_trial_d):
+def extend(evaluator, cur, trial, probe, d, alpha, rd, d_kd, c0, t_trial_d, window=None):
     """Collective: the step length along d and the point it reaches (module docstring).
 
     Parameters
@@ -29,6 +29,8 @@ def extend(evaluator, cur, trial, probe, d, alpha, rd, d_kd, c0, t_trial_d):
         The current point u, the evaluated trial point u + alpha d, a free buffer.
     d : ndarray
         The direction (zero mean, this rank's block).
+    window : tuple, optional
+        (w0, w1, entry) of :meth:`PointEvaluator.evaluate_shifted`.
     alpha, rd, d_kd, c0, t_trial_d : float
         The bound's minimiser, r.d, d.K d, r.d - t(u).d and t(u + alpha d).d (global).
 
@@ -55,7 +57,7 @@ def extend(evaluator, cur, trial, probe, d, alpha, rd, d_kd, c0, t_trial_d):
         if extension == MAX_EXTENSIONS and capped:
             target = reach  # the last point is not evaluated further: no slope needed
         # probe = u + target d, from the gaps of u (cur) as the trial point was
-        smallest, t_probe_d = evaluator.evaluate_shifted(probe, cur.gap, d, target)
+        smallest, t_probe_d = evaluator.evaluate_shifted(probe, cur.gap, d, target, window)
         t_probe_d, reaching = dom.sums(t_probe_d, 1.0 if smallest < 0.0 else 0.0)
         if reaching > 0.0:  # beyond the wall: stay at the last point
             break

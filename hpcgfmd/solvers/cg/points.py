@@ -66,11 +66,30 @@ class PointEvaluator:
         first, last, smallest = kernels.near(point.gap, self.level)
         return self._finish(point, first, last, smallest, d)
 
-    def evaluate_shifted(self, point, base, d, length):
+    def evaluate_shifted(self, point, base, d, length, window=None):
         """Collective: ``point`` at gaps base - length d (the gaps of u + length d when base is
-        the gaps of u), evaluated as :meth:`evaluate` with the slope along d."""
-        first, last, smallest = kernels.shifted_gaps(base, d, length, point.gap, self.level)
+        the gaps of u), evaluated as :meth:`evaluate` with the slope along d.
+
+        ``window = (w0, w1, entry)``: while ``length < entry`` no node outside [w0, w1) comes
+        below the level, so the gaps are formed on the window (and the block's ends, for the
+        ghosts) only; ``point.gap`` is then valid there alone.
+        """
+        if window is not None and length < window[2]:
+            first, last, smallest = kernels.shifted_window(base, d, length, point.gap,
+                                                           self.level, window[0], window[1])
+        else:
+            first, last, smallest = kernels.shifted_gaps(base, d, length, point.gap,
+                                                         self.level)
         return self._finish(point, first, last, smallest, d)
+
+    @staticmethod
+    def take(cur, best):
+        """Make ``cur`` (whose gaps the caller moves to ``best``'s) take ``best``'s traction
+        and spans: the traction buffers are exchanged with their spans, not copied."""
+        cur.traction, best.traction = best.traction, cur.traction
+        cur.traction_span, best.traction_span = best.traction_span, cur.traction_span
+        cur.near = best.near
+        cur.ready = True
 
     def _finish(self, point, first, last, smallest, d):
         """The ghost exchange, the spans, the law on the traction span and t.d there."""

@@ -58,6 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..base import EdgeWatch, EquilibriumSolver, SolveResult, register
+from ...parallel.fft import aligned_empty
 from ..projection import project_feasible
 from . import kernels, line_search
 from .active_set import ActiveSet
@@ -81,6 +82,7 @@ class _Descent:
     residual: float = np.inf
     mu: float = 0.0
     iteration: int = 0
+    pending: tuple | None = None  # the next residual's sums, formed with the accepted step
 
 
 @register("cg")
@@ -118,13 +120,16 @@ class ConstrainedCG(EquilibriumSolver):
         self._active = ActiveSet(domain)
         self._walls = WallSteps(domain, fft, self._energy)
         # Every buffer of a solve is made here: an iteration allocates nothing of size n.
-        self._k_u = np.empty(n)       # K u; exact at the end of a solve (elastic_traction)
+        # (aligned: the serial transform reads and writes them in place)
+        self._k_u = aligned_empty(n)  # K u; exact at the end of a solve (elastic_traction)
         self._load = np.empty(n)      # K u + H - p_applied during a solve (updated by steps)
         self._linear = np.empty(n)    # H - p_applied when a traction is applied
-        self._k_d = np.empty(n)
+        self._k_d = aligned_empty(n)
         self._points = (Point(n), Point(n), Point(n))  # current, trial, line-search probe
-        self._residuals = np.zeros((2, n))   # r and the previous r (rows swap roles)
-        self._directions = np.zeros((2, n))  # z and d (rows swap roles)
+        self._residuals = aligned_empty((2, n))   # r and the previous r (rows swap roles)
+        self._directions = aligned_empty((2, n))  # z and d (rows swap roles)
+        self._residuals[...] = 0.0
+        self._directions[...] = 0.0
         self._start = np.empty(n)
         self._scratch = np.empty(n)
         self._gap_ext = np.empty(n + 2)
@@ -175,8 +180,6 @@ class ConstrainedCG(EquilibriumSolver):
         linear, on_wall_tolerance = self._begin(u, wall, ops, history, applied)
         it = _Descent(*self._points)
         while True:
-            if not it.cur.ready:
-                self._evaluator.evaluate(it.cur)
             r, lo, hi, count, n_free, on_s, pressed_s, local_max, joined = self._residual(
                 it, on_wall_tolerance)
             if edge_watch is None:
@@ -247,10 +250,15 @@ class ConstrainedCG(EquilibriumSolver):
         the uniform part, and so do the dot products with the zero-mean z and d.
         """
         cur = it.cur
-        lo, hi = cur.near
-        p, q = cur.traction_span
         r = self._residuals[it.ir]
-        total, high, low = kernels.residual(self._load, cur.traction, p, q, lo, hi, r)
+        if it.pending is None:
+            if not cur.ready:
+                self._evaluator.evaluate(cur)
+            total, high, low = kernels.residual(self._load, cur.traction, *cur.traction_span,
+                                                *cur.near, r)
+        else:  # formed in the pass that took the last step (_step)
+            (total, high, low), it.pending = it.pending, None
+        lo, hi = cur.near
         it.mu, count, n_free, on_s, pressed_s = self._active.multiplier(
             r, total, cur.gap, lo, hi, on_wall_tolerance, it.mu)
         span_high, span_low, joined = self._active.settle(r, lo, hi, pressed_s, it.mu)
@@ -301,10 +309,17 @@ class ConstrainedCG(EquilibriumSolver):
         dom, k_d, cur, trial = self.domain, self._k_d, it.cur, it.trial
         adhesive = self.law.sigma_a > 0.0
         self.fft.apply_diagonal(d, ops.stiffness, k_d)
-        d_kd = dom.sum(kernels.dot(d, k_d))
+        lo, hi = cur.near
+        d_kd, entry = kernels.dot_and_entry(d, k_d, cur.gap, lo, hi, self._evaluator.level,
+                                            max(hi - lo, 16))
+        d_kd, entry = dom.sum(d_kd), dom.min(entry)
         alpha = rd / d_kd
-        # only the gaps of u + alpha d: u follows if it is taken
-        smallest, t_trial_d = self._evaluator.evaluate_shifted(trial, cur.gap, d, alpha)
+        # Points along d are formed on a window around the near span while no node from
+        # outside can enter the zone (length < entry), and only their gaps: u follows if
+        # one is taken.
+        window = (max(lo - 2, 0), min(hi + 2, self._n), entry)
+        smallest, t_trial_d = self._evaluator.evaluate_shifted(trial, cur.gap, d, alpha,
+                                                               window)
         below = smallest < 0.0
         if adhesive:
             p, q = cur.traction_span
@@ -313,14 +328,17 @@ class ConstrainedCG(EquilibriumSolver):
         else:
             reaching = dom.max(1.0 if below else 0.0)
         if reaching == 0.0:
-            length = alpha
+            length, best, spare = alpha, trial, it.probe
             if adhesive:  # the trial point becomes the line search's point
-                length, trial, it.probe, taken = line_search.extend(
+                length, best, spare, taken = line_search.extend(
                     self._evaluator, cur, trial, it.probe, d, alpha, rd, d_kd, rd - t_cur_d,
-                    t_trial_d)
+                    t_trial_d, window)
                 self.extensions += taken
-            kernels.axpy2(u, d, self._load, k_d, length)
-            it.cur, it.trial = trial, cur
+            PointEvaluator.take(cur, best)
+            it.trial, it.probe = best, spare
+            it.pending = kernels.update_and_residual(
+                u, d, self._load, k_d, cur.gap, length, cur.traction, *cur.traction_span,
+                *cur.near, self._residuals[1 - it.ir])
             it.restart = False
         else:
             self._walls.take(u, cur, wall, self._wall_scale, self._load, linear, r, it.mu,

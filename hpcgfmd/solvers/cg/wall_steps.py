@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg.blas import daxpy
 
+from ...parallel.fft import aligned_empty
 from ..projection import project_feasible
 
 
@@ -40,8 +41,8 @@ class WallSteps:
         self._n = n
         self._spare = np.empty(n)
         self._scratch = np.empty(n)
-        self._projected = np.empty(n)
-        self._k_projected = np.empty(n)
+        self._projected = aligned_empty(n)
+        self._k_projected = aligned_empty(n)
         self._mask = np.empty(n, dtype=bool)
         self.projections = 0
         self.cut_steps = 0
