@@ -46,11 +46,10 @@ DEFAULT_MAX_ITERATIONS = 5000
 # cohesive-zone widths, load deviation from linear extrapolation in load scales.
 DEFAULT_EDGE_FRACTION = 0.5
 DEFAULT_LOAD_TOLERANCE = 1e-2
+DEFAULT_TIME_TOLERANCE = 1e-2  # accumulated load error of the SLS history, load scales
 DT_MIN_PER_DEFAULT = 1.0 / 64.0     # dt_min: this fraction of the first step (<= the fixed one)
 FIRST_STEP_PER_DEFAULT = 1.0 / 16.0  # adaptive: the first step, doubling while errors allow
-DT_MAX_DEPTH_FRACTION = 0.02        # dt_max: the indenter rises by this fraction of h0,
-DT_MAX_RELAXATION = 0.25            # ... and at most this fraction of tau (the time error is
-#                                     first order in dt/tau where the edge creeps)
+DT_MAX_DEPTH_FRACTION = 0.02        # dt_max: the indenter rises by this fraction of h0
 PAPER_EQUILIBRATION_PER_ROOT_N = 1024  # the paper authors' code: 256 * 4 * sqrt(nx) pseudo steps
 SOLVERS = ("cg", "paper")  # the names of hpcgfmd.solvers' registry
 STEP_CONTROLS = ("adaptive", "fixed")
@@ -61,7 +60,8 @@ CASE_KEYS = ("maugis", "modulus_ratio", "velocity", "depth", "cell", "adhesion")
 PHYSICAL_KEYS = ("radius", "modulus_relaxed", "modulus_instantaneous", "relaxation_time",
                  "work_of_adhesion", "interaction_range", "velocity", "depth", "cell_length")
 NUMERICS_KEYS = ("nx", "dt", "tolerance", "max_iterations", "solver", "step_control", "dt_min",
-                 "dt_max", "edge_fraction", "load_tolerance", "equilibration_steps")
+                 "dt_max", "edge_fraction", "load_tolerance", "time_tolerance",
+                 "equilibration_steps")
 OUTPUT_KEYS = ("snapshot_times", "snapshot_contact_widths", "snapshot_zero_load",
                "progress_interval", "checkpoint_interval", "checkpoint_steps")
 SECTIONS = {"case": CASE_KEYS, "physical": PHYSICAL_KEYS, "numerics": NUMERICS_KEYS,
@@ -109,6 +109,7 @@ class Numerics:
     dt_max: float = math.inf
     edge_fraction: float = DEFAULT_EDGE_FRACTION
     load_tolerance: float = DEFAULT_LOAD_TOLERANCE
+    time_tolerance: float = DEFAULT_TIME_TOLERANCE
     equilibration_steps: int = 0
 
 
@@ -217,8 +218,7 @@ class Case:
         dt_min = (_number(num, "numerics", "dt_min") / time_unit if "dt_min" in num
                   else DT_MIN_PER_DEFAULT * min(dt, fixed_default))
         dt_max = (_number(num, "numerics", "dt_max") / time_unit if "dt_max" in num
-                  else max(min(DT_MAX_DEPTH_FRACTION * self.depth / speed,
-                               DT_MAX_RELAXATION), dt))
+                  else max(DT_MAX_DEPTH_FRACTION * self.depth / speed, dt))
         if dt_min > dt_max:
             raise CaseError(f"[numerics] dt_min = {dt_min * time_unit:g}: must not exceed"
                             f" dt_max = {dt_max * time_unit:g}")
@@ -240,6 +240,8 @@ class Case:
                            else DEFAULT_EDGE_FRACTION),
             load_tolerance=(_number(num, "numerics", "load_tolerance")
                             if "load_tolerance" in num else DEFAULT_LOAD_TOLERANCE),
+            time_tolerance=(_number(num, "numerics", "time_tolerance")
+                            if "time_tolerance" in num else DEFAULT_TIME_TOLERANCE),
             equilibration_steps=equilibration)
 
     def _grid(self, num):
@@ -340,7 +342,7 @@ class Case:
                    "units": [self.units.length, self.units.stress, self.units.time],
                    "numerics": [n.nx, n.dt, n.tolerance, n.max_iterations, n.solver,
                                 n.step_control, n.dt_min, n.dt_max, n.edge_fraction,
-                                n.load_tolerance, n.equilibration_steps]}
+                                n.load_tolerance, n.time_tolerance, n.equilibration_steps]}
         return hashlib.sha256(json.dumps(content).encode()).hexdigest()[:16]
 
     def groups(self) -> dict:

@@ -71,6 +71,27 @@ class StandardLinearSolid:
         e_eff = e0 + (einf - e0) * phi
         return StepFactors(decay=decay, e_eff=e_eff, e_history=e0 * (1.0 - decay) - e_eff)
 
+    def curvature_response(self, dt: float) -> float:
+        """(Einf - E0) F(dt): the step's traction error per unit curvature of u (stress time^2).
+
+        The exact step assumes u linear in time within it. For u(t_n + s) = u_n + v s + c s^2
+        the traction at the step's end misses (|q|/2) (Einf - E0) c F(dt) per mode, with
+
+            F(dt) = integral_0^dt exp(-(dt - s)/tau) (2 s - dt) ds
+                  = dt tau (1 + a) - 2 tau^2 (1 - a),   a = exp(-dt/tau),
+
+        F ~ dt^3 / (6 tau) for dt << tau and ~ dt tau for dt >> tau (docs/model.md, (M8)).
+        Zero for the elastic solid.
+        """
+        e0, einf, tau = self.e_relaxed, self.e_instantaneous, self.relaxation_time
+        x = dt / tau
+        if x < 1e-2:  # the closed form cancels: its series, x^3/6 - x^4/12 + x^5/40
+            f = tau * tau * x**3 * (1.0 / 6.0 - x / 12.0 + x * x / 40.0)
+        else:
+            a = math.exp(-x)
+            f = dt * tau * (1.0 + a) - 2.0 * tau * tau * (1.0 - a)
+        return (einf - e0) * f
+
     def creep_compliance(self, t):
         """J(t) = 1/E0 - (1/E0 - 1/Einf) exp(-t E0 / (Einf tau)) (docs/model.md, "Substrate")."""
         e0, einf, tau = self.e_relaxed, self.e_instantaneous, self.relaxation_time
@@ -138,6 +159,14 @@ class ViscoelasticHalfSpace:
         self._prepare(dt)
         fft.apply_diagonal(u, self._history_diag, out)
         out += self._decay * substrate_traction
+        return out
+
+    def history_error(self, fft, curvature, dt, out):
+        """Collective (one FFT pair): the traction the exact-for-linear step of length dt misses
+        when u has the curvature ``curvature`` (u_tt / 2) in time (stress units; see
+        :meth:`StandardLinearSolid.curvature_response`)."""
+        response = self.material.curvature_response(dt)
+        fft.apply_diagonal(curvature, self.half_q * (response / self.n), out)
         return out
 
     def _prepare(self, dt):

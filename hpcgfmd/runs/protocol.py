@@ -27,7 +27,7 @@ from ..parallel.domain import Domain
 from ..parallel.fft import aligned_empty, plan_real_fft
 from ..solvers import EdgeWatch, make_solver
 from ..solvers.predictor import Predictor
-from ..solvers.stepping import make_step_control
+from ..solvers.stepping import HistoryError, make_step_control
 
 
 @dataclass
@@ -60,7 +60,7 @@ class Retraction:
         FFTW planner flag (FFTW_MEASURE for runs, FFTW_ESTIMATE for quick tests).
     """
 
-    FIELDS = ("u", "u_previous", "substrate_traction", "traction")
+    FIELDS = ("u", "u_previous", "u_older", "substrate_traction", "traction")
 
     def __init__(self, case: Case, comm, planner_effort="FFTW_MEASURE"):
         self.case = case
@@ -78,6 +78,9 @@ class Retraction:
         self.solver = make_solver(case, self.domain, self.fft, self.law, self.half_q)
         self.steps = make_step_control(case)
         self.predictor = Predictor(self.domain, 4.0 * case.zone_width / case.k)
+        # the history's time error, estimated where the step control uses it
+        self.history_error = (HistoryError(self.substrate, self.fft, self.domain)
+                              if self.steps.adaptive and case.k < 1.0 else None)
         n = self.domain.local_n  # from here on: this rank's block
         # (aligned: the serial transform reads u and writes the history in place)
         self.u = aligned_empty(n)  # surface displacement, upward positive
@@ -96,6 +99,7 @@ class Retraction:
         self.dt_previous = None  # length of the last accepted step (None after the preload)
         self._edges = (np.nan, np.nan)  # contact edges of the last step
         self._edges_previous = None
+        self._older = None  # (u, time) of the accepted step before the last (HistoryError)
         self._saved = {name: np.empty(n) for name in self.FIELDS}
 
     # --- one equilibrium -------------------------------------------------------------
@@ -154,15 +158,42 @@ class Retraction:
             if record is None:  # abandoned: its edges moved too far, the verdict is known
                 decision = self.steps.judge(dt, self.time, None, math.inf)
             else:
-                decision = self.steps.judge(dt, record.time, record.load, self._edge_motion())
+                decision = self.steps.judge(dt, record.time, record.load, self._edge_motion(),
+                                            self._history_error())
             if decision.accepted:
                 break
             self.rejected_steps += 1
             self._revert()
             dt = decision.next_dt
         self.steps.accept(record.time, record.load)
+        if self.history_error is not None:
+            # the substrate traction the exact-for-quadratic history gives (HistoryError)
+            self.history_error.correct(self.substrate_traction)
+            # u_n and t_n become the older state
+            if self._older is None:
+                self._older = (np.empty_like(self.u), 0.0)
+            self._older[0][:] = self._saved["u"]
+            self._older = (self._older[0], float(self._saved_attrs["time"]))
         self.dt_previous = dt
         return record
+
+    def _history_error(self):
+        """Collective: the load error of the last step's history (0 without an estimate)."""
+        if self.history_error is None:
+            return 0.0
+        self.history_error.forget()
+        if self._older is None:
+            return 0.0
+        older, time_older = self._older
+        time_before = float(self._saved_attrs["time"])
+        return self.history_error.estimate(
+            older, time_older, self._contact_at(older, time_older), self._saved["u"],
+            time_before, self._contact_at(self._saved["u"], time_before), self.u, self.time,
+            self.wall - self.u <= 0.0)
+
+    def _contact_at(self, u, time):
+        """The nodes of displacement u on the wall of time ``time``."""
+        return self.profile + (-self.case.depth + self.case.indenter_speed * time) - u <= 0.0
 
     def _advance(self, dt) -> StepRecord | None:
         """One SLS step of length dt from the current state (paper Eq. 14, docs/model.md).
@@ -242,14 +273,16 @@ class Retraction:
         """
         u_previous, attrs = self.predictor.state(self.u)
         fields = {"u": self.u, "substrate_traction": self.substrate_traction,
-                  "traction": self.traction, "u_previous": u_previous}
+                  "traction": self.traction, "u_previous": u_previous,
+                  "u_older": self._older[0] if self._older else np.zeros_like(self.u)}
         attrs.update(time=self.time, indenter=self.indenter, step_index=self.step_index,
                      total_iterations=self.total_iterations, fft_pairs=self.fft.pairs,
                      rejected_steps=self.rejected_steps,
                      dt_previous=math.nan if self.dt_previous is None else self.dt_previous,
                      edges=np.array(self._edges),
                      edges_previous=np.array(self._edges_previous or (np.nan, np.nan)),
-                     has_edges_previous=self._edges_previous is not None)
+                     has_edges_previous=self._edges_previous is not None,
+                     time_older=self._older[1] if self._older else math.nan)
         attrs.update(self.solver.statistics())
         attrs.update(self.steps.state())
         return fields, attrs
@@ -270,6 +303,9 @@ class Retraction:
         self._edges_previous = (tuple(float(v) for v in attrs["edges_previous"])
                                 if attrs["has_edges_previous"] else None)
         if statistics:
+            time_older = float(attrs.get("time_older", math.nan))
+            self._older = (None if math.isnan(time_older)
+                           else (fields["u_older"].copy(), time_older))
             self.predictor.restore(fields["u_previous"], attrs)
             self.total_iterations = int(attrs["total_iterations"])
             self.fft.pairs = int(attrs["fft_pairs"])

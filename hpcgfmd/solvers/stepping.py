@@ -39,11 +39,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
+from ..parallel.fft import aligned_empty
+
 GROWTH_LIMIT = 2.0     # largest factor between consecutive steps
 SHRINK_LIMIT = 0.25    # smallest factor (also the retry factor bound after a rejection)
 SAFETY = 0.9           # aim below the error target
 REJECT_EDGE = 2.0      # reject when the edge moved more than twice its allowance
 REJECT_LOAD = 4.0      # ... or the load deviates more than four times its tolerance
+REJECT_HISTORY = 4.0   # ... or the history's estimated error is four times its allowance
 GRID_PER_OCTAVE = 4    # steps are dt_min 2^(j/4): see AdaptiveSteps._on_grid
 ABANDON_EDGE = REJECT_EDGE  # edge ratio at which a solve is abandoned (module docstring)
 
@@ -56,6 +61,7 @@ class StepDecision:
     next_dt: float
     edge_error: float   # |da| / (edge_fraction w)
     load_error: float   # |L - L_pred| / (load_tolerance load_scale)
+    history_error: float = 0.0  # the history's load error / its allowance for this step
 
 
 class FixedSteps:
@@ -69,7 +75,7 @@ class FixedSteps:
     def first_dt(self) -> float:
         return self.dt
 
-    def judge(self, dt, time, load, edge_motion) -> StepDecision:
+    def judge(self, dt, time, load, edge_motion, history_error=0.0) -> StepDecision:
         return StepDecision(True, self.dt, 0.0, 0.0)
 
     def edge_limit(self, dt) -> float:
@@ -98,15 +104,23 @@ class AdaptiveSteps:
     load_allowance : float
         Largest deviation of a load from the linear extrapolation of the two before,
         load_tolerance * load scale (load per unit length, units of E0 R).
+    history_allowance : float
+        Largest accumulated load error of the history integration, time_tolerance * load
+        scale (load per unit length); inf: not controlled (the elastic solid).
+    memory_time : float
+        Time over which a history error persists, the retardation time tau/k (internal units).
     """
 
     adaptive = True
 
-    def __init__(self, first_dt, dt_min, dt_max, edge_allowance, load_allowance):
+    def __init__(self, first_dt, dt_min, dt_max, edge_allowance, load_allowance,
+                 history_allowance=math.inf, memory_time=1.0):
         self.dt_min, self.dt_max = dt_min, dt_max
         self.dt = self._on_grid(first_dt)
         self.edge_allowance = edge_allowance
         self.load_allowance = load_allowance
+        self.history_allowance = history_allowance
+        self.memory_time = memory_time
         self.points = []  # the last two accepted (time, load)
 
     def first_dt(self) -> float:
@@ -126,12 +140,13 @@ class AdaptiveSteps:
         j = math.floor(GRID_PER_OCTAVE * math.log2(dt / self.dt_min) + 1e-9)
         return min(self.dt_min * 2.0 ** (j / GRID_PER_OCTAVE), self.dt_max)
 
-    def judge(self, dt, time, load, edge_motion) -> StepDecision:
+    def judge(self, dt, time, load, edge_motion, history_error=0.0) -> StepDecision:
         """The verdict on a solved step of length dt ending at ``time`` with ``load``.
 
         ``edge_motion`` is the largest displacement of a contact edge over the step (length;
         NaN or inf when the contact appeared or vanished). ``load`` is None for an abandoned
-        solve (no equilibrium: only its edge motion counts).
+        solve (no equilibrium: only its edge motion counts). ``history_error`` is the load
+        error the step's history integration made (:class:`HistoryError`; load per length).
         """
         edge_error = (edge_motion / self.edge_allowance if math.isfinite(edge_motion)
                       else (0.0 if math.isnan(edge_motion) else math.inf))
@@ -141,13 +156,18 @@ class AdaptiveSteps:
             (t0, l0), (t1, l1) = self.points
             predicted = l1 + (l1 - l0) * (time - t1) / (t1 - t0)
             load_error = abs(load - predicted) / self.load_allowance
-        worst = max(edge_error, math.sqrt(load_error))
+        # The history's error persists over the memory time: a step may add the share of the
+        # allowance that the accumulated error loses meanwhile, so that it stays within it.
+        history_ratio = history_error / (self.history_allowance
+                                         * -math.expm1(-dt / self.memory_time))
+        worst = max(edge_error, math.sqrt(load_error), math.sqrt(history_ratio))
         factor = SAFETY / worst if worst > 0.0 else GROWTH_LIMIT
         factor = min(max(factor, SHRINK_LIMIT), GROWTH_LIMIT)
         next_dt = self._on_grid(dt * factor)
-        rejected = (edge_error > REJECT_EDGE or load_error > REJECT_LOAD) and dt > self.dt_min
+        rejected = ((edge_error > REJECT_EDGE or load_error > REJECT_LOAD
+                     or history_ratio > REJECT_HISTORY) and dt > self.dt_min)
         self.dt = next_dt
-        return StepDecision(not rejected, next_dt, edge_error, load_error)
+        return StepDecision(not rejected, next_dt, edge_error, load_error, history_ratio)
 
     def edge_limit(self, dt) -> float:
         """Edge motion at which a solve of a step of length dt is abandoned, the step
@@ -178,6 +198,71 @@ def make_step_control(case):
     numerics = case.numerics
     if numerics.step_control == "fixed":
         return FixedSteps(numerics.dt)
+    viscous = case.k < 1.0
     return AdaptiveSteps(numerics.dt, numerics.dt_min, numerics.dt_max,
                          numerics.edge_fraction * case.zone_width,
-                         numerics.load_tolerance * case.load_scale)
+                         numerics.load_tolerance * case.load_scale,
+                         numerics.time_tolerance * case.load_scale if viscous else math.inf,
+                         1.0 / case.k)  # the retardation time tau / k, tau = 1
+
+
+class HistoryError:
+    """The load error of a step's history integration, estimated from the last three states,
+    and the correction of the substrate traction that removes most of it.
+
+    The SLS step is exact for u linear in time within it (docs/model.md, (M8)); the quadratic
+    through u_{n-1}, u_n and u_{n+1} gives the curvature c = u_tt / 2, and the traction the
+    step missed is dp = (|q|/2) (Einf - E0) c F(dt) per mode
+    (:meth:`~hpcgfmd.model.material.StandardLinearSolid.curvature_response`). Its share on the
+    contact is carried by the indenter: the estimate is |sum of dp over the contact| dx. Once
+    the step is accepted, dp is added to the substrate traction p_{n+1} (:meth:`correct`), so
+    the history the next steps start from is exact for u quadratic in time through the last
+    three states; the equilibrium of the step itself keeps its one-step error, which no
+    longer accumulates over the memory time. Nodes whose contact state changed over the
+    three states are left out (c = 0 there): their u(t) has a kink, not a curvature, the
+    quadratic does not describe them, and the edge criterion bounds their error. Cost: one
+    FFT pair per step (docs/numerics.md and docs/results.md have the measured errors).
+
+    Parameters
+    ----------
+    substrate : hpcgfmd.model.material.ViscoelasticHalfSpace
+    fft : SerialRealFFT or TransposedRealFFT
+    domain : hpcgfmd.parallel.domain.Domain
+    """
+
+    def __init__(self, substrate, fft, domain):
+        self.substrate, self.fft, self.domain = substrate, fft, domain
+        n = domain.local_n
+        self._curvature = aligned_empty(n)
+        self._traction = aligned_empty(n)
+        self._estimated = False  # _traction holds the last estimate's dp
+
+    def estimate(self, older, time_older, contact_older, before, time_before, contact_before,
+                 after, time_after, contact):
+        """Collective (one FFT pair): the step's load error (load per unit length, >= 0).
+
+        ``older``, ``before``, ``after``: this rank's u at the three times; ``contact_*``:
+        the masks of their nodes on the wall (``contact``: after the step).
+        """
+        h1, h0 = time_after - time_before, time_before - time_older
+        c = self._curvature
+        np.subtract(after, before, out=c)
+        c *= 1.0 / h1
+        c -= (before - older) * (1.0 / h0)
+        c *= 1.0 / (h1 + h0)
+        c[(contact_older != contact_before) | (contact_before != contact)] = 0.0  # kinks
+        self.substrate.history_error(self.fft, c, h1, self._traction)
+        self._estimated = True
+        local = self._traction[contact].sum() if contact.size else 0.0
+        return abs(self.domain.sum(local)) * self.domain.dx
+
+    def correct(self, substrate_traction):
+        """Add the last estimate's missed traction to the accepted step's substrate traction
+        (nothing when the step had no estimate); the estimate is used up."""
+        if self._estimated:
+            substrate_traction += self._traction
+        self._estimated = False
+
+    def forget(self):
+        """Drop the last estimate (its step was rejected or abandoned)."""
+        self._estimated = False
