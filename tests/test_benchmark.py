@@ -60,30 +60,32 @@ def test_pull_off_and_errors_match_independent_runs(serial):
     rows = by_label(serial)
     reference = next(r for r in serial if r["solver"] == "reference")
     # the reference's settings, as its label states them, run again through the API
-    ref = pull_off(edge_fraction=0.25, load_tolerance=3e-3, tolerance=1e-7).pull_off().lbar
+    ref = pull_off(edge_fraction=0.25, load_tolerance=5e-4, time_tolerance=2e-4,
+                   tolerance=1e-7).pull_off().lbar
     assert float(reference["pulloff_Lbar"]) == pytest.approx(ref, rel=1e-6)
-    coarse = pull_off(edge_fraction=2.0, tolerance=1e-4).pull_off().lbar
-    row = rows["f=2 tol=1e-4"]
+    coarse = pull_off(accuracy=1e-2).pull_off().lbar
+    row = rows["accuracy=1e-2"]
+    assert float(row["accuracy"]) == 1e-2
     assert float(row["pulloff_Lbar"]) == pytest.approx(coarse, rel=1e-6)
     # the error column is the relative distance of the two independent pull-offs
     assert float(row["pulloff_error"]) == pytest.approx(abs(coarse - ref) / abs(ref),
                                                         abs=2e-6)
-    # and it means something here: well above the runs' agreement, well below 1 %
-    assert 1e-5 < float(row["pulloff_error"]) < 1e-2
+    # and it means something here: well above the runs' agreement
+    assert float(row["pulloff_error"]) > 1e-5
 
 
 @pytest.mark.slow
-def test_errors_fall_with_the_settings(serial):
+def test_each_accuracy_is_reached_and_costs_more_when_finer(serial):
     rows = by_label(serial)
-    coarsest, coarse = rows["f=4 tol=1e-4"], rows["f=2 tol=1e-4"]
-    middle, default = rows["f=1 tol=1e-5"], rows["f=0.5 tol=1e-6"]
-    assert float(default["pulloff_error"]) < float(middle["pulloff_error"])
-    assert float(default["pulloff_error"]) < float(coarse["pulloff_error"])
-    # (on this small case f = 4 and f = 2 take the same steps: the load criterion binds)
-    assert float(coarse["pulloff_error"]) <= float(coarsest["pulloff_error"])
-    assert float(default["curve_error"]) < float(coarse["curve_error"])
-    assert int(coarsest["fft_pairs"]) <= int(coarse["fft_pairs"]) < int(default["fft_pairs"])
-    assert float(rows["nx=1024"]["pulloff_error"]) > float(default["pulloff_error"])
+    sweep = [rows[f"accuracy={a}"] for a in ("1e-2", "5e-3", "1e-3")]
+    for row in sweep:  # nx is given: the steps' and the solver's shares are what is left
+        assert float(row["pulloff_error"]) <= float(row["accuracy"]) / 2
+        assert float(row["curve_error"]) <= float(row["accuracy"])
+    pairs = [int(row["fft_pairs"]) for row in sweep]
+    assert pairs[0] < pairs[1] < pairs[2]
+    assert float(sweep[2]["pulloff_error"]) < float(sweep[0]["pulloff_error"])
+    # the coarser grid adds the grid's share
+    assert float(rows["nx=1024"]["pulloff_error"]) > float(sweep[1]["pulloff_error"])
 
 
 @pytest.mark.slow

@@ -7,7 +7,8 @@ import h5py
 import numpy as np
 import pytest
 
-from hpcgfmd.model.case import TARGET_ZONE_POINTS, parse_case
+from hpcgfmd.model import accuracy
+from hpcgfmd.model.case import parse_case
 from hpcgfmd.storage.reader import read_series
 
 import cases
@@ -32,7 +33,7 @@ BAD = [
     ("k above one", case_text(modulus_ratio="1.5"), ["modulus_ratio", "1.5", "(0, 1]"]),
     ("cell too small", case_text(cell="0.5"), ["cell", "0.5", "too small"]),
     ("nx unresolved", case_text(maugis="7.0", numerics="nx = 64"),
-     ["nx", "64", "w/dx", "at least", "nx >= "]),
+     ["nx", "64", "points", "at least", "nx >= "]),
     ("nx odd", case_text(numerics="nx = 1001"), ["nx", "1001", "even integer"]),
     ("tolerance", case_text(numerics="nx = 1024\ntolerance = 0.5"), ["tolerance", "0.5"]),
     ("tolerance floor", case_text(numerics="nx = 1024\ntolerance = 1e-20"), ["tolerance", "1e-20"]),
@@ -106,12 +107,24 @@ def test_existing_output_is_refused(tmp_path):
     assert (tmp_path / "case.h5").read_bytes() == b"keep me"
 
 
-def test_automatic_nx_is_smallest_power_of_two_resolving_the_zone():
-    case = parse_case(case_text(maugis="7.0", numerics=""))
+@pytest.mark.parametrize("knob", [1e-2, 5e-3, 1e-3])
+def test_automatic_nx_is_smallest_power_of_two_resolving_the_zone(knob):
+    case = parse_case(case_text(maugis="7.0", numerics=f"accuracy = {knob}"))
     assert case.numerics.nx_automatic
     points = case.zone_width / case.dx
-    assert TARGET_ZONE_POINTS <= points < 2 * TARGET_ZONE_POINTS
+    want = accuracy.zone_points(knob)
+    assert want <= points < 2 * want
     assert case.numerics.nx & (case.numerics.nx - 1) == 0
+
+
+def test_finer_accuracy_asks_for_more_work():
+    coarse, fine = (parse_case(case_text(numerics=f"accuracy = {a}")).numerics
+                    for a in (1e-2, 1e-3))
+    assert fine.nx > coarse.nx
+    assert fine.edge_fraction < coarse.edge_fraction
+    assert fine.load_tolerance < coarse.load_tolerance
+    assert fine.time_tolerance < coarse.time_tolerance
+    assert fine.tolerance < coarse.tolerance
 
 
 def test_run_info_plot_end_to_end(tmp_path):
@@ -159,10 +172,10 @@ def test_physical_form_equals_case_form_in_si_units(tmp_path):
     phys = (f"[physical]\nradius = {R}\nmodulus_relaxed = {E0}\nmodulus_instantaneous = {E0 / 0.1}"
             f"\nrelaxation_time = {tau}\nwork_of_adhesion = {work}\ninteraction_range = {dmax}"
             f"\nvelocity = {Vz * beta**2 / (R * tau)}\ndepth = {0.03 * R}\ncell_length = {2 * R}"
-            "\n[numerics]\nnx = 1024\nstep_control = \"fixed\"\n")
+            "\n[numerics]\nnx = 1024\nstep_control = \"fixed\"\ntolerance = 1e-9\n")
     (tmp_path / "p.toml").write_text(phys)
     # fixed steps: adaptive decisions may round differently between the two unit systems
-    (tmp_path / "c.toml").write_text(case_text('nx = 1024\nstep_control = "fixed"',
+    (tmp_path / "c.toml").write_text(case_text('nx = 1024\nstep_control = "fixed"\ntolerance = 1e-9',
                                                maugis="3.5", modulus_ratio="0.1"))
     for name in ("p", "c"):
         assert hpcgfmd("run", f"{name}.toml", cwd=tmp_path).returncode == 0

@@ -92,8 +92,8 @@ def namespace(case):
     return {"dmax": case.dmax * u.length, "v_z": case.indenter_speed * u.length / u.time,
             "h0": case.depth * u.length, "tau": u.time, "L": case.cell * u.length,
             "w": case.zone_width * u.length, "nx": num.nx, "dt": num.dt * u.time,
-            "fixed": num.step_control == "fixed", "ceil": math.ceil, "log2": math.log2,
-            "sqrt": math.sqrt, "min": min, "max": max, "round": round}
+            "fixed": num.step_control == "fixed", "accuracy": num.accuracy, "ceil": math.ceil,
+            "log2": math.log2, "sqrt": math.sqrt, "min": min, "max": max, "round": round}
 
 
 def parsed(case, key):

@@ -23,7 +23,7 @@ from cases import case_text
 
 
 def retraction(tmp_path, lam, k, velocity, nx, dt=None, name="case"):
-    text = case_text(f"nx = {nx}" + (f"\ndt = {dt}" if dt else ""), maugis=lam,
+    text = case_text(f"nx = {nx}\naccuracy = 1e-3" + (f"\ndt = {dt}" if dt else ""), maugis=lam,
                      modulus_ratio=k, velocity=velocity)
     path = tmp_path / f"{name}.h5"
     run_case(parse_case(text), path, MPI.COMM_SELF)
@@ -47,7 +47,9 @@ def worst_error(s, m, ref):
     return np.max(np.abs(s.lbar[m] - ref) / scale)
 
 
-@pytest.mark.parametrize("lam, nx", [(1.0, 1024), (3.5, 4096)])
+# measured at lambda0 = 1: 1.24 %, 0.42 %, 0.31 % at nx = 1024, 2048, 4096 (the sampled
+# widths of accuracy 1e-3 include the worst-resolved ones)
+@pytest.mark.parametrize("lam, nx", [(1.0, 2048), (3.5, 4096)])
 def test_elastic_retraction_follows_baney_hui(tmp_path, lam, nx):
     s = retraction(tmp_path, lam, 1.0, 1.0, nx)
     m = middle(s)

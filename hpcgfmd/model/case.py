@@ -30,24 +30,18 @@ from dataclasses import dataclass, field
 import tomli_w
 
 from ..errors import CaseError
+from . import accuracy as knob
 from . import theory
 
 # Cohesive-zone resolution w/dx (w: relaxed zone width pi E0 dmax / (4 sigma_a)); the
 # accuracy it buys is measured in docs/results.md ("Grid and time-step convergence").
 MIN_ZONE_POINTS = 1.0      # below this nx is rejected
-TARGET_ZONE_POINTS = 3.0   # the automatic nx is the smallest power of two reaching this
 # The geometric contact width sqrt(2 R h0) bounds a_c; with L >= 6 sqrt(2 R h0) the periodic
 # image correction pi^2 a^2 / (6 L^2) to the load stays below 5 %.
 MIN_CELL_PER_CONTACT = 6.0
 DEFAULT_STEP_PER_RANGE = 0.25  # fixed steps: the indenter moves this fraction of dmax per step
-DEFAULT_TOLERANCE = 1e-6
 DEFAULT_MAX_ITERATIONS = 5000
-# Adaptive steps (hpcgfmd.solvers.stepping): contact-edge motion per step in relaxed
-# cohesive-zone widths, load deviation from linear extrapolation in load scales.
-DEFAULT_EDGE_FRACTION = 0.5
-DEFAULT_LOAD_TOLERANCE = 1e-2
-DEFAULT_TIME_TOLERANCE = 1e-2  # accumulated load error of the SLS history, load scales
-DT_MIN_PER_DEFAULT = 1.0 / 64.0     # dt_min: this fraction of the first step (<= the fixed one)
+DT_MIN_PER_DEFAULT = 1.0 / 64.0     # dt_min: this fraction of the first step (<= fixed one)
 FIRST_STEP_PER_DEFAULT = 1.0 / 16.0  # adaptive: the first step, doubling while errors allow
 DT_MAX_DEPTH_FRACTION = 0.02        # dt_max: the indenter rises by this fraction of h0
 PAPER_EQUILIBRATION_PER_ROOT_N = 1024  # the paper authors' code: 256 * 4 * sqrt(nx) pseudo steps
@@ -59,9 +53,9 @@ BYTES_PER_POINT = 320      # about 40 float64 work arrays per grid point
 CASE_KEYS = ("maugis", "modulus_ratio", "velocity", "depth", "cell", "adhesion")
 PHYSICAL_KEYS = ("radius", "modulus_relaxed", "modulus_instantaneous", "relaxation_time",
                  "work_of_adhesion", "interaction_range", "velocity", "depth", "cell_length")
-NUMERICS_KEYS = ("nx", "dt", "tolerance", "max_iterations", "solver", "step_control", "dt_min",
-                 "dt_max", "edge_fraction", "load_tolerance", "time_tolerance",
-                 "equilibration_steps")
+NUMERICS_KEYS = ("accuracy", "nx", "dt", "tolerance", "max_iterations", "solver",
+                 "step_control", "dt_min", "dt_max", "edge_fraction", "load_tolerance",
+                 "time_tolerance", "equilibration_steps")
 OUTPUT_KEYS = ("snapshot_times", "snapshot_contact_widths", "snapshot_zero_load",
                "progress_interval", "checkpoint_interval", "checkpoint_steps")
 SECTIONS = {"case": CASE_KEYS, "physical": PHYSICAL_KEYS, "numerics": NUMERICS_KEYS,
@@ -103,13 +97,14 @@ class Numerics:
     dt: float
     tolerance: float
     max_iterations: int
+    accuracy: float = knob.DEFAULT_ACCURACY
     solver: str = "cg"
     step_control: str = "adaptive"
     dt_min: float = 0.0
     dt_max: float = math.inf
-    edge_fraction: float = DEFAULT_EDGE_FRACTION
-    load_tolerance: float = DEFAULT_LOAD_TOLERANCE
-    time_tolerance: float = DEFAULT_TIME_TOLERANCE
+    edge_fraction: float = 0.5
+    load_tolerance: float = 0.01
+    time_tolerance: float = 0.01
     equilibration_steps: int = 0
 
 
@@ -200,7 +195,12 @@ class Case:
     def _resolve_numerics(self, num: dict) -> Numerics:
         """``[numerics]`` keys (case units) -> :class:`Numerics` (internal units), defaults."""
         _unknown(num, "numerics", NUMERICS_KEYS)
-        nx, automatic = self._grid(num)
+        accuracy = (_number(num, "numerics", "accuracy") if "accuracy" in num
+                    else knob.DEFAULT_ACCURACY)
+        if not accuracy < 0.1:
+            raise CaseError(f"[numerics] accuracy = {accuracy}: expected a relative error in"
+                            " (0, 0.1)")
+        nx, automatic = self._grid(num, accuracy)
         memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
         if nx * BYTES_PER_POINT > memory:
             raise CaseError(f"[numerics] nx = {nx}{' (automatic)' if automatic else ''}: needs"
@@ -227,38 +227,40 @@ class Case:
         else:
             equilibration = round(PAPER_EQUILIBRATION_PER_ROOT_N * math.sqrt(nx))
         tolerance = (_number(num, "numerics", "tolerance") if "tolerance" in num
-                     else DEFAULT_TOLERANCE)
+                     else knob.solver_tolerance(accuracy))
         if not MIN_TOLERANCE <= tolerance < 1e-2:
             raise CaseError(f"[numerics] tolerance = {tolerance}: expected a number in"
                             f" [{MIN_TOLERANCE:g}, 0.01)")
         return Numerics(
-            nx=nx, nx_automatic=automatic, dt=dt, tolerance=tolerance,
+            nx=nx, nx_automatic=automatic, dt=dt, tolerance=tolerance, accuracy=accuracy,
             max_iterations=(_integer(num, "numerics", "max_iterations", 1)
                             if "max_iterations" in num else DEFAULT_MAX_ITERATIONS),
             solver=solver, step_control=step_control, dt_min=dt_min, dt_max=dt_max,
             edge_fraction=(_number(num, "numerics", "edge_fraction") if "edge_fraction" in num
-                           else DEFAULT_EDGE_FRACTION),
+                           else knob.edge_fraction(accuracy)),
             load_tolerance=(_number(num, "numerics", "load_tolerance")
-                            if "load_tolerance" in num else DEFAULT_LOAD_TOLERANCE),
+                            if "load_tolerance" in num else knob.load_tolerance(accuracy)),
             time_tolerance=(_number(num, "numerics", "time_tolerance")
-                            if "time_tolerance" in num else DEFAULT_TIME_TOLERANCE),
+                            if "time_tolerance" in num else knob.time_tolerance(accuracy)),
             equilibration_steps=equilibration)
 
-    def _grid(self, num):
+    def _grid(self, num, accuracy):
         """(nx, chosen automatically): given and checked, or the smallest power of two with
-        w/dx >= TARGET_ZONE_POINTS."""
+        the zone points :func:`~hpcgfmd.model.accuracy.zone_points` of ``accuracy`` across the
+        relaxed cohesive zone (:attr:`zone_width`)."""
+        width = self.zone_width
         if "nx" not in num:
-            return 2 ** max(6, math.ceil(math.log2(TARGET_ZONE_POINTS * self.cell
-                                                   / self.zone_width))), True
+            points = knob.zone_points(accuracy)
+            return 2 ** max(6, math.ceil(math.log2(points * self.cell / width))), True
         nx = num["nx"]
         if isinstance(nx, bool) or not isinstance(nx, int) or nx < 64 or nx % 2:
             raise CaseError(f"[numerics] nx = {_fmt(nx)}: expected an even integer >= 64")
-        points = self.zone_width / (self.cell / nx)
+        points = width / (self.cell / nx)
         if points < MIN_ZONE_POINTS:
-            need = 2 ** math.ceil(math.log2(MIN_ZONE_POINTS * self.cell / self.zone_width))
-            raise CaseError(f"[numerics] nx = {nx}: resolves the cohesive zone with w/dx ="
+            need = 2 ** math.ceil(math.log2(MIN_ZONE_POINTS * self.cell / width))
+            raise CaseError(f"[numerics] nx = {nx}: resolves the cohesive zone with"
                             f" {points:.3g} points; at least {MIN_ZONE_POINTS:g} is needed"
-                            f" (nx >= {need}; w/dx >= {TARGET_ZONE_POINTS:g} for 1 % accuracy)")
+                            f" (nx >= {need}; left out, nx follows [numerics] accuracy)")
         return nx, False
 
     def cell_key(self) -> str:
@@ -342,7 +344,8 @@ class Case:
                    "units": [self.units.length, self.units.stress, self.units.time],
                    "numerics": [n.nx, n.dt, n.tolerance, n.max_iterations, n.solver,
                                 n.step_control, n.dt_min, n.dt_max, n.edge_fraction,
-                                n.load_tolerance, n.time_tolerance, n.equilibration_steps]}
+                                n.load_tolerance, n.time_tolerance, n.equilibration_steps,
+                                n.accuracy]}
         return hashlib.sha256(json.dumps(content).encode()).hexdigest()[:16]
 
     def groups(self) -> dict:

@@ -187,13 +187,18 @@ class Retraction:
         older, time_older = self._older
         time_before = float(self._saved_attrs["time"])
         return self.history_error.estimate(
-            older, time_older, self._contact_at(older, time_older), self._saved["u"],
-            time_before, self._contact_at(self._saved["u"], time_before), self.u, self.time,
-            self.wall - self.u <= 0.0)
+            older, time_older, self._state_at(older, time_older), self._saved["u"],
+            time_before, self._state_at(self._saved["u"], time_before), self.u, self.time,
+            self._state_at(self.u, self.time))
 
-    def _contact_at(self, u, time):
-        """The nodes of displacement u on the wall of time ``time``."""
-        return self.profile + (-self.case.depth + self.case.indenter_speed * time) - u <= 0.0
+    def _state_at(self, u, time):
+        """Each node's interaction state for displacement u at time ``time``: 2 on the wall,
+        1 in the cohesive zone (0 < gap < dmax), 0 beyond the range (int8)."""
+        gap = self.profile + (-self.case.depth + self.case.indenter_speed * time) - u
+        state = (gap <= 0.0).astype(np.int8)
+        state += state
+        state += (gap > 0.0) & (gap < self.case.dmax)
+        return state
 
     def _advance(self, dt) -> StepRecord | None:
         """One SLS step of length dt from the current state (paper Eq. 14, docs/model.md).

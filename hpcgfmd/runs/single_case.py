@@ -15,7 +15,8 @@ import logging
 import time
 
 from ..errors import CaseError, CaseFailure, Interrupted
-from ..model.case import TARGET_ZONE_POINTS, Case
+from ..model import accuracy as knob
+from ..model.case import Case
 from ..signals import StopSignals
 from ..solvers import solver_class
 from ..storage.casefile import CaseFile
@@ -70,20 +71,23 @@ def describe(case: Case) -> str:
     g = case.groups()
     u = case.units
     num = case.numerics
-    auto = (" (chosen automatically: the smallest power of two with"
-            f" w/dx >= {TARGET_ZONE_POINTS:g})" if num.nx_automatic else "")
+    auto = (f" (from accuracy {num.accuracy:g}: the smallest power of two with"
+            f" {knob.zone_points(num.accuracy):.2g} points across w)" if num.nx_automatic
+            else "")
     if num.step_control == "fixed":
         steps = "fixed steps dt"
     else:
         steps = (f"adaptive steps from dt in [{num.dt_min * u.time:.4g},"
-                 f" {num.dt_max * u.time:.4g}], edge motion <= {num.edge_fraction:g} w,"
-                 f" load deviation <= {num.load_tolerance:g} load scales")
+                 f" {num.dt_max * u.time:.4g}], edge motion <= {num.edge_fraction:.3g} w,"
+                 f" load deviation <= {num.load_tolerance:.3g}, history error <="
+                 f" {num.time_tolerance:.3g} load scales")
     return "\n".join([
         f"lambda0 = {g['lambda0']:.6g}   lambda_inf = {g['lambda_inf']:.6g}   k = {g['k']:.6g}"
         f"   V_z = {g['Vz']:.6g}   chi_ve = {g['chi_ve']:.6g}   alpha = {g['alpha']:.6g}",
         f"h0/R = {g['depth']:.6g}   L/R = {g['cell']:.6g}   beta = {case.beta * u.length:.6g}"
         f"   load scale = {case.load_scale * u.load:.6g}   w/dx = {g['zone_points']:.3g}",
-        f"nx = {num.nx}{auto}   dt = {num.dt * u.time:.6g}   tolerance = {num.tolerance:g}",
+        f"nx = {num.nx}{auto}   dt = {num.dt * u.time:.6g}   tolerance = {num.tolerance:g}"
+        f"   accuracy = {num.accuracy:g}",
         f"solver: {solver_class(num.solver).describe(num)}; {steps}"])
 
 

@@ -108,15 +108,22 @@ class Predictor:
             shift = ratio * (edge - previous)
             if not np.isfinite(shift) or shift == 0.0:
                 continue
-            near = np.abs(x - edge) < self.window + abs(shift)
+            half = self.window + abs(shift)
+            # this rank's nodes within half of the edge: a slice found by index arithmetic
+            # (one node more each side), then the exact test on it
+            a = max(int(np.floor((edge - half) / dx)) + n // 2 - 1 - dom.x_start, 0)
+            b = min(int(np.ceil((edge + half) / dx)) + n // 2 + 2 - dom.x_start, x.size)
+            block = slice(a, max(a, b))
+            near = np.abs(x[block] - edge) < half
             # the shifted positions x - shift of the window's nodes lie in this segment
             reach = self.window + 2.0 * abs(shift)
             first = int(np.floor((edge - reach) / dx)) + n // 2 - 1
             last = int(np.ceil((edge + reach) / dx)) + n // 2 + 1
             length = min(last - first + 1, n)
             values = dom.segment(gap_before, first, length)
-            gap[near] = np.interp(x[near] - shift, dom.position(first + np.arange(length)),
-                                  values)
+            window = gap[block]
+            window[near] = np.interp(x[block][near] - shift,
+                                     dom.position(first + np.arange(length)), values)
         np.maximum(gap, 0.0, out=gap)
         return wall - gap
 

@@ -219,8 +219,10 @@ class HistoryError:
     the history the next steps start from is exact for u quadratic in time through the last
     three states; the equilibrium of the step itself keeps its one-step error, which no
     longer accumulates over the memory time. Nodes whose contact state changed over the
-    three states are left out (c = 0 there): their u(t) has a kink, not a curvature, the
-    quadratic does not describe them, and the edge criterion bounds their error. Cost: one
+    three states are left out (c = 0 there), and so are those that entered or left the
+    cohesive zone, whose traction switches on or off: their u(t) has a kink, not a
+    curvature, the quadratic does not describe them, and the edge criterion bounds their
+    error. Cost: one
     FFT pair per step (docs/numerics.md and docs/results.md have the measured errors).
 
     Parameters
@@ -237,12 +239,13 @@ class HistoryError:
         self._traction = aligned_empty(n)
         self._estimated = False  # _traction holds the last estimate's dp
 
-    def estimate(self, older, time_older, contact_older, before, time_before, contact_before,
-                 after, time_after, contact):
+    def estimate(self, older, time_older, state_older, before, time_before, state_before,
+                 after, time_after, state):
         """Collective (one FFT pair): the step's load error (load per unit length, >= 0).
 
-        ``older``, ``before``, ``after``: this rank's u at the three times; ``contact_*``:
-        the masks of their nodes on the wall (``contact``: after the step).
+        ``older``, ``before``, ``after``: this rank's u at the three times; ``state_*``:
+        their nodes' interaction states (2 on the wall, 1 in the cohesive zone, 0 beyond;
+        ``state``: after the step).
         """
         h1, h0 = time_after - time_before, time_before - time_older
         c = self._curvature
@@ -250,9 +253,10 @@ class HistoryError:
         c *= 1.0 / h1
         c -= (before - older) * (1.0 / h0)
         c *= 1.0 / (h1 + h0)
-        c[(contact_older != contact_before) | (contact_before != contact)] = 0.0  # kinks
+        c[(state_older != state_before) | (state_before != state)] = 0.0  # kinks
         self.substrate.history_error(self.fft, c, h1, self._traction)
         self._estimated = True
+        contact = state == 2
         local = self._traction[contact].sum() if contact.size else 0.0
         return abs(self.domain.sum(local)) * self.domain.dx
 

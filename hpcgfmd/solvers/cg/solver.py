@@ -83,6 +83,7 @@ class _Descent:
     mu: float = 0.0
     iteration: int = 0
     pending: tuple | None = None  # the next residual's sums, formed with the accepted step
+    jump_tried: bool = False  # the detached minimum was tried (once per solve)
 
 
 @register("cg")
@@ -139,6 +140,7 @@ class ConstrainedCG(EquilibriumSolver):
         self.recalled = 0    # transforms saved by StepEnergy.recall
         self.abandoned = 0   # solves stopped by their edge watch
         self.extensions = 0  # line-search points beyond the bound's minimiser
+        self.detached_jumps = 0  # solves ended at the detached minimum
 
     @classmethod
     def from_case(cls, case, domain, fft, law, half_q):
@@ -182,12 +184,14 @@ class ConstrainedCG(EquilibriumSolver):
         while True:
             r, lo, hi, count, n_free, on_s, pressed_s, local_max, joined = self._residual(
                 it, on_wall_tolerance)
+            interacting = 1.0 if hi > lo else 0.0  # a node of this rank within the range
             if edge_watch is None:
-                r_max, joined_any = self.domain.maxes(local_max, 1.0 if joined else 0.0)
+                r_max, joined_any, interacting = self.domain.maxes(
+                    local_max, 1.0 if joined else 0.0, interacting)
             else:  # the iterate's contact edges in the same reduction
                 left, right = self._active.contact_nodes(on_s, lo)
-                r_max, joined_any, minus_left, right = self.domain.maxes(
-                    local_max, 1.0 if joined else 0.0, -left, right)
+                r_max, joined_any, interacting, minus_left, right = self.domain.maxes(
+                    local_max, 1.0 if joined else 0.0, interacting, -left, right)
                 if self._active.strayed(edge_watch, -minus_left, right):
                     self.abandoned += 1
                     return SolveResult(iterations=it.iteration,
@@ -196,6 +200,11 @@ class ConstrainedCG(EquilibriumSolver):
             it.residual = r_max / self.traction_scale
             if it.residual <= self.tolerance or it.iteration >= self.max_iterations:
                 break
+            if not interacting and not it.jump_tried:
+                it.jump_tried = True
+                if self._detached_minimum(u, wall, ops, linear, it):
+                    it.first_pass = True  # a fresh descent from u*, if one is needed at all
+                    continue
             if it.first_pass or joined_any > 0.0:
                 it.restart = True
             it.first_pass = False
@@ -240,6 +249,36 @@ class ConstrainedCG(EquilibriumSolver):
         cur.ready = False
         self._active.begin()
         return linear, on_wall_tolerance
+
+    def _detached_minimum(self, u, wall, ops, linear, it):
+        """Collective: jump to the detached equilibrium when the iterate is detached.
+
+        Where no node is within the interaction range, the energy is the convex quadratic
+        1/2 u.K u + (H - p_applied).u, whose minimiser is u* = -K^-1 (H - p_applied) (zero
+        mean: K^-1 has no q = 0 mode). The set of displacements with every gap beyond the
+        range is convex; when both the iterate and u* lie in it, the energy falls all the
+        way from the iterate to u* within it, and u* is the minimum of that basin: the
+        equilibrium a descent from the iterate reaches, without the hundreds of iterations
+        of the snap-off's soft modes. Returns True (u = u*; the caller forms its residual)
+        or False (one FFT pair spent).
+        """
+        target = self._start
+        self.fft.apply_diagonal(linear, ops.compliance, target)
+        np.negative(target, out=target)
+        gap = self._scratch
+        np.subtract(wall, target, out=gap)
+        smallest = self.domain.min(gap.min() if self._n else np.inf)
+        if not smallest > self._evaluator.level:
+            return False
+        np.copyto(u, target)
+        cur = it.cur
+        np.copyto(cur.gap, gap)
+        self.fft.apply_diagonal(u, ops.stiffness, self._k_u)
+        np.add(self._k_u, linear, out=self._load)
+        cur.ready = False
+        it.pending = None
+        self.detached_jumps += 1
+        return True
 
     def _residual(self, it, on_wall_tolerance):
         """Collective: the residual r (row ir) with its pressed nodes set to mu.
@@ -384,7 +423,7 @@ class ConstrainedCG(EquilibriumSolver):
         return {"projections": walls.projections, "cut_steps": walls.cut_steps,
                 "residual_steps": walls.residual_steps, "held_steps": self._active.held_steps,
                 "recalled": self.recalled, "abandoned_solves": self.abandoned,
-                "extensions": self.extensions}
+                "extensions": self.extensions, "detached_jumps": self.detached_jumps}
 
     def restore_statistics(self, saved):
         walls = self._walls
@@ -395,3 +434,4 @@ class ConstrainedCG(EquilibriumSolver):
         self.recalled = int(saved.get("recalled", 0))
         self.abandoned = int(saved.get("abandoned_solves", 0))
         self.extensions = int(saved.get("extensions", 0))
+        self.detached_jumps = int(saved.get("detached_jumps", 0))

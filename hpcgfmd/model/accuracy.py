@@ -1,0 +1,69 @@
+"""One accuracy knob: the numerics a case needs for a relative error of its pull-off load and
+load-area curve (``[numerics] accuracy``; docs/numerics.md, "The accuracy knob").
+
+The error is split into shares: the grid (the cohesive zone's resolution), the time steps
+(the edge motion per step, the sampling of the load curve, the SLS history's integration)
+and the equilibrium solver's tolerance. Each share follows from a measured law below; the
+absolute load errors are in units of the relaxed 2D pull-off, 1.74 load scales (the
+Maugis-Dugdale minimum, nearly the same for every lambda0: docs/model.md, (M26)), which no
+pull-off of the SLS undercuts. The laws were calibrated on the cases of docs/results.md
+("The accuracy knob") and validated on others.
+"""
+from __future__ import annotations
+
+import math
+
+DEFAULT_ACCURACY = 5e-3
+PULL_OFF_SCALE = 1.74      # |relaxed pull-off| in load scales: the error's absolute unit
+GRID_SHARE, STEP_SHARE = 0.5, 0.5
+# Grid: pull-off error C (dx / w_eff)^P (elastic lambda = 3.5: 2.3 %, 0.5 %, 0.1 % at
+# w/dx = 1.5, 3, 6).
+GRID_ERROR, GRID_ORDER = 0.056, 2.2
+# Edge motion: pull-off error about EDGE_ERROR f^2 at an edge allowance of f zone widths.
+EDGE_ERROR = 2.5e-4
+EDGE_FRACTION_RANGE = (0.25, 4.0)
+# The most tensile sample of a load curve sampled with deviations e from the line through the
+# two loads before misses the curve's minimum by about e / 8.
+SAMPLING = 8.0
+SOLVER_RANGE = (1e-8, 1e-4)
+
+
+def zone_points(accuracy):
+    """Grid points across the relaxed cohesive zone w for the grid's share of ``accuracy``.
+
+    The zone of a fast retraction is wider (it sees a modulus between E0 and Einf), but a
+    widening taken as chi_ve^(1/3) left the grid 3 % off at lambda0 = 1, k = 0.01,
+    V_z = 100 (docs/results.md, "The accuracy knob"): the relaxed width is the one resolved.
+    """
+    return (GRID_ERROR / (GRID_SHARE * accuracy)) ** (1.0 / GRID_ORDER)
+
+
+def edge_fraction(accuracy):
+    """Edge motion per step, in relaxed zone widths, for half the steps' share."""
+    low, high = EDGE_FRACTION_RANGE
+    return min(high, max(low, math.sqrt(0.5 * STEP_SHARE * accuracy / EDGE_ERROR)))
+
+
+def load_tolerance(accuracy):
+    """Deviation of a load from the line through the two before, in load scales: a quarter of
+    the steps' share of the pull-off error."""
+    return SAMPLING * 0.25 * STEP_SHARE * accuracy * PULL_OFF_SCALE
+
+
+def time_tolerance(accuracy):
+    """Accumulated load error of the SLS history allowed by the estimate, load scales.
+
+    The estimate (:class:`~hpcgfmd.solvers.stepping.HistoryError`) is conservative: the
+    pull-off error it lets through is about 0.35 of the allowance on creeping retractions
+    (chi_ve ~ 1) and 0.05-0.1 of it on fast ones (docs/results.md, "The accuracy knob").
+    The allowance is the steps' share over that ratio, rounded down to the whole error in
+    units of the relaxed pull-off.
+    """
+    return accuracy * PULL_OFF_SCALE
+
+
+def solver_tolerance(accuracy):
+    """Residual traction / sigma_a at which a solve has converged: 0.02 accuracy within
+    [1e-8, 1e-4] (1e-4 changes a pull-off by about 4e-7 against 1e-5)."""
+    low, high = SOLVER_RANGE
+    return min(high, max(low, 0.02 * accuracy))

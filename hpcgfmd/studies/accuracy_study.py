@@ -1,0 +1,166 @@
+"""Validation of the accuracy knob: achieved errors against converged runs, one table.
+
+For each case (lambda0, k, V_z, h0/R; L/R and alpha shared) the knob is run at each
+requested accuracy with everything else left to it (the grid included), and once at a much
+finer accuracy that stands for the converged answer. The error of a run is the relative
+distance of its pull-off load to the converged one, and the largest distance of its
+load-area points to the converged curve (:func:`hpcgfmd.studies.benchmark.curve_error`);
+both must be at most the requested accuracy. The runs are shared out over the ranks (one
+run per rank at a time, each on its own communicator); a run is saved by its case text and
+reused by a later call.
+
+    mpirun -n 2 python scripts/accuracy_study.py --out docs/figures/accuracy \\
+        --cases 1:0.1:1:0.02 3.5:0.2:0.01:0.1 --accuracies 1e-2 5e-3 1e-3
+
+writes PREFIX.csv and the Markdown table PREFIX.md.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import hashlib
+import math
+import os
+
+from ..errors import CaseError
+from ..model.case import parse_case
+from . import benchmark
+
+ACCURACIES = (1e-2, 5e-3, 1e-3)
+REFERENCE_ACCURACY = 2e-4
+CELL_PER_CONTACT = 8.0  # L = 8 sqrt(2 R h0): the periodic images change the load by < 3 %
+COLUMNS = ("lambda0", "k", "Vz", "depth", "accuracy", "nx", "steps", "iterations",
+           "iterations_per_step", "cpu_s", "pulloff_Lbar", "pulloff_error", "curve_error",
+           "within")
+
+
+def case_text(spec, accuracy, cell, alpha):
+    """The case file of ``spec`` = (lambda0, k, V_z, h0/R) run at ``accuracy``; ``cell``
+    None: L/R = CELL_PER_CONTACT sqrt(2 h0/R)."""
+    lambda0, k, vz, depth = spec
+    if cell is None:
+        cell = round(CELL_PER_CONTACT * math.sqrt(2.0 * depth), 3)
+    geometry = {"modulus_ratio": k, "depth": depth, "cell": cell, "adhesion": alpha}
+    return benchmark.case_text(lambda0, vz, {"accuracy": accuracy}, geometry)
+
+
+def _cached(text, comm, folder):
+    path = os.path.join(folder, hashlib.sha256(text.encode()).hexdigest()[:16] + ".npz")
+    return benchmark.cached_run(text, comm, path)
+
+
+def _row(spec, accuracy, result, reference):
+    lambda0, k, vz, depth = spec
+    pull_off = float(result["lbar"].min())
+    converged = float(reference["lbar"].min())
+    error = abs(pull_off - converged) / abs(converged)
+    curve = benchmark.curve_error(reference, result)
+    return {"lambda0": lambda0, "k": k, "Vz": vz, "depth": depth, "accuracy": accuracy,
+            "nx": result["case"].numerics.nx, "steps": int(result["steps"]),
+            "iterations": int(result["iterations"]),
+            "iterations_per_step": result["iterations"] / max(result["steps"], 1),
+            "cpu_s": result["cpu_s"], "pulloff_Lbar": pull_off, "pulloff_error": error,
+            "curve_error": curve, "within": bool(error <= accuracy and curve <= accuracy)}
+
+
+def markdown(rows):
+    """The table of docs/results.md ("The accuracy knob")."""
+    lines = ["| lambda0 | k | V_z | h0/R | accuracy | nx | steps | it/step | CPU s |"
+             " pull-off Lbar | pull-off error | curve error | within |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['lambda0']:g} | {r['k']:g} | {r['Vz']:g} | {r['depth']:g} |"
+                     f" {r['accuracy']:g} | 2^{int(r['nx']).bit_length() - 1} | {r['steps']} |"
+                     f" {r['iterations_per_step']:.1f} | {r['cpu_s']:.1f} |"
+                     f" {r['pulloff_Lbar']:.5f} | {r['pulloff_error']:.1e} |"
+                     f" {r['curve_error']:.1e} | {'yes' if r['within'] else 'NO'} |")
+    return "\n".join(lines) + "\n"
+
+
+def _parser():
+    parser = argparse.ArgumentParser(prog="scripts/accuracy_study.py",
+                                     description=__doc__.split("\n")[0])
+    parser.add_argument("--cases", nargs="+", required=True, metavar="L:K:V:H",
+                        help="lambda0:k:V_z:h0/R, e.g. 3.5:0.2:0.01:0.1")
+    parser.add_argument("--accuracies", nargs="+", type=float, default=list(ACCURACIES))
+    parser.add_argument("--reference-accuracy", type=float, default=REFERENCE_ACCURACY,
+                        help=f"the accuracy of the converged runs (default {REFERENCE_ACCURACY:g})")
+    parser.add_argument("--cell", type=float, help=(
+        f"L/R (default {CELL_PER_CONTACT:g} sqrt(2 h0/R), the contact's width 8 times)"))
+    parser.add_argument("--alpha", type=float, default=5e-5, help="alpha (default 5e-5)")
+    parser.add_argument("--out", default="accuracy", help="prefix of PREFIX.csv, PREFIX.md"
+                        " and the saved runs PREFIX-runs/")
+    return parser
+
+
+def _specs(args):
+    """The cases as (lambda0, k, V_z, h0/R) tuples, or a one-line error."""
+    specs = []
+    for key in args.cases:
+        try:
+            spec = tuple(float(v) for v in key.split(":"))
+        except ValueError:
+            spec = ()
+        if len(spec) != 4:
+            return None, f"--cases {key}: expected lambda0:k:V_z:h0/R, e.g. 3.5:0.2:0.01:0.1"
+        for accuracy in (*args.accuracies, args.reference_accuracy):
+            try:
+                parse_case(case_text(spec, accuracy, args.cell, args.alpha))
+            except CaseError as err:
+                return None, f"--cases {key} (accuracy {accuracy:g}): {err}"
+        specs.append(spec)
+    if not all(args.reference_accuracy < a for a in args.accuracies):
+        return None, (f"--reference-accuracy {args.reference_accuracy:g}: must be finer than"
+                      " every --accuracies value")
+    return specs, None
+
+
+def main(comm, argv=None):
+    """Collective over ``comm``: the study; 0, or 2 for bad arguments."""
+    from mpi4py import MPI
+
+    args = _parser().parse_args(argv)
+    specs, error = _specs(args)
+    if error:
+        if comm.Get_rank() == 0:
+            print(f"accuracy_study: error: {error}")
+        return 2
+    folder = f"{args.out}-runs"
+    if comm.Get_rank() == 0:
+        os.makedirs(folder, exist_ok=True)
+    comm.Barrier()
+    runs = [(spec, a) for spec in specs for a in (args.reference_accuracy, *args.accuracies)]
+    # references first, so that the ranks share them out too; each run on one rank
+    mine = runs[comm.Get_rank()::comm.Get_size()]
+    for spec, accuracy in mine:
+        _cached(case_text(spec, accuracy, args.cell, args.alpha), MPI.COMM_SELF, folder)
+    comm.Barrier()
+    rows = []
+    if comm.Get_rank() == 0:
+        for spec in specs:
+            reference = _cached(case_text(spec, args.reference_accuracy, args.cell, args.alpha),
+                                MPI.COMM_SELF, folder)
+            for accuracy in args.accuracies:
+                result = _cached(case_text(spec, accuracy, args.cell, args.alpha),
+                                 MPI.COMM_SELF, folder)
+                rows.append(_row(spec, accuracy, result, reference))
+        benchmark.write_csv(rows, f"{args.out}.csv", COLUMNS)
+        tmp = f"{args.out}.md.tmp"
+        with open(tmp, "w") as fh:
+            fh.write(markdown(rows))
+        os.replace(tmp, f"{args.out}.md")
+        print(markdown(rows), end="")
+        bad = [r for r in rows if not r["within"]]
+        print(f"{len(rows) - len(bad)} of {len(rows)} runs within their accuracy")
+    return 0
+
+
+def read_rows(path):
+    """The rows of PREFIX.csv as numbers (for tests and plots)."""
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    for row in rows:
+        for key in COLUMNS:
+            row[key] = (row[key] == "True" if key == "within"
+                        else float(row[key]) if row[key] else math.nan)
+    return rows
