@@ -125,10 +125,12 @@ def test_two_ranks_same_numbers(serial, tmp_path):
         match = one[row["label"]]
         # Rounding differs on 2 ranks, and the adaptive steps follow the solutions' round-off
         # (a step accepted on one rank count can be rejected on the other): the runs agree
-        # within their time-discretisation error, well below the errors measured (> 1e-4),
-        # not to round-off (fixed steps do: tests/test_distributed.py).
+        # within a tenth of the accuracy they were asked for (measured: 1.7e-4 apart at the
+        # default 5e-3, 288 against 284 steps), not to round-off (fixed steps do:
+        # tests/test_distributed.py).
+        rel = float(row["accuracy"]) / 10 if row["accuracy"] else 5e-5
         assert float(row["pulloff_Lbar"]) == pytest.approx(float(match["pulloff_Lbar"]),
-                                                           rel=5e-5)
+                                                           rel=rel)
 
 
 def test_bad_case_one_line_status_2(tmp_path):
