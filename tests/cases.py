@@ -7,6 +7,10 @@ viscoelastic retraction (pull-off, jumps) to compare between runs.
 
 GROUPS = {"maugis": 3.5, "modulus_ratio": 0.1, "velocity": 1.0, "depth": 0.03, "cell": 2.0,
           "adhesion": 1e-4}
+# Numerics lines for runs compared across rank counts or a restart to round-off: adaptive steps
+# follow round-off differences in the loads (another rank count picks other steps now and then),
+# fixed steps do not.
+FIXED_STEPS = 'step_control = "fixed"\n'
 
 
 def case_text(numerics="nx = 2048", output="", prefix="", **groups):

@@ -15,7 +15,7 @@ from hpcgfmd.storage.reader import read_series
 from hpcgfmd.model.case import parse_case
 from hpcgfmd.errors import SweepError
 from hpcgfmd.runs.sweep import parse_sweep
-from cases import case_text
+from cases import FIXED_STEPS, case_text
 
 MPIRUN = shutil.which("mpirun")
 BASE = case_text("nx = 1024", prefix="base.")
@@ -117,7 +117,8 @@ def test_farm_signal_checkpoints_and_the_same_command_finishes(tmp_path):
     # Three cases on two single-rank groups; SIGUSR1 (forwarded by mpirun) stops them with
     # checkpoints (status 75); the same command on one group of two ranks finishes them,
     # each equal to a direct serial run of its case.
-    base = case_text("nx = 2048\ntolerance = 1e-13", "checkpoint_steps = 5", prefix="base.")
+    base = case_text(FIXED_STEPS + "nx = 2048\ntolerance = 1e-13", "checkpoint_steps = 5",
+                     prefix="base.")
     (tmp_path / "sweep.toml").write_text(base + "[grid]\nvelocity = [0.6, 0.8, 1.0]\n")
     process = subprocess.Popen(farm_command(2, "sweep.toml", "-o", "out"), cwd=tmp_path,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
