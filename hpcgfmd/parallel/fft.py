@@ -21,6 +21,7 @@ buffer of ``spectrum_shape`` to pass to them.
 """
 from __future__ import annotations
 
+from . import wisdom
 from .fft_serial import SerialRealFFT, aligned_empty
 from .fft_transposed import TransposedRealFFT
 
@@ -29,7 +30,8 @@ def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
     """Make the real FFT suited to ``comm``.
 
     Every rank of ``comm`` must call it with the same arguments (collective: the transposed
-    class allocates its shared buffers on ``comm``).
+    class allocates its shared buffers on ``comm``, and measured plans gather the ranks' new
+    FFTW wisdom into the cache file of :mod:`hpcgfmd.parallel.wisdom`, read first).
 
     Parameters
     ----------
@@ -51,11 +53,17 @@ def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
     size = comm.Get_size()
     if transposed is None:
         transposed = size > 1
-    if transposed:
-        return TransposedRealFFT(comm, n, planner_effort)
-    if size > 1:
+    if not transposed and size > 1:
         raise ValueError(f"a serial FFT cannot be spread over {size} ranks")
-    return SerialRealFFT(n, planner_effort, comm=comm)
+    cached = planner_effort in ("FFTW_MEASURE", "FFTW_PATIENT", "FFTW_EXHAUSTIVE")
+    path = wisdom.cache_path() if cached else None
+    known = wisdom.load(path)
+    if transposed:
+        fft = TransposedRealFFT(comm, n, planner_effort)
+    else:
+        fft = SerialRealFFT(n, planner_effort, comm=comm)
+    wisdom.save(comm, path, known)
+    return fft
 
 
 __all__ = ["SerialRealFFT", "TransposedRealFFT", "aligned_empty", "plan_real_fft"]
