@@ -1,8 +1,17 @@
 """Shared helpers: a small periodic grid with the solver's pieces built on it."""
+import atexit
 import os
+import shutil
+import tempfile
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):  # as python -m hpcgfmd does
     os.environ.setdefault(_var, "1")
+# One FFTW wisdom file for the session and the processes it starts (hpcgfmd.parallel.wisdom):
+# the tests neither read nor write the user's cache, so a stale or corrupt one cannot add
+# warnings to the stderr they check, and later tests still reuse earlier plans.
+_WISDOM_DIR = tempfile.mkdtemp(prefix="hpcgfmd-test-wisdom-")
+atexit.register(shutil.rmtree, _WISDOM_DIR, True)
+os.environ["HPCGFMD_WISDOM"] = os.path.join(_WISDOM_DIR, "fftw-wisdom.json")
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
