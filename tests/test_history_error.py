@@ -108,3 +108,37 @@ def test_corrected_history_of_a_cubic_errs_at_fourth_order_per_step():
     # error is c h^3 / 6 with c = 3 t growing along the run)
     raw = local_errors(0.04, False)
     assert np.all(coarse < 0.2 * raw)
+
+
+def test_a_crossing_window_takes_the_last_smooth_curvature():
+    # A node that changes its state moves its neighbours by a jump of the discrete solution,
+    # which the quadratic would read as a curvature jump / dt^2 (class docstring,
+    # "Crossings"). With a smooth window before it, the window with the crossing is estimated
+    # and corrected with that window's curvature: for u quadratic in time plus a jump, the
+    # estimate is the one of the quadratic alone, whose step error it is (first test).
+    h = 0.05
+    jump = np.zeros(N)
+    jump[14:18] = 1e-2  # nodes near the crossing node 15, the contact's last
+    crossed = lambda state: np.where(np.arange(N) == 15, 1, state).astype(np.int8)
+
+    def third_estimate(with_jump, forget_smooth=False):
+        mode = Mode(lambda t: t * t, lambda t: 2 * t)
+        mode.run(h, 2)  # two smooth windows: the second leaves its curvature
+        if forget_smooth:
+            mode.estimator.curvature_age = math.inf
+        older, before, after = mode.u(3 * h), mode.u(4 * h), mode.u(5 * h)
+        state_after = mode.state
+        if with_jump:
+            after += jump
+            state_after = crossed(mode.state)
+        e = mode.estimator.estimate(older, 3 * h, mode.state, before, 4 * h, mode.state,
+                                    after, 5 * h, state_after)
+        return e / abs(mode.contact_weight)
+
+    smooth = third_estimate(with_jump=False)
+    assert third_estimate(with_jump=True) == pytest.approx(smooth, rel=1e-9)
+    # without a smooth window to stand in, the jump is read as curvature (measured: the
+    # estimate 1.75 times the quadratic's, from a jump of
+    # 0.44 of u's change over the step)
+    raw = third_estimate(with_jump=True, forget_smooth=True)
+    assert abs(raw - smooth) > 0.5 * smooth

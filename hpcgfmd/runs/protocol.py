@@ -60,7 +60,8 @@ class Retraction:
         FFTW planner flag (FFTW_MEASURE for runs, FFTW_ESTIMATE for quick tests).
     """
 
-    FIELDS = ("u", "u_previous", "u_older", "substrate_traction", "traction")
+    FIELDS = ("u", "u_previous", "u_older", "substrate_traction", "traction",
+              "history_curvature")
 
     def __init__(self, case: Case, comm, planner_effort="FFTW_MEASURE"):
         self.case = case
@@ -279,7 +280,9 @@ class Retraction:
         u_previous, attrs = self.predictor.state(self.u)
         fields = {"u": self.u, "substrate_traction": self.substrate_traction,
                   "traction": self.traction, "u_previous": u_previous,
-                  "u_older": self._older[0] if self._older else np.zeros_like(self.u)}
+                  "u_older": self._older[0] if self._older else np.zeros_like(self.u),
+                  "history_curvature": (self.history_error.smooth_curvature
+                                        if self.history_error else np.zeros_like(self.u))}
         attrs.update(time=self.time, indenter=self.indenter, step_index=self.step_index,
                      total_iterations=self.total_iterations, fft_pairs=self.fft.pairs,
                      rejected_steps=self.rejected_steps,
@@ -287,7 +290,9 @@ class Retraction:
                      edges=np.array(self._edges),
                      edges_previous=np.array(self._edges_previous or (np.nan, np.nan)),
                      has_edges_previous=self._edges_previous is not None,
-                     time_older=self._older[1] if self._older else math.nan)
+                     time_older=self._older[1] if self._older else math.nan,
+                     curvature_age=(self.history_error.curvature_age if self.history_error
+                                    else math.inf))
         attrs.update(self.solver.statistics())
         attrs.update(self.steps.state())
         return fields, attrs
@@ -319,6 +324,10 @@ class Retraction:
             self.dt_previous = None if math.isnan(dt_previous) else dt_previous
             self.solver.restore_statistics(attrs)
             self.steps.restore(attrs)
+            if self.history_error is not None:  # (absent from checkpoints before it existed)
+                self.history_error.curvature_age = float(attrs.get("curvature_age", math.inf))
+                if "history_curvature" in fields:
+                    self.history_error.smooth_curvature[:] = fields["history_curvature"]
         else:  # the predictor's u_{n-1} goes back too, its counters stay
             choices, rejected = self.predictor.choices, self.predictor.rejected
             self.predictor.restore(fields["u_previous"], attrs)

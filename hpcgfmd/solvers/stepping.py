@@ -51,6 +51,7 @@ REJECT_LOAD = 4.0      # ... or the load deviates more than four times its toler
 REJECT_HISTORY = 4.0   # ... or the history's estimated error is four times its allowance
 GRID_PER_OCTAVE = 4    # steps are dt_min 2^(j/4): see AdaptiveSteps._on_grid
 ABANDON_EDGE = REJECT_EDGE  # edge ratio at which a solve is abandoned (module docstring)
+CURVATURE_AGE = 8      # steps a smooth curvature stands in for windows with crossings
 
 
 @dataclass
@@ -225,6 +226,15 @@ class HistoryError:
     error. Cost: one
     FFT pair per step (docs/numerics.md and docs/results.md have the measured errors).
 
+    Crossings. A node that changes its state switches its traction on or off and moves every
+    node near it by a jump of the discrete solution, which the quadratic reads as a curvature
+    of size jump / dt^2: in a window that holds a crossing the estimate does not fall with
+    dt, and on coarse grids (the edge takes several steps per node) the step control would
+    shrink the steps without end. u_tt is smooth in time, so such a window takes the
+    curvature of the last window without a crossing, when that is at most ``CURVATURE_AGE``
+    accepted steps old, for its estimate and its correction. On fine grids, where nearly
+    every step crosses nodes, the window's own curvature is used: there the jumps are small.
+
     Parameters
     ----------
     substrate : hpcgfmd.model.material.ViscoelasticHalfSpace
@@ -238,6 +248,10 @@ class HistoryError:
         self._curvature = aligned_empty(n)
         self._traction = aligned_empty(n)
         self._estimated = False  # _traction holds the last estimate's dp
+        self.smooth_curvature = aligned_empty(n)  # c of the last window without a crossing
+        self.smooth_curvature[:] = 0.0
+        self.curvature_age = math.inf  # accepted steps since it was estimated
+        self._smooth = False  # the last estimate's window had no crossing
 
     def estimate(self, older, time_older, state_older, before, time_before, state_before,
                  after, time_after, state):
@@ -253,8 +267,12 @@ class HistoryError:
         c *= 1.0 / h1
         c -= (before - older) * (1.0 / h0)
         c *= 1.0 / (h1 + h0)
-        c[(state_older != state_before) | (state_before != state)] = 0.0  # kinks
-        self.substrate.history_error(self.fft, c, h1, self._traction)
+        kinks = (state_older != state_before) | (state_before != state)
+        c[kinks] = 0.0
+        self._smooth = self.domain.count(kinks) == 0
+        reuse = not self._smooth and self.curvature_age <= CURVATURE_AGE
+        self.substrate.history_error(self.fft, self.smooth_curvature if reuse else c, h1,
+                                     self._traction)
         self._estimated = True
         contact = state == 2
         local = self._traction[contact].sum() if contact.size else 0.0
@@ -265,6 +283,11 @@ class HistoryError:
         (nothing when the step had no estimate); the estimate is used up."""
         if self._estimated:
             substrate_traction += self._traction
+            if self._smooth:
+                self.smooth_curvature[:] = self._curvature
+                self.curvature_age = 0
+            else:
+                self.curvature_age += 1
         self._estimated = False
 
     def forget(self):
