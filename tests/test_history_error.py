@@ -17,7 +17,7 @@ from scipy.integrate import quad
 from hpcgfmd.model.material import StandardLinearSolid, ViscoelasticHalfSpace
 from hpcgfmd.parallel.domain import Domain
 from hpcgfmd.parallel.fft import aligned_empty, plan_real_fft
-from hpcgfmd.solvers.stepping import HistoryError
+from hpcgfmd.solvers.stepping import CURVATURE_AGE, CURVATURE_LIFETIME, HistoryError
 
 N, CELL, E0, EINF, TAU = 64, 1.0, 1.0, 10.0, 1.0
 
@@ -113,19 +113,21 @@ def test_corrected_history_of_a_cubic_errs_at_fourth_order_per_step():
 def test_a_crossing_window_takes_the_last_smooth_curvature():
     # A node that changes its state moves its neighbours by a jump of the discrete solution,
     # which the quadratic would read as a curvature jump / dt^2 (class docstring,
-    # "Crossings"). With a smooth window before it, the window with the crossing is estimated
-    # and corrected with that window's curvature: for u quadratic in time plus a jump, the
-    # estimate is the one of the quadratic alone, whose step error it is (first test).
-    h = 0.05
+    # "Crossings"). With a recent smooth window before it, the window with the crossing is
+    # estimated and corrected with that window's curvature: for u quadratic in time plus a
+    # jump, the estimate is the one of the quadratic alone, whose step error it is (first test).
+    h = 0.02  # tau / 50: the smooth window, one step back, is within CURVATURE_LIFETIME
     jump = np.zeros(N)
-    jump[14:18] = 1e-2  # nodes near the crossing node 15, the contact's last
+    jump[14:18] = 4e-3  # nodes near the crossing node 15, the contact's last
     crossed = lambda state: np.where(np.arange(N) == 15, 1, state).astype(np.int8)
 
-    def third_estimate(with_jump, forget_smooth=False):
+    def third_estimate(with_jump, age=None, elapsed=None):
         mode = Mode(lambda t: t * t, lambda t: 2 * t)
         mode.run(h, 2)  # two smooth windows: the second leaves its curvature
-        if forget_smooth:
-            mode.estimator.curvature_age = math.inf
+        if age is not None:
+            mode.estimator.curvature_age = age
+        if elapsed is not None:
+            mode.estimator.curvature_time = 5 * h - elapsed
         older, before, after = mode.u(3 * h), mode.u(4 * h), mode.u(5 * h)
         state_after = mode.state
         if with_jump:
@@ -137,8 +139,9 @@ def test_a_crossing_window_takes_the_last_smooth_curvature():
 
     smooth = third_estimate(with_jump=False)
     assert third_estimate(with_jump=True) == pytest.approx(smooth, rel=1e-9)
-    # without a smooth window to stand in, the jump is read as curvature (measured: the
-    # estimate 1.75 times the quadratic's, from a jump of
-    # 0.44 of u's change over the step)
-    raw = third_estimate(with_jump=True, forget_smooth=True)
-    assert abs(raw - smooth) > 0.5 * smooth
+    # Without a smooth window to stand in (none within CURVATURE_AGE steps, or older than
+    # CURVATURE_LIFETIME tau: u_tt changes over tau), the jump is read as curvature. Measured:
+    # the estimate 2.9 times the quadratic's, from a jump of 1.1 times u's change over the step.
+    for stale in (dict(age=CURVATURE_AGE + 1), dict(elapsed=1.01 * CURVATURE_LIFETIME * TAU)):
+        raw = third_estimate(with_jump=True, **stale)
+        assert abs(raw - smooth) > smooth

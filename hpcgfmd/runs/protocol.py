@@ -292,7 +292,9 @@ class Retraction:
                      has_edges_previous=self._edges_previous is not None,
                      time_older=self._older[1] if self._older else math.nan,
                      curvature_age=(self.history_error.curvature_age if self.history_error
-                                    else math.inf))
+                                    else math.inf),
+                     curvature_time=(self.history_error.curvature_time if self.history_error
+                                     else -math.inf))
         attrs.update(self.solver.statistics())
         attrs.update(self.steps.state())
         return fields, attrs
@@ -326,6 +328,8 @@ class Retraction:
             self.steps.restore(attrs)
             if self.history_error is not None:  # (absent from checkpoints before it existed)
                 self.history_error.curvature_age = float(attrs.get("curvature_age", math.inf))
+                self.history_error.curvature_time = float(attrs.get("curvature_time",
+                                                                    -math.inf))
                 if "history_curvature" in fields:
                     self.history_error.smooth_curvature[:] = fields["history_curvature"]
         else:  # the predictor's u_{n-1} goes back too, its counters stay

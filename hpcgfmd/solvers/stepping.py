@@ -51,7 +51,8 @@ REJECT_LOAD = 4.0      # ... or the load deviates more than four times its toler
 REJECT_HISTORY = 4.0   # ... or the history's estimated error is four times its allowance
 GRID_PER_OCTAVE = 4    # steps are dt_min 2^(j/4): see AdaptiveSteps._on_grid
 ABANDON_EDGE = REJECT_EDGE  # edge ratio at which a solve is abandoned (module docstring)
-CURVATURE_AGE = 8      # steps a smooth curvature stands in for windows with crossings
+CURVATURE_AGE = 8      # steps a smooth curvature stands in for windows with crossings ...
+CURVATURE_LIFETIME = 0.05  # ... and time, in relaxation times tau (u_tt changes over tau)
 
 
 @dataclass
@@ -232,7 +233,8 @@ class HistoryError:
     dt, and on coarse grids (the edge takes several steps per node) the step control would
     shrink the steps without end. u_tt is smooth in time, so such a window takes the
     curvature of the last window without a crossing, when that is at most ``CURVATURE_AGE``
-    accepted steps old, for its estimate and its correction. On fine grids, where nearly
+    accepted steps and ``CURVATURE_LIFETIME`` relaxation times old, for its estimate and its
+    correction. On fine grids, where nearly
     every step crosses nodes, the window's own curvature is used: there the jumps are small.
 
     Parameters
@@ -251,6 +253,8 @@ class HistoryError:
         self.smooth_curvature = aligned_empty(n)  # c of the last window without a crossing
         self.smooth_curvature[:] = 0.0
         self.curvature_age = math.inf  # accepted steps since it was estimated
+        self.curvature_time = -math.inf  # end time of its window
+        self._lifetime = CURVATURE_LIFETIME * substrate.material.relaxation_time
         self._smooth = False  # the last estimate's window had no crossing
 
     def estimate(self, older, time_older, state_older, before, time_before, state_before,
@@ -270,7 +274,9 @@ class HistoryError:
         kinks = (state_older != state_before) | (state_before != state)
         c[kinks] = 0.0
         self._smooth = self.domain.count(kinks) == 0
-        reuse = not self._smooth and self.curvature_age <= CURVATURE_AGE
+        reuse = (not self._smooth and self.curvature_age <= CURVATURE_AGE
+                 and time_after - self.curvature_time <= self._lifetime)
+        self._time = time_after
         self.substrate.history_error(self.fft, self.smooth_curvature if reuse else c, h1,
                                      self._traction)
         self._estimated = True
@@ -286,6 +292,7 @@ class HistoryError:
             if self._smooth:
                 self.smooth_curvature[:] = self._curvature
                 self.curvature_age = 0
+                self.curvature_time = self._time
             else:
                 self.curvature_age += 1
         self._estimated = False
