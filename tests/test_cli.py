@@ -112,7 +112,7 @@ def test_automatic_nx_is_smallest_power_of_two_resolving_the_zone(knob):
     case = parse_case(case_text(maugis="7.0", numerics=f"accuracy = {knob}"))
     assert case.numerics.nx_automatic
     points = case.zone_width / case.dx
-    want = accuracy.zone_points(knob)
+    want = accuracy.zone_points(knob, case.chi_ve, case.k)
     assert want <= points < 2 * want
     assert case.numerics.nx & (case.numerics.nx - 1) == 0
 

@@ -246,11 +246,11 @@ class Case:
 
     def _grid(self, num, accuracy):
         """(nx, chosen automatically): given and checked, or the smallest power of two with
-        the zone points :func:`~hpcgfmd.model.accuracy.zone_points` of ``accuracy`` across the
-        relaxed cohesive zone (:attr:`zone_width`)."""
+        the zone points :func:`~hpcgfmd.model.accuracy.zone_points` of ``accuracy`` (and of the
+        retraction's rate) across the relaxed cohesive zone (:attr:`zone_width`)."""
         width = self.zone_width
         if "nx" not in num:
-            points = knob.zone_points(accuracy)
+            points = knob.zone_points(accuracy, self.chi_ve, self.k)
             return 2 ** max(6, math.ceil(math.log2(points * self.cell / width))), True
         nx = num["nx"]
         if isinstance(nx, bool) or not isinstance(nx, int) or nx < 64 or nx % 2:

@@ -72,7 +72,8 @@ def describe(case: Case) -> str:
     u = case.units
     num = case.numerics
     auto = (f" (from accuracy {num.accuracy:g}: the smallest power of two with"
-            f" {knob.zone_points(num.accuracy):.2g} points across w)" if num.nx_automatic
+            f" {knob.zone_points(num.accuracy, case.chi_ve, case.k):.2g} points across w)"
+            if num.nx_automatic
             else "")
     if num.step_control == "fixed":
         steps = "fixed steps dt"
