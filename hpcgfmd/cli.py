@@ -42,9 +42,12 @@ def _check_output_path(path, overwrite):
 
 def _run(comm, case, output, overwrite, dry_run, restart=False, stop=None):
     from .runs.resume import resume_wanted
-    from .runs.single_case import describe, run_case
+    from .runs.single_case import creeping_warning, describe, run_case
 
     logger.info(describe(case))
+    warning = creeping_warning(case)
+    if warning:
+        logger.warning(warning)
     if dry_run:
         return EXIT_OK
     resume = resume_wanted(comm, case, output, restart, overwrite)
