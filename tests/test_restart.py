@@ -7,6 +7,7 @@ history, the contact edges, the statistics...). At the default tolerance 1e-7 a 
 changes the iteration path and so the series at about 1e-8: this test would see it.
 """
 import numpy as np
+import pytest
 from mpi4py import MPI
 
 from hpcgfmd.storage.reader import read_series
@@ -16,6 +17,10 @@ from hpcgfmd.runs.single_case import run_case
 from cases import case_text
 
 CASE = case_text("nx = 2048", "snapshot_times = [0.0, 3.0, 8.0]\nsnapshot_zero_load = true")
+# A fast retraction on a coarse grid (w/dx = 1.5): the history estimate of windows with node
+# crossings uses the kept smooth curvature (HistoryError, "Crossings"), which the
+# checkpoint must hold too.
+COARSE_FAST = case_text("nx = 1024", "snapshot_times = [0.0, 0.2]", velocity=9.0)
 
 
 class StopAtStep:
@@ -30,15 +35,19 @@ class StopAtStep:
         return 10 if self.looks > self.k else None
 
 
-def test_interrupted_and_resumed_equals_uninterrupted_bitwise(tmp_path):
-    case = parse_case(CASE)
+# (the coarse case stops after step 41: steps 40-43 are windows with crossings that use the
+# curvature kept from before, so the resumed run needs it from the checkpoint)
+@pytest.mark.parametrize("text, stop", [(CASE, 38), (COARSE_FAST, 41)],
+                         ids=["default", "coarse-fast"])
+def test_interrupted_and_resumed_equals_uninterrupted_bitwise(tmp_path, text, stop):
+    case = parse_case(text)
     quiet = {"planner_effort": "FFTW_ESTIMATE"}
     run_case(case, tmp_path / "whole.h5", MPI.COMM_SELF, **quiet, stop=StopAtStep(10**9))
-    try:  # one look after the preload, then one per step: stops after step 38
-        run_case(case, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, stop=StopAtStep(38))
+    try:  # one look after the preload, then one per step: stops after step ``stop``
+        run_case(case, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, stop=StopAtStep(stop))
         raise AssertionError("the run was not interrupted")
     except Interrupted as err:
-        assert "at step 38 " in str(err)
+        assert f"at step {stop} " in str(err)
     run_case(case, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, resume=True,
              stop=StopAtStep(10**9))
     whole, parts = read_series(tmp_path / "whole.h5"), read_series(tmp_path / "parts.h5")
