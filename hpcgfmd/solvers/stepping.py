@@ -234,8 +234,9 @@ class HistoryError:
     shrink the steps without end. u_tt is smooth in time, so such a window takes the
     curvature of the last window without a crossing, when that is at most ``CURVATURE_AGE``
     accepted steps and ``CURVATURE_LIFETIME`` relaxation times old, for its estimate and its
-    correction. On fine grids, where nearly
-    every step crosses nodes, the window's own curvature is used: there the jumps are small.
+    correction. On fine grids, where nearly every step crosses nodes, the window's own
+    curvature is used: there the jumps are small. On creeping retractions, whose steps are a
+    good part of tau, the kept curvature is stale and the window's own is used too.
 
     Parameters
     ----------
@@ -256,6 +257,7 @@ class HistoryError:
         self.curvature_time = -math.inf  # end time of its window
         self._lifetime = CURVATURE_LIFETIME * substrate.material.relaxation_time
         self._smooth = False  # the last estimate's window had no crossing
+        self._time = -math.inf  # end time of the last estimate's window
 
     def estimate(self, older, time_older, state_older, before, time_before, state_before,
                  after, time_after, state):
@@ -286,7 +288,8 @@ class HistoryError:
 
     def correct(self, substrate_traction):
         """Add the last estimate's missed traction to the accepted step's substrate traction
-        (nothing when the step had no estimate); the estimate is used up."""
+        (nothing when the step had no estimate), and keep its curvature when its window had
+        no crossing; the estimate is used up."""
         if self._estimated:
             substrate_traction += self._traction
             if self._smooth:
