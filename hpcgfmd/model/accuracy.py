@@ -56,8 +56,10 @@ def creep_factor(chi_ve, k):
     is off 2-3 times more at equal w/dx (lambda0 = 1 and 3.5, k = 0.1, chi_ve/k = 1: 7e-3
     at w/dx = 4; docs/results.md, "The accuracy knob", grid errors). The factor was fitted to
     the points those cases need (2.7 times the elastic law's at chi_ve/k = 1, 1.3 at 10, 1
-    from 20 on) and validated on others. Capped at 3 (chi_ve / k = 0.74): no slower case
-    was measured, and the relaxed limit is the elastic solid's. 1 for the elastic solid
+    from 20 on) and validated on others. Capped at 3 (reached at chi_ve / k = 0.74): the
+    relaxed limit is the elastic solid's (at chi_ve / k = 0.006 the grid error was that of
+    the elastic counterpart), so the cap over-resolves very slow retractions; where the
+    penalty falls back between 0.006 and 0.74 was not measured. 1 for the elastic solid
     (k = 1).
     """
     if k >= 1.0 or not chi_ve > 0.0:

@@ -102,6 +102,7 @@ class Retraction:
         self._edges_previous = None
         self._older = None  # (u, time) of the accepted step before the last (HistoryError)
         self._saved = {name: np.empty(n) for name in self.FIELDS}
+        self._absent = np.zeros(n)  # a field the state does not have yet (read only)
 
     # --- one equilibrium -------------------------------------------------------------
     def _equilibrate(self, ops, dt, solver, edge_watch=None):
@@ -280,9 +281,9 @@ class Retraction:
         u_previous, attrs = self.predictor.state(self.u)
         fields = {"u": self.u, "substrate_traction": self.substrate_traction,
                   "traction": self.traction, "u_previous": u_previous,
-                  "u_older": self._older[0] if self._older else np.zeros_like(self.u),
+                  "u_older": self._older[0] if self._older else self._absent,
                   "history_curvature": (self.history_error.smooth_curvature
-                                        if self.history_error else np.zeros_like(self.u))}
+                                        if self.history_error else self._absent)}
         attrs.update(time=self.time, indenter=self.indenter, step_index=self.step_index,
                      total_iterations=self.total_iterations, fft_pairs=self.fft.pairs,
                      rejected_steps=self.rejected_steps,
