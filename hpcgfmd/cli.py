@@ -42,12 +42,9 @@ def _check_output_path(path, overwrite):
 
 def _run(comm, case, output, overwrite, dry_run, restart=False, stop=None):
     from .runs.resume import resume_wanted
-    from .runs.single_case import creeping_warning, describe, run_case
+    from .runs.single_case import describe, run_case
 
     logger.info(describe(case))
-    warning = creeping_warning(case)
-    if warning and comm.Get_rank() == 0:  # (warnings are not filtered by rank)
-        logger.warning(warning)
     if dry_run:
         return EXIT_OK
     resume = resume_wanted(comm, case, output, restart, overwrite)
@@ -92,17 +89,6 @@ def _farm_directory(args, sweep):
     return os.path.splitext(args.sweep)[0]
 
 
-def _warn_creeping(sweep):
-    """One warning for the sweep's cases that the time control's known failure concerns."""
-    from .runs.single_case import creeping_warning
-
-    creeping = [c.index for c in sweep.cases if c.case is not None and creeping_warning(c.case)]
-    if creeping:
-        shown = ", ".join(map(str, creeping[:10])) + (", ..." if len(creeping) > 10 else "")
-        logger.warning(f"{len(creeping)} of {len(sweep.cases)} cases are creeping retractions"
-                       f" (cases {shown}): {creeping_warning(sweep.cases[creeping[0]].case)}")
-
-
 def cmd_farm(comm, args):
     from .runs.farm import plan_table, run_farm
     from .runs.sweep import load_sweep
@@ -126,8 +112,6 @@ def cmd_farm(comm, args):
                          " (see --dry-run)")
     if os.path.exists(out_dir) and not os.path.isdir(out_dir):
         raise UsageError(f"-o {out_dir}: exists and is not a directory")
-    if comm.Get_rank() == 0:
-        _warn_creeping(sweep)
     if args.dry_run:
         logger.info(plan_table(sweep, out_dir, size // ranks))
         return EXIT_OK

@@ -216,16 +216,3 @@ def test_killed_run_leaves_a_readable_file(tmp_path):
     assert s.time.size == n and np.all(np.diff(s.time) > 0) and np.all(s.iterations > 0)
 
 
-@pytest.mark.parametrize("numerics, velocity, warned", [
-    ("nx = 1024", 0.01, True),                # chi_ve / k = 0.1: creeping, steps unbounded
-    ("nx = 1024\ndt_max = 1.0", 0.01, False),  # bounded by one relaxation time
-    ("nx = 1024", 10.0, False),               # chi_ve / k = 100: fast
-    ('nx = 1024\nstep_control = "fixed"', 0.01, False)])
-def test_creeping_retraction_warns_of_the_known_failure(tmp_path, numerics, velocity, warned):
-    (tmp_path / "case.toml").write_text(
-        case_text(numerics=numerics, modulus_ratio=0.1, velocity=velocity))
-    res = hpcgfmd("run", "case.toml", "--dry-run", cwd=tmp_path)
-    assert res.returncode == 0, res.stderr
-    assert ("creeping retraction" in res.stderr) == warned, res.stderr
-    if warned:
-        assert len(res.stderr.strip().splitlines()) == 1 and "dt_max = 1 " in res.stderr

@@ -92,21 +92,6 @@ def describe(case: Case) -> str:
         f"solver: {solver_class(num.solver).describe(num)}; {steps}"])
 
 
-def creeping_warning(case: Case) -> str | None:
-    """The time control's known failure (docs/numerics.md, "The accuracy knob"), as a warning
-    for an adaptive creeping retraction (chi_ve / k < CREEP_RATE) whose steps may grow past
-    a relaxation time tau; None otherwise (fixed steps, the elastic solid, a faster
-    retraction, or dt_max <= tau given)."""
-    num = case.numerics
-    if (num.step_control == "fixed" or case.k >= 1.0 or num.dt_max <= 1.0
-            or case.chi_ve / case.k >= knob.CREEP_RATE):
-        return None
-    return (f"creeping retraction (chi_ve/k = {case.chi_ve / case.k:.3g} <"
-            f" {knob.CREEP_RATE:g}): steps longer than the relaxation time can put the pull-off"
-            " several percent off (docs/numerics.md, known failure); [numerics] dt_max ="
-            f" {case.units.time:.6g} (one relaxation time) bounds it")
-
-
 def run_case(case: Case, path, comm, overwrite=False, resume=False,
              planner_effort="FFTW_MEASURE", stop=None) -> dict:
     """Collective: run (or resume) the retraction of ``case`` into the HDF5 file ``path``.

@@ -16,12 +16,16 @@ Where the time discretisation errs (docs/model.md, "Substrate" and "Protocol"):
   / 2, to ``load_tolerance`` load scales (R dgamma0^2 E0)^(1/3): the sampled minimum is then
   within about load_tolerance / 8 load scales of the curve's, and the same curvature bound
   controls the O(dt^2 u_tt) history error of the smooth parts.
+- The history's own errors: the smooth part's, estimated from the curvature in time of u
+  (:class:`HistoryError`), and the tip's lag, the rate the step's linear history gives the
+  nodes a moving edge passes (:func:`tip_lag_error`), both bounded through
+  ``time_tolerance``.
 
-Controller. After each step the error ratios e_edge = |da|max / (edge_fraction w) (first
-order in dt) and e_load (second order) give the next step
-dt * clip(0.9 min(1/e_edge, 1/sqrt(e_load)), 1/4, 2), rounded down to the grid
-dt_min 2^(j/4) within [dt_min, dt_max]. A step with
-e_edge > 2 or e_load > 4 is rejected and repeated with that shorter step (the state is
+Controller. After each step the error ratios e_edge = |da|max / (edge_fraction w) and e_lag
+(first order in dt), e_load and e_history (second order) give the next step
+dt * clip(0.9 / max(e_edge, e_lag, sqrt(e_load), sqrt(e_history)), 1/4, 2), rounded down to
+the grid dt_min 2^(j/4) within [dt_min, dt_max]. A step with e_edge > 2, e_load > 4,
+e_history > 4 or e_lag > 4 is rejected and repeated with that shorter step (the state is
 restored), unless it already is dt_min: a genuine jump of the contact (the snap-off at high
 speed) is then taken at dt_min, which places it in time to dt_min.
 
@@ -41,6 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..model.accuracy import PULL_OFF_SCALE
 from ..parallel.fft import aligned_empty
 
 GROWTH_LIMIT = 2.0     # largest factor between consecutive steps
@@ -53,6 +58,55 @@ GRID_PER_OCTAVE = 4    # steps are dt_min 2^(j/4): see AdaptiveSteps._on_grid
 ABANDON_EDGE = REJECT_EDGE  # edge ratio at which a solve is abandoned (module docstring)
 CURVATURE_AGE = 8      # steps a smooth curvature stands in for windows with crossings ...
 CURVATURE_LIFETIME = 0.05  # ... and time, in relaxation times tau (u_tt changes over tau)
+REJECT_LAG = 4.0       # ... or the tip's lag error four times its allowance (it jumps as nodes cross)
+LAG_PER_LOAD = 3.0     # pull-off error / tip lag bound, measured (tip_lag_error)
+
+
+def tip_lag_error(dt, edge_motion, zone_width, modulus_ratio):
+    """Relative error of the cohesive zone's traction from a step's linear-in-time history at
+    a moving contact edge (internal units, tau = 1; docs/numerics.md, "Time steps").
+
+    Near an edge moving at v_a = |da| / dt a node's displacement follows the passing crack
+    tip, u = U(x - a(t)): its strain rate changes over the passage time w / v_a. The SLS
+    step (exact for u linear in time) sees the step's mean rate instead of the rate at its
+    end, a lag of dt/2 in time when dt >> tau (the memory is shorter than the step), and of
+    dt^2 / (12 tau) when dt << tau (the midpoint rule of the memory integral); as one
+    expression, a relative rate error (|da| / 2w) x / (x + 6), x = dt / tau, at most 1 (a
+    rate cannot be more than wholly wrong; the edge criterion keeps |da| to a few w). How much the
+    zone's traction depends on its rate is the sensitivity S = d ln sigma / d ln theta of
+    an SLS strained at a constant rate over the passage time, theta = tau v_a / w:
+    sigma / (E0 eps) = k + (1 - k) F(theta), F = theta (1 - exp(-1/theta)), so
+    S = (1 - k) theta F'(theta) / (k + (1 - k) F). S vanishes for a relaxed tip
+    (theta << k) and a glassy one (theta >> 1), and is largest in between: the creeping
+    retractions, chi_ve / k of order 1. The estimate is S min(1, (|da| / 2w) x / (x + 6)).
+
+    Parameters
+    ----------
+    dt : float
+        Step length (tau).
+    edge_motion : float
+        Largest contact-edge displacement of the step |da| (R); NaN or inf: none.
+    zone_width : float
+        Relaxed cohesive-zone width w (R).
+    modulus_ratio : float
+        k = Einf / E0 (1: elastic, no lag).
+
+    Returns
+    -------
+    float
+        The estimated relative traction error (>= 0; about the pull-off's relative error,
+        which measured 0.5-1.6 times it on creeping retractions: docs/results.md).
+    """
+    moved = edge_motion / zone_width
+    if modulus_ratio >= 1.0 or not (math.isfinite(moved) and moved > 0.0 and dt > 0.0):
+        return 0.0
+    k, x = modulus_ratio, dt
+    theta = moved / x
+    decay = math.exp(-1.0 / theta)
+    rate_response = theta * -math.expm1(-1.0 / theta)  # F(theta)
+    slope = -math.expm1(-1.0 / theta) - decay / theta  # F'(theta)
+    sensitivity = (1.0 - k) * theta * slope / (k + (1.0 - k) * rate_response)
+    return sensitivity * min(1.0, 0.5 * moved * x / (x + 6.0))
 
 
 @dataclass
@@ -64,6 +118,7 @@ class StepDecision:
     edge_error: float   # |da| / (edge_fraction w)
     load_error: float   # |L - L_pred| / (load_tolerance load_scale)
     history_error: float = 0.0  # the history's load error / its allowance for this step
+    lag_error: float = 0.0  # the tip's lag error / its allowance (tip_lag_error)
 
 
 class FixedSteps:
@@ -111,13 +166,21 @@ class AdaptiveSteps:
         scale (load per unit length); inf: not controlled (the elastic solid).
     memory_time : float
         Time over which a history error persists, the retardation time tau/k (internal units).
+    lag_allowance : float
+        Largest relative traction error of the tip's lag per step (:func:`tip_lag_error`);
+        inf: not controlled.
+    zone_width, modulus_ratio : float
+        Relaxed cohesive-zone width w (R) and k = Einf / E0, for :func:`tip_lag_error`.
     """
 
     adaptive = True
 
     def __init__(self, first_dt, dt_min, dt_max, edge_allowance, load_allowance,
-                 history_allowance=math.inf, memory_time=1.0):
+                 history_allowance=math.inf, memory_time=1.0, lag_allowance=math.inf,
+                 zone_width=1.0, modulus_ratio=1.0):
         self.dt_min, self.dt_max = dt_min, dt_max
+        self.lag_allowance = lag_allowance
+        self.zone_width, self.modulus_ratio = zone_width, modulus_ratio
         self.dt = self._on_grid(first_dt)
         self.edge_allowance = edge_allowance
         self.load_allowance = load_allowance
@@ -162,14 +225,19 @@ class AdaptiveSteps:
         # allowance that the accumulated error loses meanwhile, so that it stays within it.
         history_ratio = history_error / (self.history_allowance
                                          * -math.expm1(-dt / self.memory_time))
-        worst = max(edge_error, math.sqrt(load_error), math.sqrt(history_ratio))
+        lag_error = (tip_lag_error(dt, edge_motion, self.zone_width, self.modulus_ratio)
+                     / self.lag_allowance)
+        # first order where it binds (dt >> tau)
+        worst = max(edge_error, math.sqrt(load_error), math.sqrt(history_ratio), lag_error)
         factor = SAFETY / worst if worst > 0.0 else GROWTH_LIMIT
         factor = min(max(factor, SHRINK_LIMIT), GROWTH_LIMIT)
         next_dt = self._on_grid(dt * factor)
         rejected = ((edge_error > REJECT_EDGE or load_error > REJECT_LOAD
-                     or history_ratio > REJECT_HISTORY) and dt > self.dt_min)
+                     or history_ratio > REJECT_HISTORY or lag_error > REJECT_LAG)
+                    and dt > self.dt_min)
         self.dt = next_dt
-        return StepDecision(not rejected, next_dt, edge_error, load_error, history_ratio)
+        return StepDecision(not rejected, next_dt, edge_error, load_error, history_ratio,
+                            lag_error)
 
     def edge_limit(self, dt) -> float:
         """Edge motion at which a solve of a step of length dt is abandoned, the step
@@ -201,11 +269,15 @@ def make_step_control(case):
     if numerics.step_control == "fixed":
         return FixedSteps(numerics.dt)
     viscous = case.k < 1.0
+    # time_tolerance bounds the history's errors: the smooth part's in load scales, the
+    # tip's lag as that load over the relaxed pull-off, shared for LAG_PER_LOAD
+    lag = numerics.time_tolerance / (PULL_OFF_SCALE * LAG_PER_LOAD)
     return AdaptiveSteps(numerics.dt, numerics.dt_min, numerics.dt_max,
                          numerics.edge_fraction * case.zone_width,
                          numerics.load_tolerance * case.load_scale,
                          numerics.time_tolerance * case.load_scale if viscous else math.inf,
-                         1.0 / case.k)  # the retardation time tau / k, tau = 1
+                         1.0 / case.k,  # the retardation time tau / k, tau = 1
+                         lag if viscous else math.inf, case.zone_width, case.k)
 
 
 class HistoryError:
