@@ -17,8 +17,11 @@
    converged equilibria of the same steps (CG, tolerance 1e-10, same dt), relative to the
    reference pull-off load, and its full-run time is the measured cost per pseudo step times
    E times the number of steps of the whole retraction (the reference's duration / dt).
-   With dt = tau/50 its time-discretisation error is below the reference's, so this
-   equilibration error is its error (a lower bound: the lag can only grow near pull-off).
+   This is its equilibration lag alone, a lower bound of its error: its fixed steps add a
+   time error, which the next item measures.
+4. The paper method's time error: the whole retraction with its fixed steps, dt = tau/50 and
+   tau/100, solved by CG to a residual of 1e-8 (the equilibria its pseudo steps tend to),
+   against the reference; skipped when longer than ``--paper-time-steps`` steps.
 
 Errors of a run against the reference: pull-off load (most tensile sample) relative error;
 curve error: the largest distance of the run's points (abar_c, Lbar) up to its pull-off to
@@ -63,9 +66,12 @@ SWEEP = (("accuracy=1e-2", {"accuracy": 1e-2}),
 # exp(-E / (512 ln-units)) at 2^17 with Eeff = 10 E0 (hpcgfmd/gfmd.py)
 PAPER_EQUILIBRATION = (2000, 8000)
 PAPER_STEPS = 4
+PAPER_TIME_STEPS = 20000  # longest fixed-step run for the paper method's time error
+PAPER_TIME_DIVISIONS = (50, 100)  # its steps, tau / these
 COLUMNS = ("case", "lambda0", "Vz", "solver", "label", "accuracy", "nx", "tolerance",
            "step_control", "edge_fraction", "equilibration_steps", "dt", "steps", "iterations",
-           "fft_pairs", "wall_s", "cpu_s", "setup_s", "ms_per_iteration", "pulloff_Lbar", "pulloff_error",
+           "iterations_per_step", "fft_pairs", "wall_s", "cpu_s", "setup_s", "ms_per_iteration",
+           "pulloff_Lbar", "pulloff_error",
            "curve_error", "extrapolated", "ranks")
 
 
@@ -176,10 +182,12 @@ def measure_paper(lambda0, vz, nx, reference, comm, geometry, equilibrations, st
         per_pseudo_cpu = result["retraction_cpu_s"] / max(result["retraction_iterations"], 1)
         error = float(np.abs(result["lbar"][1:] - exact["lbar"][1:]).max()) / l_scale
         rows.append({"solver": "paper", "label": f"E={equilibration} (shortened: {steps} of"
-                     f" {total_steps} steps, extrapolated)", "nx": nx, "tolerance": math.nan,
+                     f" {total_steps} steps, extrapolated; error: its equilibration lag alone)",
+                     "nx": nx, "tolerance": math.nan,
                      "step_control": "fixed", "edge_fraction": math.nan,
                      "equilibration_steps": equilibration, "dt": dt,
                      "steps": total_steps, "iterations": total_steps * equilibration,
+                     "iterations_per_step": float(equilibration),
                      "fft_pairs": total_steps * equilibration,
                      "wall_s": (result["wall_s"] - result["retraction_s"]
                                 + per_pseudo * total_steps * equilibration),
@@ -200,9 +208,27 @@ def measure_paper(lambda0, vz, nx, reference, comm, geometry, equilibrations, st
         rows.append(dict(last, label=f"E={authors} = 1024 sqrt(nx), the authors' (error <= the"
                          f" E={last['equilibration_steps']} row's, extrapolated)",
                          equilibration_steps=authors, iterations=total_steps * authors,
+                         iterations_per_step=float(authors),
                          fft_pairs=total_steps * authors,
                          wall_s=last["setup_s"] + per_pseudo * total_steps * authors,
                          cpu_s=last["setup_s"] + per_pseudo_cpu * total_steps * authors))
+    return rows
+
+
+def measure_paper_time_error(lambda0, vz, nx, reference, comm, geometry, budget, say):
+    """The paper method's time error (module docstring, item 4): rows, one per step length."""
+    rows = []
+    for division in PAPER_TIME_DIVISIONS:
+        dt = 1.0 / division
+        total_steps = math.ceil(reference["time"][-1] / dt)
+        label = f"time error at dt=tau/{division} (CG, fixed steps)"
+        if total_steps > budget:
+            say(f"  paper  {label}: skipped, {total_steps} steps > --paper-time-steps {budget}")
+            continue
+        text = case_text(lambda0, vz, {"nx": nx, "step_control": "fixed", "dt": dt,
+                                       "tolerance": 1e-8}, geometry)
+        rows.append(_row(label, run(text, comm), reference, "paper-time"))
+        say(_line(rows[-1]))
     return rows
 
 
@@ -217,6 +243,7 @@ def _row(label, result, reference, solver="cg"):
             "edge_fraction": num.edge_fraction if num.step_control == "adaptive" else math.nan,
             "equilibration_steps": math.nan, "dt": float(np.median(result["dt"][1:])),
             "steps": result["steps"], "iterations": result["iterations"],
+            "iterations_per_step": result["iterations"] / max(result["steps"], 1),
             "fft_pairs": result["fft_pairs"], "wall_s": result["wall_s"],
             "cpu_s": result["cpu_s"], "setup_s": result["setup_s"],
             "ms_per_iteration": 1e3 * result["retraction_s"]
@@ -253,7 +280,7 @@ SCALARS = ("wall_s", "cpu_s", "setup_s", "retraction_s", "retraction_iterations"
 
 
 def bench_case(key, comm, nxs, sweep, equilibrations, paper_steps, geometry, say,
-               cache_prefix=None):
+               cache_prefix=None, paper_time_steps=PAPER_TIME_STEPS):
     lambda0, vz = (float(v) for v in key.split(":"))
     top = max(nxs)
     say(f"case lambda0 = {lambda0:g}, V_z = {vz:g}: reference at nx = {top}")
@@ -283,6 +310,8 @@ def bench_case(key, comm, nxs, sweep, equilibrations, paper_steps, geometry, say
                                  paper_steps):
             rows.append(row)
             say(_line(row))
+        rows += measure_paper_time_error(lambda0, vz, top, reference, comm, geometry,
+                                         paper_time_steps, say)
     for row in rows:
         row.update(case=key, lambda0=lambda0, Vz=vz, ranks=comm.Get_size())
     return rows
@@ -347,6 +376,9 @@ def _parser():
                         default=list(PAPER_EQUILIBRATION),
                         help="pseudo steps per step of the paper's method (shortened runs)")
     parser.add_argument("--paper-steps", type=int, default=PAPER_STEPS)
+    parser.add_argument("--paper-time-steps", type=int, default=PAPER_TIME_STEPS, help=(
+        "longest whole retraction run at the paper's fixed steps for its time error"
+        f" (default {PAPER_TIME_STEPS}; 0 skips them)"))
     parser.add_argument("--no-fixed", action="store_true", help="skip the fixed-step run")
     parser.add_argument("--only", nargs="+", metavar="SETTING",
                         help=("run only these fast-solver settings ("
@@ -378,6 +410,8 @@ def _settings(args, geometry):
         sweep = [s for s in sweep if s[0].split(" ")[0] in args.only]
     if args.reference_only:  # the references alone: no sweep, no other grid, no paper rows
         sweep, args.nx, args.paper_equilibration = [], [max(args.nx)], []
+    if args.paper_time_steps < 0:
+        return None, f"--paper-time-steps {args.paper_time_steps}: expected an integer >= 0"
     if args.paper_steps < 1:
         return None, f"--paper-steps {args.paper_steps}: expected an integer >= 1"
     if any(e < 1 for e in args.paper_equilibration):
@@ -422,7 +456,7 @@ def main(comm, argv=None):
     for key in args.cases:
         case_rows = bench_case(key, comm, [2**e for e in args.nx], sweep,
                                args.paper_equilibration, args.paper_steps, geometry,
-                               logger.info, args.out)
+                               logger.info, args.out, args.paper_time_steps)
         rows += case_rows
         if rank0:  # after every case: a long benchmark keeps what it measured
             write_csv(case_rows, f"{args.out}-{key.replace(':', '-')}.csv")
@@ -442,7 +476,8 @@ def collect(prefix):
                 for key in COLUMNS:
                     if key in ("case", "solver", "label", "step_control", "extrapolated"):
                         continue
-                    row[key] = float(row[key]) if row[key] not in ("", None) else math.nan
+                    value = row.get(key)  # (older tables lack newer columns)
+                    row[key] = float(value) if value not in ("", None) else math.nan
                 row["extrapolated"] = row["extrapolated"] == "True"
                 rows.append(row)
     return rows
