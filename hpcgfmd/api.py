@@ -78,5 +78,27 @@ def run(case, path=None, comm=None, overwrite=False, planner_effort="FFTW_MEASUR
 
 def open_result(path) -> Result:
     """The results in the case file ``path``, finished or still being written
-    (``hpcgfmd.open``)."""
+    (``hpcgfmd.open``).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An HDF5 file written by ``python -m hpcgfmd run`` or :func:`run`. The series are cut
+        to the steps completely written (``steps_complete``), so the file of a running or
+        killed case reads too.
+
+    Returns
+    -------
+    Result
+
+    Raises
+    ------
+    ResultFileError
+        ``path`` cannot be read as an hpcgfmd output file: it does not exist, is a directory,
+        cannot be opened, is empty or not HDF5, is an HDF5 file of another program (no
+        ``/series`` group or no ``config`` attribute), is cut short on disk, or holds series
+        shorter than ``steps_complete`` (truncated). The one-line message names the path,
+        what is wrong and what is expected; ``python -m hpcgfmd info`` and ``plot`` print it
+        and exit with status 2.
+    """
     return read_result(path)

@@ -23,7 +23,7 @@ from importlib import resources
 
 from . import __version__, logs
 from .errors import (EXIT_FAILURE, EXIT_OK, EXIT_RESUMABLE, EXIT_USAGE, CaseError, CaseFailure,
-                     Interrupted, SweepError, UsageError)
+                     Interrupted, ResultFileError, SweepError, UsageError)
 from .model.case import load_case, parse_case
 from .signals import STOP_SIGNALS
 
@@ -43,21 +43,28 @@ def _check_output_path(path, overwrite):
 def _run(comm, case, output, overwrite, dry_run, restart=False, stop=None):
     from .runs.resume import resume_wanted
     from .runs.single_case import describe, run_case
+    from .storage.lock import acquire_output_lock
 
     logger.info(describe(case))
     if dry_run:
         return EXIT_OK
-    resume = resume_wanted(comm, case, output, restart, overwrite)
-    if not resume:
-        _check_output_path(output, overwrite)
-    logger.info(f"{'resuming' if resume else 'writing'} {output} on {comm.Get_size()} rank(s)")
+    # one writer per output, decided before anything is read or computed (storage/lock.py)
+    lock = acquire_output_lock(comm, output)
     try:
+        resume = resume_wanted(comm, case, output, restart, overwrite)
+        if not resume:
+            _check_output_path(output, overwrite)
+        logger.info(f"{'resuming' if resume else 'writing'} {output} on {comm.Get_size()}"
+                    " rank(s)")
         summary = run_case(case, output, comm, overwrite=overwrite, resume=resume, stop=stop)
     except CaseError as err:  # found by the preload, before the file was created
         raise UsageError(str(err)) from None
     except Interrupted as err:
         logger.info(f"hpcgfmd: {err}; run the same command again to continue")
         return EXIT_RESUMABLE
+    finally:
+        if lock is not None:
+            lock.release()
     logger.info(f"finished: {summary['steps']} steps, {summary['iterations']} iterations,"
                 f" {summary['wall_time']:.1f} s wall time; results in {output}")
     return EXIT_OK
@@ -119,20 +126,13 @@ def cmd_farm(comm, args):
     return run_farm(sweep, comm, out_dir, ranks_per_case=ranks, only=args.case, stop=args.stop)
 
 
-def _open_case_file(path):
-    """The result of a case file, or UsageError naming the file."""
+def cmd_info(comm, args):
     from .storage.reader import read_result
 
-    if not os.path.isfile(path):
-        raise UsageError(f"{path}: no such file")
     try:
-        return read_result(path)
-    except (OSError, KeyError) as err:
-        raise UsageError(f"{path}: not an hpcgfmd case file ({err})") from None
-
-
-def cmd_info(comm, args):
-    result = _open_case_file(args.file)
+        result = read_result(args.file)  # ResultFileError: one line naming the file
+    except ResultFileError as err:
+        raise UsageError(str(err)) from None
     s, a = result.series, result.attrs
     print(f"file: {args.file} (hpcgfmd {a.get('hpcgfmd_version')}), "
           f"{'finished' if result.finished else 'NOT finished'}")
@@ -161,7 +161,12 @@ def cmd_info(comm, args):
 
 
 def cmd_plot(comm, args):
-    _open_case_file(args.file)
+    from .storage.reader import read_result
+
+    try:
+        read_result(args.file)  # the same files as info; a bad one writes no PNG
+    except ResultFileError as err:
+        raise UsageError(str(err)) from None
     try:
         from .storage.plot import plot_case
     except ImportError as err:

@@ -166,6 +166,7 @@ class Case:
             if self.modulus_ratio > 1.0:
                 raise CaseError(f"[case] modulus_ratio = {self.modulus_ratio}: expected"
                                 " k = E0/Einf in (0, 1] (1 is the elastic solid)")
+        self._check_scales()
         min_cell = MIN_CELL_PER_CONTACT * math.sqrt(2.0 * self.depth)
         if self.cell < min_cell:
             raise CaseError(f"{self.cell_key()} = {self.cell * self.units.length:.6g}: too"
@@ -180,6 +181,19 @@ class Case:
             doc.update({name: value for name, value in given.items()
                         if isinstance(value, dict) and value})
             object.__setattr__(self, "text", tomli_w.dumps(doc))
+
+    def _check_scales(self):
+        """The derived scales the numerics divide by, finite and > 0: extreme groups (1e308,
+        1e-300) pass one by one but over- or underflow in combination."""
+        where = (f"[case] {', '.join(f'{key} = {getattr(self, key):g}' for key in CASE_KEYS)}"
+                 if self.form == "case" else "[physical] values")
+        _finite_scales(where, {"lambda_inf = lambda0 k^(2/3)": lambda: self.lambda_inf,
+                               "beta = alpha^(1/3)": lambda: self.beta,
+                               "sigma_a = lambda0 beta": lambda: self.sigma_a,
+                               "dmax = alpha / sigma_a": lambda: self.dmax,
+                               "chi_ve = V_z lambda0^2": lambda: self.chi_ve,
+                               "v_z = V_z beta^2": lambda: self.indenter_speed,
+                               "w = pi beta / (4 lambda0^2)": lambda: self.zone_width})
 
     # --- construction -------------------------------------------------------------------
     @classmethod
@@ -201,11 +215,6 @@ class Case:
             raise CaseError(f"[numerics] accuracy = {accuracy}: expected a relative error in"
                             " (0, 0.1)")
         nx, automatic = self._grid(num, accuracy)
-        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-        if nx * BYTES_PER_POINT > memory:
-            raise CaseError(f"[numerics] nx = {nx}{' (automatic)' if automatic else ''}: needs"
-                            f" about {nx * BYTES_PER_POINT / 2**30:.1f} GiB, more than the"
-                            f" {memory / 2**30:.1f} GiB of this machine")
         time_unit = self.units.time
         solver = _choice(num, "numerics", "solver", SOLVERS)
         step_control = _choice(num, "numerics", "step_control", STEP_CONTROLS)
@@ -219,6 +228,11 @@ class Case:
                   else DT_MIN_PER_DEFAULT * min(dt, fixed_default))
         dt_max = (_number(num, "numerics", "dt_max") / time_unit if "dt_max" in num
                   else max(DT_MAX_DEPTH_FRACTION * self.depth / speed, dt))
+        for key, value in (("dt", dt), ("dt_min", dt_min)):  # over- or underflowed
+            if not 0.0 < value < math.inf:
+                given = f" = {_fmt(num[key])}" if key in num else " (default)"
+                raise CaseError(f"[numerics] {key}{given}: {value:g} relaxation times, out of"
+                                " the floating-point range; expected a step finite and > 0")
         if dt_min > dt_max:
             raise CaseError(f"[numerics] dt_min = {dt_min * time_unit:g}: must not exceed"
                             f" dt_max = {dt_max * time_unit:g}")
@@ -250,14 +264,24 @@ class Case:
         retraction's rate) across the relaxed cohesive zone (:attr:`zone_width`)."""
         width = self.zone_width
         if "nx" not in num:
-            points = knob.zone_points(accuracy, self.chi_ve, self.k)
-            return 2 ** max(6, math.ceil(math.log2(points * self.cell / width))), True
+            try:
+                points = knob.zone_points(accuracy, self.chi_ve, self.k)
+            except ZeroDivisionError:  # a subnormal accuracy underflows to 0
+                points = math.inf
+            if not math.isfinite(points):
+                raise CaseError(f"[numerics] accuracy = {accuracy:g}: the grid it needs is out of"
+                                " the floating-point range; expected a relative error in (0, 0.1)"
+                                " of a size a grid can reach")
+            nx = 2 ** max(6, _ceil_log2(points, self.cell, width))
+            _check_memory(nx, True)
+            return nx, True
         nx = num["nx"]
         if isinstance(nx, bool) or not isinstance(nx, int) or nx < 64 or nx % 2:
             raise CaseError(f"[numerics] nx = {_fmt(nx)}: expected an even integer >= 64")
+        _check_memory(nx, False)  # first: nx may exceed the float range
         points = width / (self.cell / nx)
         if points < MIN_ZONE_POINTS:
-            need = 2 ** math.ceil(math.log2(MIN_ZONE_POINTS * self.cell / width))
+            need = 2 ** _ceil_log2(MIN_ZONE_POINTS, self.cell, width)
             raise CaseError(f"[numerics] nx = {nx}: resolves the cohesive zone with"
                             f" {points:.3g} points; at least {MIN_ZONE_POINTS:g} is needed"
                             f" (nx >= {need}; left out, nx follows [numerics] accuracy)")
@@ -356,6 +380,51 @@ class Case:
                 "zone_points": self.zone_width / self.dx}
 
 
+def _ceil_log2(a, b, c):
+    """ceil(log2(a b / c)), also where a b / c leaves the float range (in logarithms then)."""
+    ratio = a * b / c
+    if 0.0 < ratio < math.inf:
+        return math.ceil(math.log2(ratio))
+    return math.ceil(math.log2(a) + math.log2(b) - math.log2(c))
+
+
+def _check_memory(nx, automatic):
+    memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    size = nx * BYTES_PER_POINT
+    if size > memory:
+        gib = (f"{size / 2**30:.1f}" if size.bit_length() < 1000  # else beyond float range
+               else f"2^{size.bit_length() - 31}")
+        raise CaseError(f"[numerics] nx = {nx}{' (automatic)' if automatic else ''}: needs"
+                        f" about {gib} GiB, more than the {memory / 2**30:.1f} GiB of this"
+                        " machine")
+
+
+def _finite_scales(where, scales):
+    """CaseError unless each derived scale (name -> function) is finite and > 0."""
+    for name, scale in scales.items():
+        try:
+            value = scale()
+        except (OverflowError, ZeroDivisionError):  # ** overflowed; a divisor underflowed
+            value = math.inf
+        if not 0.0 < value < math.inf:
+            raise CaseError(f"{where}: {name} = {value:g} is out of the floating-point range;"
+                            " expected values whose derived scales are finite and > 0")
+
+
+def quoted_key(name) -> str:
+    """A key or section name as written, quoted unless it is a bare TOML key."""
+    return name if name and all(c.isascii() and (c.isalnum() or c in "_-") for c in name) \
+        else repr(name)
+
+
+def _float(value) -> float:
+    """float(value); inf for an integer beyond the float range."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
+
+
 def _fmt(value) -> str:
     if isinstance(value, str):
         return repr(value)
@@ -371,10 +440,11 @@ def _number(table, section, key):
     value = table[key]
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected a number")
-    value = float(value)
-    if not math.isfinite(value) or value <= 0.0:
-        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected a finite number > 0")
-    return value
+    number = _float(value)
+    if not math.isfinite(number) or number <= 0.0:
+        shown = value if isinstance(value, int) and math.isinf(number) else number  # as written
+        raise CaseError(f"[{section}] {key} = {_fmt(shown)}: expected a finite number > 0")
+    return number
 
 
 def _integer(table, section, key, smallest):
@@ -395,13 +465,15 @@ def _choice(table, section, key, accepted):
 def _unknown(table, section, allowed):
     for key in table:
         if key not in allowed:
-            raise CaseError(f"[{section}] {key}: unknown key; accepted: {', '.join(allowed)}")
+            raise CaseError(f"[{section}] {quoted_key(key)}: unknown key; accepted:"
+                            f" {', '.join(allowed)}")
 
 
 def _numbers_list(table, section, key, units_scale):
     value = table.get(key, [])
     if not isinstance(value, list) or any(isinstance(v, bool) or not isinstance(v, (int, float))
-                                          or not math.isfinite(v) or v < 0 for v in value):
+                                          or not math.isfinite(_float(v)) or v < 0
+                                          for v in value):
         raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected a list of numbers >= 0")
     return tuple(sorted(float(v) / units_scale for v in value))
 
@@ -432,11 +504,17 @@ def _groups_from_physical(t):
     if einf < e0:
         raise CaseError(f"[physical] modulus_instantaneous = {einf}: must be >= modulus_relaxed"
                         f" = {e0} (k = E0/Einf in (0, 1])")
-    beta = (radius**2 * work / e0) ** (1.0 / 3.0)
-    groups = {"maugis": (work**2 * radius / (e0**2 * dmax**3)) ** (1.0 / 3.0),
-              "modulus_ratio": e0 / einf, "velocity": velocity * tau * radius / beta**2,
-              "depth": depth / radius, "cell": cell / radius,
-              "adhesion": work / (e0 * radius)}
+    # extreme values over- or underflow in the groups: checked one by one
+    formulas = {"maugis": lambda: (work**2 * radius / (e0**2 * dmax**3)) ** (1.0 / 3.0),
+                "modulus_ratio": lambda: e0 / einf,
+                "velocity": lambda: velocity * tau * radius
+                / ((radius**2 * work / e0) ** (1.0 / 3.0))**2,
+                "depth": lambda: depth / radius, "cell": lambda: cell / radius,
+                "adhesion": lambda: work / (e0 * radius)}
+    values = (radius, e0, einf, tau, work, dmax, velocity, depth, cell)
+    _finite_scales("[physical] " + ", ".join(f"{key} = {value:g}" for key, value
+                                             in zip(PHYSICAL_KEYS, values)), formulas)
+    groups = {key: formula() for key, formula in formulas.items()}
     return groups, Units(length=radius, stress=e0, time=tau)
 
 
@@ -444,12 +522,14 @@ def parse_case(text: str) -> Case:
     """Validate a case file's text and build the :class:`Case` (raises :class:`CaseError`)."""
     try:
         doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
+    except RecursionError:
+        raise CaseError("not valid TOML: arrays or inline tables nested too deeply") from None
+    except ValueError as err:  # TOMLDecodeError, or int()'s limit of 4300 digits
         raise CaseError(f"not valid TOML: {err}") from None
     for name, value in doc.items():
         if name not in SECTIONS:
-            raise CaseError(f"[{name}]: unknown section; accepted: [case] or [physical],"
-                            " [numerics], [output]")
+            raise CaseError(f"[{quoted_key(name)}]: unknown section; accepted: [case] or"
+                            " [physical], [numerics], [output]")
         if not isinstance(value, dict):
             raise CaseError(f"{name} = {_fmt(value)}: expected a section [{name}]")
     if ("case" in doc) == ("physical" in doc):

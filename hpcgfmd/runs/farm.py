@@ -35,9 +35,11 @@ import h5py
 import numpy as np
 from mpi4py import MPI
 
-from ..errors import EXIT_FAILED_BASE, EXIT_RESUMABLE, CaseError, CaseFailure, Interrupted
+from ..errors import (EXIT_FAILED_BASE, EXIT_RESUMABLE, CaseError, CaseFailure, Interrupted,
+                      UsageError)
 from ..signals import StopSignals
-from ..storage.checkpoint import checkpoint_path
+from ..storage.checkpoint import checkpoint_path, usable_checkpoint
+from ..storage.lock import acquire_output_lock
 from ..storage.reader import read_series
 from .single_case import run_case
 from .sweep import ITERATIONS_PER_STEP, SECONDS_PER_NODE_ITERATION
@@ -50,7 +52,13 @@ SUMMARY_COLUMNS = ("index", "name", "status", "error", "lambda0", "lambda_inf", 
 
 
 def case_file(out_dir, item) -> str:
-    return os.path.join(out_dir, item.name + ".h5")
+    """The output file of a case: ``<out_dir>/<name>.h5``, always inside ``out_dir`` (names
+    are built from keys and swept values with every character but [A-Za-z0-9.+-_] removed;
+    checked again here, so that no value can name a file elsewhere)."""
+    name = item.name + ".h5"
+    if os.path.basename(name) != name or name.startswith("."):
+        raise ValueError(f"case name {item.name!r} would leave the output directory")
+    return os.path.join(out_dir, name)
 
 
 def file_status(path, item) -> str:
@@ -67,7 +75,8 @@ def file_status(path, item) -> str:
         return "other case"
     if finished:
         return "finished"
-    return "resumable" if os.path.exists(checkpoint_path(path)) else "unfinished"
+    # a checkpoint generation that passes its digest; none: the case starts again
+    return "resumable" if usable_checkpoint(checkpoint_path(path))[0] else "unfinished"
 
 
 def plan_table(sweep, out_dir, groups):
@@ -161,6 +170,21 @@ def _run_one(item, out_dir, group, say, stop):
               "ranks": group.Get_size(), "error": ""}
     if item.case is None:
         return dict(record, status="failed", error=item.error)
+    try:  # one writer per case file (storage/lock.py): another farm may be running it
+        lock = acquire_output_lock(group, path)
+    except UsageError as err:
+        # left to its writer: pending here (the summary takes it from the file once finished)
+        say(f"[{item.index}] {item.name}: skipped: {err}")
+        return dict(record, status="pending", error=str(err))
+    try:
+        return _run_locked(item, path, record, group, say, stop)
+    finally:
+        if lock is not None:
+            lock.release()
+
+
+def _run_locked(item, path, record, group, say, stop):
+    """:func:`_run_one` once the case file's lock is held."""
     # one reading of the file system for the whole group (caches may differ between nodes)
     status = group.bcast(file_status(path, item) if group.Get_rank() == 0 else None, root=0)
     if status == "finished":

@@ -112,8 +112,8 @@ class Retraction:
         self.total_iterations += result.iterations
         if result.abandoned:
             return None
-        if not math.isfinite(result.residual):
-            raise FloatingPointError(f"solver produced a non-finite residual at t = {self.time}")
+        if not math.isfinite(result.residual):  # a reduced value: every rank raises
+            raise FloatingPointError(self._non_finite_report(result.residual))
         if not result.converged:
             raise NonConvergenceError(
                 f"step {self.step_index} (t = {self.time:.6g}): residual {result.residual:.3g}"
@@ -124,6 +124,16 @@ class Retraction:
         # Substrate traction of the new state, p_{n+1} = K u + H (zero mean).
         np.add(solver.elastic_traction(), self.history, out=self.substrate_traction)
         return self._record(result, dt)
+
+    def _non_finite_report(self, residual):
+        """Collective: one line naming the step, the time and the state arrays that hold
+        non-finite values (after a solve whose residual was not finite)."""
+        names = ("u", "history", "substrate_traction", "traction")
+        bad = self.domain.maxes(*(float(not np.isfinite(getattr(self, name)).all())
+                                  for name in names))
+        where = ", ".join(name for name, flag in zip(names, bad) if flag) or "none of the state"
+        return (f"step {self.step_index} (t = {self.time:.6g} tau): the equilibrium solve's"
+                f" residual is {residual}; non-finite values in: {where}")
 
     def _record(self, result, dt):
         gap = self.wall - self.u

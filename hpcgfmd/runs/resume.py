@@ -1,22 +1,28 @@
 """Whether ``run`` continues a case from its checkpoint, decided before anything is computed.
 
 The same command resumes when the output file and its checkpoint both exist (``--restart``
-demands it); the checkpoint must belong to the same case (its identity hash) and the output
-file must hold at least the steps and snapshots the checkpoint counts. Anything else is a
-:class:`~hpcgfmd.errors.UsageError` naming the file, with nothing touched.
+demands it); the checkpoint must be complete and unaltered (its digest), belong to the same
+case (its identity hash), and the output file must hold at least the steps and snapshots the
+checkpoint counts. A damaged newest checkpoint gives way to the previous generation, with a
+warning. Anything else is a :class:`~hpcgfmd.errors.UsageError` naming the file, with nothing
+touched.
 """
 from __future__ import annotations
 
+import logging
 import os
 
 import h5py
 
 from ..errors import UsageError
-from ..storage.checkpoint import checkpoint_path, read_checkpoint_attrs
+from ..storage.checkpoint import (checkpoint_path, previous_path, read_checkpoint_attrs,
+                                  usable_checkpoint)
+
+logger = logging.getLogger(__name__)
 
 
 def resume_wanted(comm, case, output, restart, overwrite):
-    """Collective: whether to continue from the checkpoint next to ``output``.
+    """Collective: the checkpoint to continue from (its path), or None for a new run.
 
     Rank 0 reads the files and broadcasts its verdict, so every rank decides alike even on a
     file system whose caches differ between nodes.
@@ -26,7 +32,7 @@ def resume_wanted(comm, case, output, restart, overwrite):
         try:
             verdict = (_check_resume(case, output, restart, overwrite), None)
         except UsageError as err:
-            verdict = (False, str(err))
+            verdict = (None, str(err))
     resume, error = comm.bcast(verdict, root=0)
     if error:
         raise UsageError(error)
@@ -35,15 +41,22 @@ def resume_wanted(comm, case, output, restart, overwrite):
 
 def _check_resume(case, output, restart, overwrite):
     """Rank 0's verdict (module docstring); UsageError naming the file that does not fit."""
-    checkpoint = checkpoint_path(output)
-    have_output, have_checkpoint = os.path.exists(output), os.path.exists(checkpoint)
+    newest = checkpoint_path(output)
+    have_output = os.path.exists(output)
+    have_checkpoint = os.path.exists(newest) or os.path.exists(previous_path(newest))
     if not restart and (overwrite or not (have_output and have_checkpoint)):
-        return False
+        return None
     if not have_checkpoint:
-        raise UsageError(f"--restart: no checkpoint {checkpoint} for -o {output}")
+        raise UsageError(f"--restart: no checkpoint {newest} for -o {output}")
     if not have_output:
-        raise UsageError(f"--restart: checkpoint {checkpoint} exists but its output {output}"
+        raise UsageError(f"--restart: checkpoint {newest} exists but its output {output}"
                          " does not")
+    checkpoint, problems = usable_checkpoint(newest)
+    if checkpoint is None:
+        raise UsageError(f"cannot resume -o {output}: " + "; ".join(problems)
+                         + " (pass --overwrite to start the case again)")
+    if problems:
+        logger.warning(f"{problems[0]}; resuming from the previous checkpoint {checkpoint}")
     try:
         saved = read_checkpoint_attrs(checkpoint)
         identity = str(saved["case_identity"])
@@ -64,4 +77,4 @@ def _check_resume(case, output, restart, overwrite):
                          f" {written[0]}, {written[1]} steps, {written[2]} snapshots written;"
                          f" the checkpoint needs case {needed[0]}, {needed[1]} steps,"
                          f" {needed[2]} snapshots)")
-    return True
+    return checkpoint

@@ -10,8 +10,10 @@ Progress goes to the ``hpcgfmd`` logger (:mod:`hpcgfmd.logs`).
 """
 from __future__ import annotations
 
+import errno
 import json
 import logging
+import os
 import time
 
 from ..errors import CaseError, CaseFailure, Interrupted
@@ -21,7 +23,8 @@ from ..signals import StopSignals
 from ..solvers import solver_class
 from ..storage.casefile import CaseFile
 from ..storage.checkpoint import (checkpoint_path, read_checkpoint, remove_checkpoint,
-                                  write_checkpoint)
+                                  usable_checkpoint, write_checkpoint)
+from ..storage.space import MARGIN, checkpoint_bytes, free_bytes, step_bytes
 from .progress import Progress
 from .protocol import Retraction
 
@@ -130,6 +133,7 @@ def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
     dom = sim.domain
     checkpoint = checkpoint_path(path)
     if resume:
+        checkpoint = _resume_from(checkpoint, resume, comm)
         fields, attrs = read_checkpoint(checkpoint, comm, dom.x_start, dom.x_stop)
         sim.restore(fields, attrs)
         schedule.restore(attrs["snapshot_schedule"])
@@ -144,6 +148,11 @@ def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
         logger.info(f"resuming from {checkpoint} at step {sim.step_index}"
                     f" (t = {sim.time * case.units.time:.6g}) on {comm.Get_size()} rank(s)")
         return out, snapshots, float(attrs["wall_time"])
+    room = step_bytes(sim.n) + checkpoint_bytes(sim.n, len(sim.FIELDS)) + MARGIN
+    free = comm.bcast(free_bytes(path) if comm.Get_rank() == 0 else None, root=0)
+    if free < 2 * room:  # the new file, its first steps and a checkpoint (storage/space.py)
+        raise CaseError(f"-o {path}: {free} bytes free on its file system, at least"
+                        f" {2 * room} needed to start")
     record = sim.preload()
     if record.cohesive_half_width > MAX_ZONE_PER_CELL * case.cell:
         need = record.cohesive_half_width / MAX_ZONE_PER_CELL
@@ -162,6 +171,25 @@ def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
     return out, 1, 0.0
 
 
+def _resume_from(newest, resume, comm):
+    """Collective: the checkpoint generation to read (``resume`` itself when it is a path,
+    else the newest usable one, rank 0 deciding); a damaged newest one passed over is
+    renamed ``<name>.corrupt``, so that the next checkpoint does not push the good previous
+    generation out."""
+    def choose():
+        chosen = resume if isinstance(resume, str) else usable_checkpoint(newest)[0]
+        if chosen is None:
+            return None, f"no usable checkpoint {newest} (or its previous generation)"
+        if chosen != newest and os.path.exists(newest):
+            os.replace(newest, newest + ".corrupt")
+        return chosen, None
+
+    chosen, error = comm.bcast(choose() if comm.Get_rank() == 0 else None, root=0)
+    if error:
+        raise CaseError(error)
+    return chosen
+
+
 def _run(sim, case, path, comm, overwrite, resume, stop, start):
     """The body of :func:`run_case` on a built :class:`Retraction`."""
     dom = sim.domain
@@ -177,10 +205,31 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
         attrs.update(case_identity=case.identity(), snapshot_schedule=schedule.state(),
                      snapshots_written=snapshots,
                      wall_time=wall_before + time.monotonic() - start)
-        write_checkpoint(checkpoint, comm, sim.n, dom.x_start, fields, attrs)
+        try:
+            write_checkpoint(checkpoint, comm, sim.n, dom.x_start, fields, attrs)
+        except OSError as err:  # alike on every rank: rank 0's free space was broadcast
+            if err.errno != errno.ENOSPC:
+                raise
+            raise CaseFailure(f"disk full at step {sim.step_index}: {err.strerror}") from None
+
+    # the next step's output and one checkpoint must fit (storage/space.py); rank 0 asks
+    room = step_bytes(sim.n) + checkpoint_bytes(sim.n, len(sim.FIELDS)) + MARGIN
+
+    def short_of_space():
+        return comm.Get_rank() == 0 and free_bytes(path) < room
+
+    def stop_for_space():
+        save()
+        raise CaseFailure(f"disk full: {os.path.dirname(os.path.abspath(path))} has"
+                          f" {free_bytes(path) if comm.Get_rank() == 0 else 0} bytes free, a"
+                          f" step and a checkpoint need {room}; stopped at step"
+                          f" {sim.step_index} with checkpoint {checkpoint}: free space and"
+                          " run the same command again")
 
     try:
         progress = Progress(case.output.progress_interval, case.units)
+        if comm.bcast(short_of_space(), root=0):
+            stop_for_space()
         while not sim.detached():
             record = sim.step()
             out.append_step(record.as_dict())
@@ -194,7 +243,10 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
             by_time = (comm.Get_rank() == 0
                        and time.monotonic() - last_checkpoint >= case.output.checkpoint_interval)
             by_step = every > 0 and sim.step_index % every == 0
-            signalled, timed = dom.maxes(float(stop.received is not None), float(by_time))
+            signalled, timed, short = dom.maxes(float(stop.received is not None),
+                                                float(by_time), float(short_of_space()))
+            if short:
+                stop_for_space()
             if signalled or timed or by_step:
                 save()
                 last_checkpoint = time.monotonic()

@@ -34,7 +34,7 @@ import tomli_w
 
 from ..errors import CaseError, SweepError
 from ..model.case import (DEFAULT_STEP_PER_RANGE, NUMERICS_KEYS, OUTPUT_KEYS, SECTIONS, Case,
-                          parse_case)
+                          parse_case, quoted_key)
 
 FARM_KEYS = ("ranks_per_case", "output")
 # Cost model of the dry run and of the longest-first order: seconds per CG iteration and
@@ -110,20 +110,26 @@ def to_toml(doc: dict) -> str:
         raise SweepError(f"{err}: only numbers, booleans, strings and lists can be swept") from None
 
 
+def _dotted(key) -> str:
+    """A swept key for a message: each part as written, quoted unless it is a bare key."""
+    return ".".join(quoted_key(part) for part in key.split("."))
+
+
 def _resolve(key, base):
     """'section.key' of a swept key, looked up in the base's sections."""
     if "." in key:
         section, name = key.split(".", 1)
         present = section in base or section in ("numerics", "output")  # optional sections
         if not present or name not in SECTIONS.get(section, ()):
-            raise SweepError(f"{key}: no key {name!r} in section [{section}] of this base case")
+            raise SweepError(f"{_dotted(key)}: no key {name!r} in section"
+                             f" [{quoted_key(section)}] of this base case")
         return section, name
     owners = [s for s in SECTIONS if (s in base or s in ("numerics", "output"))
               and key in SECTIONS[s]]
     if not owners:
         form = "case" if "case" in base else "physical"
         accepted = ", ".join((*SECTIONS[form], *NUMERICS_KEYS, *OUTPUT_KEYS))
-        raise SweepError(f"{key}: not a key of the base case; accepted: {accepted}")
+        raise SweepError(f"{_dotted(key)}: not a key of the base case; accepted: {accepted}")
     return owners[0], key
 
 
@@ -148,12 +154,14 @@ def parse_sweep(text: str, directory: str = ".", path: str = "") -> Sweep:
     """Validate a sweep file's text and build its cases (raises :class:`SweepError`)."""
     try:
         doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
+    except RecursionError:
+        raise SweepError("not valid TOML: arrays or inline tables nested too deeply") from None
+    except ValueError as err:  # TOMLDecodeError, or int()'s limit of 4300 digits
         raise SweepError(f"not valid TOML: {err}") from None
     for key in doc:
         if key not in ("base", "grid", "cases", "farm"):
-            raise SweepError(f"{key}: unknown key or section; accepted: base, [grid], [[cases]],"
-                             " [farm]")
+            raise SweepError(f"{quoted_key(key)}: unknown key or section; accepted: base, [grid],"
+                             " [[cases]], [farm]")
     if "base" not in doc:
         raise SweepError("base: missing; give a case file name or [base.case] / [base.physical]")
     base = doc["base"]
@@ -161,10 +169,19 @@ def parse_sweep(text: str, directory: str = ".", path: str = "") -> Sweep:
         base_path = os.path.join(directory, base)
         try:
             with open(base_path, "rb") as fh:
-                base = tomllib.load(fh)
+                raw = fh.read()
         except OSError as err:
             raise SweepError(f"base = {doc['base']!r}: cannot read it ({err.strerror})") from None
-        except tomllib.TOMLDecodeError as err:
+        except ValueError:  # a NUL character
+            raise SweepError(f"base = {doc['base']!r}: not a file name") from None
+        try:
+            base = tomllib.loads(raw.decode("utf-8"))
+        except UnicodeDecodeError:
+            raise SweepError(f"base = {doc['base']!r}: not UTF-8 text") from None
+        except RecursionError:
+            raise SweepError(f"base = {doc['base']!r}: not valid TOML: arrays or inline tables"
+                             " nested too deeply") from None
+        except ValueError as err:  # TOMLDecodeError, or int()'s limit of 4300 digits
             raise SweepError(f"base = {doc['base']!r}: not valid TOML: {err}") from None
     if not isinstance(base, dict) or not ({"case", "physical"} & set(base)):
         raise SweepError("base: needs a [base.case] or [base.physical] section (or a case file)")
@@ -181,12 +198,16 @@ def parse_sweep(text: str, directory: str = ".", path: str = "") -> Sweep:
     axes = []
     for key, values in grid.items():
         if not isinstance(values, list) or not values:
-            raise SweepError(f"[grid] {key} = {values!r}: expected a non-empty list of values")
+            raise SweepError(f"[grid] {_dotted(key)} = {values!r}: expected a non-empty list"
+                             " of values")
         axes.append((_resolve(key, base), values))
     farm = doc.get("farm", {})
+    if not isinstance(farm, dict):
+        raise SweepError(f"farm = {farm!r}: expected a section [farm] of ranks_per_case, output")
     for key in farm:
         if key not in FARM_KEYS:
-            raise SweepError(f"[farm] {key}: unknown key; accepted: {', '.join(FARM_KEYS)}")
+            raise SweepError(f"[farm] {quoted_key(key)}: unknown key; accepted:"
+                             f" {', '.join(FARM_KEYS)}")
     ranks = farm.get("ranks_per_case", 1)
     if isinstance(ranks, bool) or not isinstance(ranks, int) or ranks < 1:
         raise SweepError(f"[farm] ranks_per_case = {ranks!r}: expected an integer >= 1")

@@ -58,7 +58,7 @@ GRID_PER_OCTAVE = 4    # steps are dt_min 2^(j/4): see AdaptiveSteps._on_grid
 ABANDON_EDGE = REJECT_EDGE  # edge ratio at which a solve is abandoned (module docstring)
 CURVATURE_AGE = 8      # steps a smooth curvature stands in for windows with crossings ...
 CURVATURE_LIFETIME = 0.05  # ... and time, in relaxation times tau (u_tt changes over tau)
-REJECT_LAG = 4.0       # ... or the tip's lag error four times its allowance (it jumps as nodes cross)
+REJECT_LAG = 4.0       # ... or the tip's lag error four times its allowance (jumps at crossings)
 LAG_PER_LOAD = 3.0     # pull-off error / tip lag bound, measured (tip_lag_error)
 
 

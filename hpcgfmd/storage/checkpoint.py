@@ -6,12 +6,22 @@ Layout of a checkpoint file (HDF5, written collectively with the ``mpio`` driver
            scalars, strings and small 1D arrays
 /fields/   attr n (grid nodes); one float64 dataset (n,) per state field, in global node order
 
-A checkpoint is replaced atomically: the new one is written to ``<path>.tmp``, synced, and
-renamed onto ``<path>``, so a crash at any moment leaves either the old complete checkpoint or
-the new one (a stale ``.tmp`` is ignored and overwritten by the next write).
+A checkpoint is replaced atomically: the new one is written to ``<path>.tmp``, its digest
+stored, synced, the one it replaces renamed to the previous generation
+``<...>.checkpoint.previous.h5`` and the new one renamed onto ``<path>``. A crash at any moment
+leaves the newest complete checkpoint under one of the two names (a stale ``.tmp`` is ignored
+and overwritten by the next write).
+
+Digest: the root attribute ``state_digest`` is the SHA-256 of every field's bytes (global
+order, sorted names) and of every other attribute, computed from the written file; a file cut
+short, with flipped bytes or otherwise altered fails :func:`checkpoint_problem` and is not
+resumed from (:func:`usable_checkpoint` then takes the previous generation). Format 1 files
+(before the digest) are read unverified.
 """
 from __future__ import annotations
 
+import errno
+import hashlib
 import os
 
 import h5py
@@ -19,16 +29,88 @@ import numpy as np
 
 from .. import __version__
 from .hdf5 import check_blocks, open_file, read_block, write_block
+from .space import MARGIN, checkpoint_bytes, free_bytes
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: with state_digest
 _MARK = "hpcgfmd_checkpoint"  # root attribute holding the format version
-_RESERVED = (_MARK, "hpcgfmd_version")
+_DIGEST = "state_digest"
+_RESERVED = (_MARK, "hpcgfmd_version", _DIGEST)
 
 
 def checkpoint_path(output_path) -> str:
     """Checkpoint file of a case file: ``<output without .h5>.checkpoint.h5`` next to it."""
     path = os.fspath(output_path)
     return (path[:-3] if path.endswith(".h5") else path) + ".checkpoint.h5"
+
+
+def previous_path(path) -> str:
+    """The previous generation of the checkpoint ``path``: ``<...>.previous.h5``."""
+    path = os.fspath(path)
+    return (path[:-3] if path.endswith(".h5") else path) + ".previous.h5"
+
+
+def _digest(f) -> str:
+    """SHA-256 (hex) of an open checkpoint's fields and attributes, the digest excepted."""
+    sha = hashlib.sha256()
+    for key in sorted(k for k in f.attrs if k != _DIGEST):
+        value = np.asarray(f.attrs[key])
+        sha.update(key.encode() + b"=" + str(value.dtype).encode() + b":")
+        sha.update(value.tobytes() if value.dtype.kind not in "OUS" else str(value).encode())
+    group = f["fields"]
+    sha.update(b"n=" + str(int(group.attrs["n"])).encode())
+    for name in sorted(group):
+        sha.update(b"field " + name.encode())
+        sha.update(np.ascontiguousarray(group[name][...], dtype="<f8").tobytes())
+    return sha.hexdigest()
+
+
+def checkpoint_problem(path) -> str | None:
+    """Why the file ``path`` cannot be resumed from (one phrase), or None when it is a
+    complete hpcgfmd checkpoint whose digest matches its content. Serial (one process)."""
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        return "missing"
+    try:
+        if not h5py.is_hdf5(path):
+            return "not an HDF5 file (truncated or overwritten)"
+        with h5py.File(path, "r") as f:
+            version = f.attrs.get(_MARK)
+            if version is None or "fields" not in f:
+                return "not an hpcgfmd checkpoint"
+            if int(version) > FORMAT_VERSION:
+                return f"checkpoint format {int(version)} is newer than this hpcgfmd reads"
+            if int(version) < 2:
+                return None  # written before the digest existed
+            stored = f.attrs.get(_DIGEST)
+            if stored is None:
+                return "no state digest (its write did not complete)"
+            if _digest(f) != str(stored):
+                return "its state digest does not match its content (altered or damaged)"
+    except (OSError, KeyError, ValueError, RuntimeError) as err:
+        return f"unreadable ({' '.join(str(err).split())})"
+    return None
+
+
+def usable_checkpoint(path) -> tuple[str | None, list[str]]:
+    """The newest checkpoint generation of ``path`` that can be resumed from (serial).
+
+    Returns
+    -------
+    chosen : str or None
+        ``path``, or its previous generation (:func:`previous_path`) when ``path`` is
+        missing or fails :func:`checkpoint_problem`; None when neither can be used.
+    problems : list of str
+        One line per generation passed over, naming the file and why.
+    """
+    problems = []
+    for candidate in (os.fspath(path), previous_path(path)):
+        if not os.path.exists(candidate):
+            continue
+        problem = checkpoint_problem(candidate)
+        if problem is None:
+            return candidate, problems
+        problems.append(f"{candidate}: {problem}")
+    return None, problems
 
 
 def _on_root(comm, action):
@@ -44,13 +126,19 @@ def _on_root(comm, action):
         raise error
 
 
-def _replace(tmp, path):
-    """Rename ``tmp`` onto ``path`` durably: data synced before, directory synced after."""
+def _seal(tmp, path):
+    """Store the digest of the written ``tmp``, then make it ``path`` durably: data synced,
+    the current ``path`` renamed to the previous generation, ``tmp`` renamed onto ``path``,
+    the directory synced."""
+    with h5py.File(tmp, "r+") as f:
+        f.attrs[_DIGEST] = _digest(f)
     fd = os.open(tmp, os.O_RDONLY)
     try:
         os.fsync(fd)
     finally:
         os.close(fd)
+    if os.path.exists(path):
+        os.replace(path, previous_path(path))
     os.replace(tmp, path)
     fd = os.open(os.path.dirname(os.path.abspath(path)), os.O_RDONLY)
     try:
@@ -89,6 +177,12 @@ def write_checkpoint(path, comm, n, x_start, fields: dict, attrs: dict):
     attrs = comm.bcast(attrs, root=0)
     if clash := set(attrs) & set(_RESERVED):
         raise ValueError(f"checkpoint attribute names {sorted(clash)} are reserved")
+    # Room for the new file first (storage/space.py): a failed HDF5 write is not clean.
+    need = checkpoint_bytes(n, len(blocks)) + MARGIN
+    free = comm.bcast(free_bytes(path) if comm.Get_rank() == 0 else None, root=0)
+    if free < need:
+        raise OSError(errno.ENOSPC, f"no space for checkpoint {path}: {free} bytes free,"
+                      f" {need} needed; the checkpoint before it is kept")
     with open_file(tmp, "w", comm) as f:  # "w": a stale .tmp of a crashed write is overwritten
         f.attrs[_MARK] = FORMAT_VERSION
         f.attrs["hpcgfmd_version"] = __version__
@@ -99,8 +193,8 @@ def write_checkpoint(path, comm, n, x_start, fields: dict, attrs: dict):
         for name in sorted(blocks):  # same creation order on every rank
             write_block(group.create_dataset(name, shape=(n,), dtype="f8"), x_start,
                         blocks[name])
-    comm.Barrier()  # every rank has closed (so written) the file before it is renamed
-    _on_root(comm, lambda: _replace(tmp, path))
+    comm.Barrier()  # every rank has closed (so written) the file before it is sealed
+    _on_root(comm, lambda: _seal(tmp, path))
 
 
 def read_checkpoint(path, comm, x_start, x_stop) -> tuple[dict, dict]:
@@ -164,11 +258,12 @@ def read_checkpoint_attrs(path) -> dict:
 
 
 def remove_checkpoint(path, comm):
-    """Delete a checkpoint and any stale ``.tmp`` of it, if present (collective)."""
+    """Delete a checkpoint, its previous generation and any stale ``.tmp`` of it, if
+    present (collective)."""
     path = os.fspath(path)
 
     def remove():
-        for name in (path, path + ".tmp"):
+        for name in (path, path + ".tmp", previous_path(path)):
             try:
                 os.remove(name)
             except FileNotFoundError:

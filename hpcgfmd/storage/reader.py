@@ -3,14 +3,24 @@
 Works on finished files, on files of a running or killed case (the series are cut to the
 entries completely written, ``steps_complete``), and on files written before the datasets had
 dimension scales and units.
+
+Anything else raises :class:`~hpcgfmd.errors.ResultFileError` with a one-line message naming
+the path, what is wrong and what is expected: a missing path, a directory, a file that cannot
+be opened, an empty or non-HDF5 file, an HDF5 file of another program (no ``/series`` group or
+no ``config`` attribute), a case file cut short on disk (HDF5 cannot open it or read a
+dataset), and series or snapshots shorter than ``steps_complete`` (``complete``). A kill
+between two appends leaves some series one entry *longer* than ``steps_complete``
+(:mod:`hpcgfmd.storage.casefile`); such files are legitimate and read as before.
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import h5py
 import numpy as np
 
+from ..errors import ResultFileError
 from ..model import theory
 
 SERIES = ("time", "indenter", "load", "contact_half_width", "cohesive_half_width",
@@ -128,30 +138,161 @@ class Result:
                        time=float(s.time[i]))
 
 
+EXPECTED = "expected an hpcgfmd output file (the HDF5 file `python -m hpcgfmd run` writes)"
+SNAPSHOT_FIELDS = ("surface", "pressure", "gap")
+REQUIRED_ATTRS = ("config", "beta", "load_scale")  # written by every version
+
+
+def _reason(err) -> str:
+    """An exception's message on one line."""
+    return " ".join(str(err).split()) or type(err).__name__
+
+
+def _bad(path, problem, expected=EXPECTED) -> ResultFileError:
+    return ResultFileError(f"{path}: {problem}; {expected}")
+
+
+def _check_file(path) -> str:
+    """``path`` as a string if it is a readable, non-empty HDF5 file, else ResultFileError."""
+    name = os.fspath(path)
+    if not os.path.exists(name):
+        raise _bad(name, "no such file")
+    if os.path.isdir(name):
+        raise _bad(name, "is a directory")
+    try:
+        with open(name, "rb") as raw:
+            empty = not raw.read(1)
+    except OSError as err:
+        raise _bad(name, f"cannot be opened: {err.strerror or _reason(err)}",
+                   "expected a readable hpcgfmd output file") from None
+    if empty:
+        raise _bad(name, "empty file (0 bytes), not an HDF5 file")
+    try:
+        hdf5 = h5py.is_hdf5(name)
+    except OSError as err:
+        raise _bad(name, f"cannot be opened: {_reason(err)}") from None
+    if not hdf5:
+        raise _bad(name, "not an HDF5 file")
+    return name
+
+
+def _read(path, snapshots: bool):
+    """(Series, Snapshots or None) of the case file ``path``; ResultFileError if unreadable."""
+    name = _check_file(path)
+    try:
+        f = h5py.File(name, "r")
+    except OSError as err:
+        raise _bad(name, f"an HDF5 file that HDF5 cannot open (cut short or damaged?):"
+                         f" {_reason(err)}", "expected a complete hpcgfmd output file") from None
+    try:
+        with f:
+            series = _series(f, name)
+            return series, (_snapshots(f, name) if snapshots else None)
+    except ResultFileError:
+        raise
+    except (OSError, KeyError, ValueError, TypeError, RuntimeError) as err:
+        # metadata that HDF5 cannot read (a file cut short or damaged)
+        raise _bad(name, f"cannot be read (cut short or damaged?): {_reason(err)}",
+                   "expected a complete hpcgfmd output file") from None
+
+
 def _attrs(f):
     return {k: (v.item() if hasattr(v, "item") else v) for k, v in f.attrs.items()}
 
 
-def read_series(path) -> Series:
-    """Read the series and root attributes of a case file (works on unfinished files too)."""
-    with h5py.File(path, "r") as f:
-        return _series(f)
+def _dataset(f, path, name, ndim):
+    """The dataset ``name`` of ``f``, checked to exist with ``ndim`` dimensions."""
+    if not isinstance(f.get(name), h5py.Dataset):
+        raise _bad(path, f"hpcgfmd output without dataset /{name} (damaged, or written by"
+                         " another program)")
+    ds = f[name]
+    if ds.ndim != ndim:
+        raise _bad(path, f"dataset /{name} has {ds.ndim} dimensions, not {ndim}")
+    return ds
 
 
-def _series(f) -> Series:
+def _count(path, attrs, key, datasets, owner):
+    """Entries complete: the attribute ``key`` (every dataset must hold that many), else the
+    shortest dataset (files written before the attribute existed)."""
+    lengths = {name: ds.shape[0] for name, ds in datasets.items()}
+    if key not in attrs:
+        return min(lengths.values())
+    n = attrs[key]
+    if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 0:
+        raise _bad(path, f"attribute {owner}{key} = {n!r} is not a count")
+    for name, length in lengths.items():
+        if length < n:
+            # a kill between two appends leaves datasets one entry longer, never shorter
+            raise _bad(path, f"dataset {name} is shorter than {key} ({length} < {n} entries;"
+                             " truncated)", f"expected at least {key} entries in every"
+                             " dataset of a complete hpcgfmd output file")
+    return int(n)
+
+
+def _values(path, ds, selection):
+    """Read ``ds[selection]``, or ResultFileError naming the dataset."""
+    try:
+        return ds[selection]
+    except (OSError, ValueError, TypeError, RuntimeError) as err:
+        raise _bad(path, f"dataset {ds.name} cannot be read (cut short or damaged?):"
+                         f" {_reason(err)}", "expected a complete hpcgfmd output file") from None
+
+
+def _series(f, path) -> Series:
+    missing = [what for what, absent in (("no /series group",
+                                          not isinstance(f.get("series"), h5py.Group)),
+                                         ("no config attribute", "config" not in f.attrs))
+               if absent]
+    if missing:
+        raise _bad(path, f"an HDF5 file but not hpcgfmd output: {' and '.join(missing)}")
     attrs = _attrs(f)
-    s = f["series"]
-    n = int(attrs.get("steps_complete", s["time"].shape[0]))
-    return Series(attrs=attrs, **{name: s[name][:n] for name in SERIES})
+    for key in REQUIRED_ATTRS:
+        if key not in attrs:
+            raise _bad(path, f"hpcgfmd output without root attribute {key} (damaged?)")
+    datasets = {f"/series/{name}": _dataset(f, path, f"series/{name}", 1) for name in SERIES}
+    n = _count(path, attrs, "steps_complete", datasets, "/")
+    return Series(attrs=attrs, **{name: _values(path, ds, slice(0, n))
+                                  for name, ds in zip(SERIES, datasets.values())})
+
+
+def _snapshots(f, path) -> Snapshots:
+    if not isinstance(f.get("snapshots"), h5py.Group):
+        raise _bad(path, "hpcgfmd output without the /snapshots group (damaged, or written by"
+                         " another program)")
+    snaps = f["snapshots"]
+    x = _dataset(f, path, "snapshots/x", 1)
+    rows = {"/snapshots/time": _dataset(f, path, "snapshots/time", 1)}
+    rows.update({f"/snapshots/{name}": _dataset(f, path, f"snapshots/{name}", 2)
+                 for name in SNAPSHOT_FIELDS})
+    for name in SNAPSHOT_FIELDS:
+        columns = rows[f"/snapshots/{name}"].shape[1]
+        if columns != x.shape[0]:
+            raise _bad(path, f"dataset /snapshots/{name} has {columns} columns but /snapshots/x"
+                             f" {x.shape[0]} nodes")
+    count = _count(path, _attrs(snaps), "complete", rows, "/snapshots ")
+    values = {name: _values(path, ds, slice(0, count)) for name, ds in rows.items()}
+    return Snapshots(time=values["/snapshots/time"], x=_values(path, x, slice(None)),
+                     **{name: values[f"/snapshots/{name}"] for name in SNAPSHOT_FIELDS})
+
+
+def read_series(path) -> Series:
+    """Read the series and root attributes of a case file (works on unfinished files too).
+
+    Raises
+    ------
+    ResultFileError
+        ``path`` is not a readable hpcgfmd output file (see the module docstring).
+    """
+    return _read(path, snapshots=False)[0]
 
 
 def read_result(path) -> Result:
-    """The series, the snapshots and the attributes of a case file (finished or not)."""
-    with h5py.File(path, "r") as f:
-        series = _series(f)
-        snaps = f["snapshots"]
-        count = int(snaps.attrs.get("complete", snaps["time"].shape[0]))
-        snapshots = Snapshots(time=snaps["time"][:count], x=snaps["x"][:],
-                              **{name: snaps[name][:count] for name in
-                                 ("surface", "pressure", "gap")})
-    return Result(path=str(path), attrs=series.attrs, series=series, snapshots=snapshots)
+    """The series, the snapshots and the attributes of a case file (finished or not).
+
+    Raises
+    ------
+    ResultFileError
+        ``path`` is not a readable hpcgfmd output file (see the module docstring).
+    """
+    series, snapshots = _read(path, snapshots=True)
+    return Result(path=os.fspath(path), attrs=series.attrs, series=series, snapshots=snapshots)

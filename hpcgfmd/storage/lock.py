@@ -1,0 +1,104 @@
+"""One writer per output file: an exclusive lock on ``<output>.lock`` for the whole run.
+
+Two runs started on the same output (a job resubmitted while the first still runs, two job
+array elements given the same ``-o``) would write one HDF5 file from two processes and destroy
+it. The first run holds an advisory ``flock`` on ``<output>.lock``; the second finds it held
+and refuses before computing anything. The kernel releases a ``flock`` when its process ends,
+however it ends (SIGKILL, node crash of a local file system), so a crashed run leaves no
+stale lock: the file may remain, unlocked, and the next run takes it over.
+
+Protocol (safe against a run that removes the file while another opens it): open or create
+the file, ``flock(LOCK_EX | LOCK_NB)``, then check that the path still names the locked inode
+(else retry); on release, unlink the path first and unlock after. The holder's pid and host
+are written into the file for the message of the run that is refused.
+
+Network file systems: Lustre and NFSv4 honour ``flock`` across nodes when mounted with it
+(Lustre ``-o flock``); where they do not, the lock guards only against runs on the same node.
+"""
+from __future__ import annotations
+
+import errno
+import fcntl
+import os
+import socket
+
+from ..errors import UsageError
+
+
+def lock_path(output) -> str:
+    """The lock file of an output file: ``<output>.lock``."""
+    return os.fspath(output) + ".lock"
+
+
+class OutputLock:
+    """The held lock of one output file (rank 0's; see :func:`acquire_output_lock`)."""
+
+    def __init__(self, path, fd):
+        self.path, self._fd = path, fd
+
+    def release(self):
+        """Remove the lock file and unlock (idempotent)."""
+        if self._fd is None:
+            return
+        try:
+            os.unlink(self.path)
+        except FileNotFoundError:
+            pass
+        os.close(self._fd)  # closing the last descriptor releases the flock
+        self._fd = None
+
+
+def _lock_or_refuse(output) -> OutputLock:
+    """Rank 0: take the lock of ``output``, or raise UsageError (one line) naming the holder,
+    a missing directory or an unwritable one."""
+    path = lock_path(output)
+    directory = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(directory):
+        raise UsageError(f"-o {output}: directory {directory} does not exist")
+    for _ in range(10):  # retries only when a holder removed the file in between
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as err:
+            raise UsageError(f"-o {output}: cannot write in {directory}"
+                             f" ({os.strerror(err.errno)})") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as err:
+            holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "another process"
+            os.close(fd)
+            if err.errno in (errno.EWOULDBLOCK, errno.EACCES):
+                raise UsageError(f"-o {output}: being written by {holder} (lock {path});"
+                                 " wait for it to end or choose another -o") from None
+            raise UsageError(f"-o {output}: cannot lock {path} ({os.strerror(err.errno)})"
+                             ) from None
+        try:
+            same = os.stat(path).st_ino == os.fstat(fd).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()}\n".encode(), 0)
+            return OutputLock(path, fd)
+        os.close(fd)  # the holder removed it while we opened it: take the new one
+    raise UsageError(f"-o {output}: cannot lock {path} (it keeps being replaced)")
+
+
+def acquire_output_lock(comm, output) -> OutputLock | None:
+    """Collective: rank 0 takes the lock of ``output`` (returned; None on other ranks).
+
+    Raises
+    ------
+    UsageError
+        On every rank alike, when another process holds the lock, or the output's directory
+        is missing or cannot be written.
+    """
+    lock, error = None, None
+    if comm.Get_rank() == 0:
+        try:
+            lock = _lock_or_refuse(output)
+        except UsageError as err:
+            error = str(err)
+    error = comm.bcast(error, root=0)
+    if error:
+        raise UsageError(error)
+    return lock
