@@ -18,6 +18,7 @@ import logging
 import os
 import signal
 import sys
+import tempfile
 import time
 from importlib import resources
 
@@ -96,6 +97,23 @@ def _farm_directory(args, sweep):
     return os.path.splitext(args.sweep)[0]
 
 
+def _check_farm_directory(comm, out_dir):
+    """Collective: the farm's directory exists (made if need be) and takes a file, else one
+    UsageError line on every rank, before any case runs."""
+    error = None
+    if comm.Get_rank() == 0:
+        try:
+            os.makedirs(out_dir, exist_ok=True)
+            fd, probe = tempfile.mkstemp(dir=out_dir, prefix=".write-test-")
+            os.close(fd)
+            os.remove(probe)
+        except OSError as err:
+            error = f"-o {out_dir}: cannot write there ({err.strerror})"
+    error = comm.bcast(error, root=0)
+    if error:
+        raise UsageError(error)
+
+
 def cmd_farm(comm, args):
     from .runs.farm import plan_table, run_farm
     from .runs.sweep import load_sweep
@@ -122,6 +140,7 @@ def cmd_farm(comm, args):
     if args.dry_run:
         logger.info(plan_table(sweep, out_dir, size // ranks))
         return EXIT_OK
+    _check_farm_directory(comm, out_dir)
     logger.info(f"farm: {len(sweep.cases)} cases in {out_dir}, {size} ranks, {ranks} per case")
     return run_farm(sweep, comm, out_dir, ranks_per_case=ranks, only=args.case, stop=args.stop)
 

@@ -144,8 +144,10 @@ def test_resume_passes_over_a_damaged_checkpoint_and_finishes_equal(tmp_path, da
     names = os.path.basename(newest), os.path.basename(previous_path(newest))
     assert len(warnings) == 1 and all(name in warnings[0] for name in names)
     assert "resuming from" in proc.stdout + proc.stderr
-    assert os.path.exists(newest + ".corrupt")  # kept for inspection, out of the rotation
-    assert not os.path.exists(newest) and not os.path.exists(previous_path(newest))
+    # the damaged one was set aside as *.corrupt (out of the rotation) and, with the other
+    # checkpoints, removed once the case finished
+    for left in (newest, previous_path(newest), newest + ".corrupt"):
+        assert not os.path.exists(left)
     assert_same_run(out, whole)
 
 
@@ -235,6 +237,14 @@ def test_missing_and_read_only_output_directories_refused_before_any_work(tmp_pa
         assert "Read-only file system" in lines[0]
         # before any computation: no preload was solved (its log line) and nothing written
         assert "writing" not in refused.stdout and os.listdir(tmp_path / "ro") == []
+        (tmp_path / "sweep.toml").write_text(case_text("nx = 1024", prefix="base.")
+                                             + "[grid]\nvelocity = [1.0, 2.0]\n")
+        farm = subprocess.run([sys.executable, "-m", "hpcgfmd", "farm", "sweep.toml", "-o",
+                               "ro/out"], cwd=tmp_path, capture_output=True, text=True,
+                              timeout=120)
+        assert farm.returncode == 2
+        assert farm.stderr.strip().splitlines() == [
+            "hpcgfmd: error: -o ro/out: cannot write there (Read-only file system)"]
     finally:
         subprocess.run(["umount", str(tmp_path / "ro")])
 
@@ -520,3 +530,50 @@ def test_too_little_space_to_start_is_refused_before_any_work(tmp_path):
         assert os.listdir(disk) == []
     finally:
         subprocess.run(["umount", str(disk)])
+
+
+def test_list_values_keep_their_separators_in_case_names():
+    # [1, 2] and [12] are different values: different names (the "_" was dropped once)
+    base = case_text("nx = 1024", prefix="base.")
+    sweep = parse_sweep_text(base + "[[cases]]\noutput.snapshot_times = [1, 2]\n"
+                             "[[cases]]\noutput.snapshot_times = [12]\n")
+    names = [item.name for item in sweep.cases]
+    assert names == ["snapshot_times_1_2", "snapshot_times_12"]
+
+
+def test_damaged_checkpoint_attributes_are_reported_not_raised(tmp_path):
+    # metadata damage that makes h5py raise TypeError: still a verdict, never an exception
+    path = str(tmp_path / "a.checkpoint.h5")
+    small_checkpoint(path, 1.0)
+    with h5py.File(path, "r+") as f:
+        f.attrs["hpcgfmd_checkpoint"] = np.array([2, 2])
+    assert checkpoint_problem(path).startswith("unreadable")
+    small_checkpoint(str(tmp_path / "b.checkpoint.h5"), 1.0)
+    with h5py.File(tmp_path / "b.checkpoint.h5", "r+") as f:
+        f["fields"].create_group("junk")
+    assert checkpoint_problem(str(tmp_path / "b.checkpoint.h5")).startswith("unreadable")
+
+
+def test_farm_passes_over_a_damaged_checkpoint_and_refuses_when_none_is_usable(tmp_path):
+    from hpcgfmd.runs.farm import case_file, run_farm
+    sweep_text = (case_text("nx = 1024\n" + FIXED_STEPS + "dt = 0.05", "checkpoint_steps = 5",
+                            prefix="base.") + "[grid]\nvelocity = [1.0, 2.0]\n")
+    sweep = parse_sweep_text(sweep_text)
+    out = tmp_path / "out"
+    out.mkdir()
+    paths = [case_file(str(out), item) for item in sweep.cases]
+    for item, path in zip(sweep.cases, paths):  # both cases interrupted after step 12
+        with pytest.raises(Interrupted):
+            run_case(item.case, path, COMM, planner_effort="FFTW_ESTIMATE", stop=StopAtStep(12))
+    flip_bytes(checkpoint_path(paths[0]))  # the first: its previous generation is usable
+    flip_bytes(checkpoint_path(paths[1]))  # the second: none is
+    truncate(previous_path(checkpoint_path(paths[1])))
+    kept = {p: digest_of(p) for p in (paths[1], checkpoint_path(paths[1]))}
+    status = run_farm(sweep, COMM, str(out))
+    assert status == 101
+    import csv
+    with open(out / "summary.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [r["status"] for r in rows] == ["finished", "failed"]
+    assert rows[1]["error"].startswith("cannot resume:")
+    assert {p: digest_of(p) for p in kept} == kept  # nothing touched

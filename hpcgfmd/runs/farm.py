@@ -19,8 +19,9 @@ whose file is marked finished (and belongs to the same case) is skipped, an inte
 continues from its checkpoint, any other is started again. SIGTERM or SIGUSR1 makes every
 running case checkpoint and stop, and no new case starts.
 
-Exit status: 0 all cases finished; 75 interrupted by a signal (resumable); 100 + N when N
-cases failed (capped at 199); 2 for a bad sweep file or command line.
+Exit status: 0 all cases finished; 75 interrupted by a signal, or cases left to another
+process writing them (the same command continues); 100 + N when N cases failed (capped at
+199); 2 for a bad sweep file or command line.
 """
 from __future__ import annotations
 
@@ -62,7 +63,8 @@ def case_file(out_dir, item) -> str:
 
 
 def file_status(path, item) -> str:
-    """'new', 'finished', 'resumable', 'unfinished' or 'other case' for a case's output file."""
+    """'new', 'finished', 'resumable', 'unfinished', 'damaged' (checkpoints, none usable) or
+    'other case' for a case's output file."""
     if not os.path.exists(path):
         return "new"
     try:
@@ -75,8 +77,9 @@ def file_status(path, item) -> str:
         return "other case"
     if finished:
         return "finished"
-    # a checkpoint generation that passes its digest; none: the case starts again
-    return "resumable" if usable_checkpoint(checkpoint_path(path))[0] else "unfinished"
+    # a checkpoint generation that passes its digest; damaged ones only: refused, as by run
+    chosen, problems = usable_checkpoint(checkpoint_path(path))
+    return "resumable" if chosen else "damaged" if problems else "unfinished"
 
 
 def plan_table(sweep, out_dir, groups):
@@ -190,6 +193,11 @@ def _run_locked(item, path, record, group, say, stop):
     if status == "finished":
         say(f"[{item.index}] {item.name}: finished before, skipped")
         return dict(record, status="finished")
+    if status == "damaged":
+        newest = checkpoint_path(path)
+        return dict(record, status="failed",
+                    error=f"cannot resume: {newest} and its previous generation are damaged;"
+                          " remove them to start the case again")
     if status == "other case":
         return dict(record, status="failed",
                     error=f"{path} holds another case; move it away to run this one")
@@ -282,7 +290,7 @@ def run_farm(sweep, comm, out_dir, ranks_per_case=1, only=None, stop=None) -> in
         mine = [r for r in rows if r["index"] in set(order)]  # --case: just that one
         failed = sum(r["status"] == "failed" for r in mine)
         if any(r["status"] in ("interrupted", "pending") for r in mine):
-            status = EXIT_RESUMABLE  # only a signal leaves cases undone
+            status = EXIT_RESUMABLE  # a signal, or cases another process is writing
         elif failed:
             status = EXIT_FAILED_BASE + min(failed, 99)
     if group is not comm:

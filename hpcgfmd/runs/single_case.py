@@ -177,9 +177,14 @@ def _resume_from(newest, resume, comm):
     renamed ``<name>.corrupt``, so that the next checkpoint does not push the good previous
     generation out."""
     def choose():
-        chosen = resume if isinstance(resume, str) else usable_checkpoint(newest)[0]
-        if chosen is None:
-            return None, f"no usable checkpoint {newest} (or its previous generation)"
+        if isinstance(resume, str):  # chosen (and reported) by the caller
+            chosen = resume
+        else:
+            chosen, problems = usable_checkpoint(newest)
+            if chosen is None:
+                return None, f"cannot resume: {'; '.join(problems) or f'no checkpoint {newest}'}"
+            if problems:
+                logger.warning(f"{problems[0]}; resuming from the previous checkpoint {chosen}")
         if chosen != newest and os.path.exists(newest):
             os.replace(newest, newest + ".corrupt")
         return chosen, None

@@ -145,9 +145,12 @@ def _flatten(table):
 
 
 def _label(value) -> str:
-    """A file-name part from a swept value: TOML's spelling, only [A-Za-z0-9.+-_] kept."""
+    """A file-name part from a swept value: TOML's spelling, only [A-Za-z0-9.+-_] kept; the
+    entries of a list joined by "_" (so that [1, 2] and [12] differ)."""
+    if isinstance(value, list):
+        return "_".join(_label(entry) for entry in value)
     text = tomli_w.dumps({"v": value})[len("v = "):].strip()
-    return re.sub(r"[^A-Za-z0-9.+-]", "", text.replace(", ", "_"))
+    return re.sub(r"[^A-Za-z0-9.+_-]", "", text)
 
 
 def parse_sweep(text: str, directory: str = ".", path: str = "") -> Sweep:

@@ -9,8 +9,9 @@ Layout of a checkpoint file (HDF5, written collectively with the ``mpio`` driver
 A checkpoint is replaced atomically: the new one is written to ``<path>.tmp``, its digest
 stored, synced, the one it replaces renamed to the previous generation
 ``<...>.checkpoint.previous.h5`` and the new one renamed onto ``<path>``. A crash at any moment
-leaves the newest complete checkpoint under one of the two names (a stale ``.tmp`` is ignored
-and overwritten by the next write).
+leaves a complete checkpoint under one of the two names: the newest one, except between the
+two renames, where the one before it is found as the previous generation (a stale ``.tmp``
+is ignored and overwritten by the next write).
 
 Digest: the root attribute ``state_digest`` is the SHA-256 of every field's bytes (global
 order, sorted names) and of every other attribute, computed from the written file; a file cut
@@ -77,16 +78,17 @@ def checkpoint_problem(path) -> str | None:
             version = f.attrs.get(_MARK)
             if version is None or "fields" not in f:
                 return "not an hpcgfmd checkpoint"
-            if int(version) > FORMAT_VERSION:
-                return f"checkpoint format {int(version)} is newer than this hpcgfmd reads"
-            if int(version) < 2:
-                return None  # written before the digest existed
+            version = int(version)
+            if version > FORMAT_VERSION or version < 1:
+                return f"checkpoint format {version} is not one this hpcgfmd reads"
             stored = f.attrs.get(_DIGEST)
             if stored is None:
+                if version == 1:
+                    return None  # written before the digest existed: read unverified
                 return "no state digest (its write did not complete)"
             if _digest(f) != str(stored):
                 return "its state digest does not match its content (altered or damaged)"
-    except (OSError, KeyError, ValueError, RuntimeError) as err:
+    except Exception as err:  # whatever damaged metadata raises, the verdict is "unusable"
         return f"unreadable ({' '.join(str(err).split())})"
     return None
 
@@ -258,12 +260,12 @@ def read_checkpoint_attrs(path) -> dict:
 
 
 def remove_checkpoint(path, comm):
-    """Delete a checkpoint, its previous generation and any stale ``.tmp`` of it, if
-    present (collective)."""
+    """Delete a checkpoint, its previous generation, a stale ``.tmp`` and a ``.corrupt``
+    one passed over on resuming, if present (collective)."""
     path = os.fspath(path)
 
     def remove():
-        for name in (path, path + ".tmp", previous_path(path)):
+        for name in (path, path + ".tmp", previous_path(path), path + ".corrupt"):
             try:
                 os.remove(name)
             except FileNotFoundError:

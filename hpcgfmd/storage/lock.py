@@ -13,16 +13,21 @@ the file, ``flock(LOCK_EX | LOCK_NB)``, then check that the path still names the
 are written into the file for the message of the run that is refused.
 
 Network file systems: Lustre and NFSv4 honour ``flock`` across nodes when mounted with it
-(Lustre ``-o flock``); where they do not, the lock guards only against runs on the same node.
+(Lustre ``-o flock``); where ``flock`` is not supported at all (ENOSYS, ENOLCK, EOPNOTSUPP) the
+run warns once and goes on unlocked.
 """
 from __future__ import annotations
 
 import errno
 import fcntl
+import logging
 import os
 import socket
 
 from ..errors import UsageError
+
+logger = logging.getLogger(__name__)
+UNSUPPORTED = (errno.ENOSYS, errno.ENOLCK, errno.EOPNOTSUPP)  # no flock on this file system
 
 
 def lock_path(output) -> str:
@@ -37,7 +42,7 @@ class OutputLock:
         self.path, self._fd = path, fd
 
     def release(self):
-        """Remove the lock file and unlock (idempotent)."""
+        """Remove the lock file and unlock (idempotent; nothing for a lock not taken)."""
         if self._fd is None:
             return
         try:
@@ -64,20 +69,31 @@ def _lock_or_refuse(output) -> OutputLock:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as err:
-            holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "another process"
+            try:
+                holder = os.pread(fd, 200, 0).decode(errors="replace").strip()
+            except OSError:
+                holder = ""
             os.close(fd)
+            if err.errno in UNSUPPORTED:
+                logger.warning(f"-o {output}: this file system does not support flock"
+                               f" ({os.strerror(err.errno)}); running without the output lock")
+                return OutputLock(path, None)
             if err.errno in (errno.EWOULDBLOCK, errno.EACCES):
-                raise UsageError(f"-o {output}: being written by {holder} (lock {path});"
-                                 " wait for it to end or choose another -o") from None
+                raise UsageError(f"-o {output}: being written by {holder or 'another process'}"
+                                 f" (lock {path}); wait for it to end or choose another -o"
+                                 ) from None
             raise UsageError(f"-o {output}: cannot lock {path} ({os.strerror(err.errno)})"
                              ) from None
         try:
             same = os.stat(path).st_ino == os.fstat(fd).st_ino
-        except FileNotFoundError:
+        except OSError:
             same = False
         if same:
-            os.ftruncate(fd, 0)
-            os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()}\n".encode(), 0)
+            try:  # best effort: the holder's name is for the message of a refused run
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()}\n".encode(), 0)
+            except OSError:
+                pass
             return OutputLock(path, fd)
         os.close(fd)  # the holder removed it while we opened it: take the new one
     raise UsageError(f"-o {output}: cannot lock {path} (it keeps being replaced)")
@@ -98,6 +114,8 @@ def acquire_output_lock(comm, output) -> OutputLock | None:
             lock = _lock_or_refuse(output)
         except UsageError as err:
             error = str(err)
+        except OSError as err:  # e.g. a file system gone stale: still one line
+            error = f"-o {output}: cannot lock {lock_path(output)} ({err.strerror})"
     error = comm.bcast(error, root=0)
     if error:
         raise UsageError(error)
