@@ -577,3 +577,21 @@ def test_farm_passes_over_a_damaged_checkpoint_and_refuses_when_none_is_usable(t
     assert [r["status"] for r in rows] == ["finished", "failed"]
     assert rows[1]["error"].startswith("cannot resume:")
     assert {p: digest_of(p) for p in kept} == kept  # nothing touched
+
+
+def test_a_file_system_without_flock_runs_unlocked_with_a_warning(tmp_path, monkeypatch, caplog):
+    # Lustre mounted noflock answers ENOSYS, NFSv3 without lockd ENOLCK: the run goes on
+    import errno
+    import fcntl
+    from hpcgfmd.storage import lock as lock_module
+
+    def no_flock(fd, operation):
+        raise OSError(errno.ENOSYS, os.strerror(errno.ENOSYS))
+
+    monkeypatch.setattr(fcntl, "flock", no_flock)
+    with caplog.at_level("WARNING"):
+        held = lock_module.acquire_output_lock(COMM, str(tmp_path / "out.h5"))
+    assert held is not None
+    assert any("does not support flock" in r.getMessage() for r in caplog.records)
+    held.release()  # nothing to release; no error
+    assert not os.path.exists(tmp_path / "out.h5.lock")

@@ -75,6 +75,10 @@ def _lock_or_refuse(output) -> OutputLock:
                 holder = ""
             os.close(fd)
             if err.errno in UNSUPPORTED:
+                try:  # the file locks nothing: not left behind
+                    os.unlink(path)
+                except OSError:
+                    pass
                 logger.warning(f"-o {output}: this file system does not support flock"
                                f" ({os.strerror(err.errno)}); running without the output lock")
                 return OutputLock(path, None)
