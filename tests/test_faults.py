@@ -190,8 +190,10 @@ def started_run(tmp_path, *args, steps=5):
 def test_second_run_on_the_same_output_refuses_and_the_first_is_unharmed(tmp_path):
     first = started_run(tmp_path)
     try:
+        first.send_signal(signal.SIGSTOP)  # still running (and holding its lock) meanwhile
         # even with --overwrite, which would replace a finished file
         second = hpcgfmd_run("slow.toml", "-o", "out.h5", "--overwrite", cwd=tmp_path)
+        first.send_signal(signal.SIGCONT)
         assert second.returncode == 2
         lines = second.stderr.strip().splitlines()
         assert len(lines) == 1 and "being written by pid" in lines[0] and "out.h5" in lines[0]
@@ -431,14 +433,28 @@ def test_farm_killed_and_started_again_finishes_every_case_once(tmp_path):
                             stderr=subprocess.PIPE, text=True)
     out = tmp_path / "out"
     deadline = time.monotonic() + 200
-    try:  # killed once a case has finished and the next one has a checkpoint
-        while not (out.exists() and any(p.endswith(".checkpoint.h5") for p in os.listdir(out))
-                   and any(read_series(out / p).attrs.get("finished", False)
-                           for p in os.listdir(out) if p.endswith("0.h5") or p.endswith("8.h5")
-                           and ".checkpoint" not in p and os.path.getsize(out / p) > 0)):
+
+    def finished(path):
+        try:
+            return bool(read_series(path).attrs.get("finished", False))
+        except Exception:  # being created
+            return False
+
+    try:  # killed once a case has finished and another has a checkpoint, seen while frozen
+        while True:
             assert farm.poll() is None and time.monotonic() < deadline, farm.communicate()
-            time.sleep(0.02)
-        farm.kill()
+            if out.exists():
+                farm.send_signal(signal.SIGSTOP)
+                names = [p for p in os.listdir(out) if p.endswith(".h5")
+                         and ".checkpoint" not in p]
+                done = [p for p in names if finished(out / p)]
+                resumable = [p for p in names if p not in done
+                             and os.path.exists(checkpoint_path(out / p))]
+                if done and resumable:
+                    farm.kill()
+                    break
+                farm.send_signal(signal.SIGCONT)
+            time.sleep(0.05)
         farm.wait(timeout=30)
     finally:
         farm.kill()
