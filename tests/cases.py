@@ -1,4 +1,5 @@
-"""The one builder of case files for the tests, and the small fast case they share.
+"""The one builder of case files for the tests, the small fast case they share, and a stop
+flag that interrupts a run after a given step.
 
 :data:`GROUPS`: lambda0 = 3.5, k = 0.1, V_z = 1 on a cell of L/R = 2 at h0/R = 0.03
 (alpha = 1e-4): about 217 steps, 1-6 s on one core for nx = 2048-8192, with a real
@@ -11,6 +12,20 @@ GROUPS = {"maugis": 3.5, "modulus_ratio": 0.1, "velocity": 1.0, "depth": 0.03, "
 # follow round-off differences in the loads (another rank count picks other steps now and then),
 # fixed steps do not.
 FIXED_STEPS = 'step_control = "fixed"\n'
+
+
+class StopAtStep:
+    """A stop flag in place of the run's StopSignals, raised once the run has looked at it k
+    times: it looks once after the preload and once after each step, so the run stops (with
+    a checkpoint) after step k."""
+
+    def __init__(self, k):
+        self.k, self.looks = k, 0
+
+    @property
+    def received(self):
+        self.looks += 1
+        return 10 if self.looks > self.k else None
 
 
 def case_text(numerics="nx = 2048", output="", prefix="", **groups):

@@ -25,24 +25,12 @@ from hpcgfmd.storage.checkpoint import (checkpoint_path, checkpoint_problem, pre
                                         usable_checkpoint, write_checkpoint)
 from hpcgfmd.storage.reader import read_series
 
-from cases import FIXED_STEPS, case_text
+from cases import FIXED_STEPS, StopAtStep, case_text
 
 COMM = MPI.COMM_SELF
 # fixed steps: the resumed run repeats the uninterrupted one bit for bit; a checkpoint every
 # 5 steps, so that a stop after step 12 leaves generations at steps 10 and 12
 TEXT = case_text("nx = 1024\n" + FIXED_STEPS + "dt = 0.05", "checkpoint_steps = 5")
-
-
-class StopAtStep:
-    """A stop flag raised at the k-th time the run looks at it (once per step)."""
-
-    def __init__(self, k):
-        self.k, self.looks = k, 0
-
-    @property
-    def received(self):
-        self.looks += 1
-        return 10 if self.looks > self.k else None
 
 
 def flip_bytes(path, dataset="fields/u", at=100):

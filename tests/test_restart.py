@@ -14,25 +14,13 @@ from hpcgfmd.storage.reader import read_series
 from hpcgfmd.model.case import parse_case
 from hpcgfmd.errors import Interrupted
 from hpcgfmd.runs.single_case import run_case
-from cases import case_text
+from cases import StopAtStep, case_text
 
 CASE = case_text("nx = 2048", "snapshot_times = [0.0, 3.0, 8.0]\nsnapshot_zero_load = true")
 # A fast retraction on a coarse grid (w/dx = 1.5): the history estimate of windows with node
 # crossings uses the kept smooth curvature (HistoryError, "Crossings"), which the
 # checkpoint must hold too.
 COARSE_FAST = case_text("nx = 1024", "snapshot_times = [0.0, 0.2]", velocity=9.0)
-
-
-class StopAtStep:
-    """A stop flag that is raised at the k-th time the run looks at it (once per step)."""
-
-    def __init__(self, k):
-        self.k, self.looks = k, 0
-
-    @property
-    def received(self):
-        self.looks += 1
-        return 10 if self.looks > self.k else None
 
 
 # (the coarse case stops after step 41: steps 40-43 are windows with crossings that use the
