@@ -24,7 +24,7 @@ from ..solvers import solver_class
 from ..storage.casefile import CaseFile
 from ..storage.checkpoint import (checkpoint_path, read_checkpoint, remove_checkpoint,
                                   usable_checkpoint, write_checkpoint)
-from ..storage.space import MARGIN, checkpoint_bytes, free_bytes, step_bytes
+from ..storage.space import free_bytes, room_for_a_step
 from .progress import Progress
 from .protocol import Retraction
 
@@ -148,7 +148,7 @@ def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
         logger.info(f"resuming from {checkpoint} at step {sim.step_index}"
                     f" (t = {sim.time * case.units.time:.6g}) on {comm.Get_size()} rank(s)")
         return out, snapshots, float(attrs["wall_time"])
-    room = step_bytes(sim.n) + checkpoint_bytes(sim.n, len(sim.FIELDS)) + MARGIN
+    room = room_for_a_step(sim.n, len(sim.FIELDS))
     free = comm.bcast(free_bytes(path) if comm.Get_rank() == 0 else None, root=0)
     if free < 2 * room:  # the new file, its first steps and a checkpoint (storage/space.py)
         raise CaseError(f"-o {path}: {free} bytes free on its file system, at least"
@@ -218,7 +218,7 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
             raise CaseFailure(f"disk full at step {sim.step_index}: {err.strerror}") from None
 
     # the next step's output and one checkpoint must fit (storage/space.py); rank 0 asks
-    room = step_bytes(sim.n) + checkpoint_bytes(sim.n, len(sim.FIELDS)) + MARGIN
+    room = room_for_a_step(sim.n, len(sim.FIELDS))
 
     def short_of_space():
         return comm.Get_rank() == 0 and free_bytes(path) < room

@@ -34,3 +34,9 @@ def checkpoint_bytes(n, fields) -> int:
 def step_bytes(n, snapshot_fields=3) -> int:
     """Largest output one step appends: its series entries and one snapshot of ``n`` nodes."""
     return 8 * n * snapshot_fields + 1024
+
+
+def room_for_a_step(n, fields) -> int:
+    """Free bytes a run needs before each step: the step's output, a checkpoint of ``fields``
+    arrays of ``n`` nodes, and the margin."""
+    return step_bytes(n) + checkpoint_bytes(n, fields) + MARGIN
