@@ -10,7 +10,9 @@ the job records, the job's output file and the tail of the slurmctld/slurmd logs
 The reference for the results is the same case run directly (serial, no SLURM), at fixed steps
 (adaptive steps follow round-off differences between rank counts). At tolerance
 1e-13 runs on different rank counts, or interrupted and resumed, agree to about 1e-12 (see
-test_distributed.py); the bounds here (1e-10, contact half-width 1e-9) leave room for that.
+test_distributed.py); the bounds here (1e-10, contact half-width 1e-9) leave room for that
+at the tolerance 1e-12 used here (at nx = 8192, 1e-13 is the round-off floor: a clean-clone
+CI run once stalled at a residual of 1.09e-13 after 5000 iterations).
 """
 import csv
 import os
@@ -35,7 +37,7 @@ REPO = Path(__file__).resolve().parents[1]
 JOBS = REPO / "jobs"
 # nx = 8192 makes one serial run last about 6 s here: long enough to signal the chain's first
 # part after its first checkpoint (step 5 of 217) and well before it ends.
-CASE = case_text(FIXED_STEPS + "nx = 8192\ntolerance = 1e-13", "checkpoint_steps = 5")
+CASE = case_text(FIXED_STEPS + "nx = 8192\ntolerance = 1e-12", "checkpoint_steps = 5")
 SWEEP = case_text("nx = 1024", prefix="base.") + "[grid]\nvelocity = [1.0, 2.0]\n"
 SERIES = ("time", "indenter", "load", "contact_half_width", "cohesive_half_width")
 # minutes; SLURM's own signals come 3 (case, farm, array) or 5 (chain) minutes before the
