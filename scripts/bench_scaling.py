@@ -78,7 +78,7 @@ nx = {nx}
 """
 FIELDS = ["started", "other_cpu", "ranks", "nx", "planner", "steps", "iterations", "fft_pairs",
           "messages", "wall_time", "time_per_step", "time_per_iteration", "fft_comm_share",
-          "domain_comm_share", "setup_time", "preload_time", "preload_iterations", "load"]
+          "domain_comm_share", "setup_time", "preload_time", "preload_iterations", "preload_levels", "load"]
 
 
 def measure(comm, nx, steps, planner):
@@ -143,7 +143,9 @@ def measure(comm, nx, steps, planner):
                time_per_step=wall / max(done, 1), time_per_iteration=wall / max(iterations, 1),
                fft_comm_share=fft_comm / wall, domain_comm_share=dom_comm / wall,
                setup_time=setup, preload_time=preload_time,
-               preload_iterations=preload.iterations, load=repr(record.load))
+               preload_iterations=preload.iterations,
+               preload_levels=" ".join(f"{nx}:{it}" for nx, it in sim.preload_levels),
+               load=repr(record.load))
     return row
 
 
@@ -191,9 +193,18 @@ def run_here(args):
                   f"  {1e3 * row['time_per_iteration']:.4g} ms/iteration"
                   f"  FFT comm {row['fft_comm_share']:.1%}  Domain comm"
                   f" {row['domain_comm_share']:.1%}  setup {row['setup_time']:.3g} s"
-                  f"  preload {row['preload_time']:.3g} s ({row['preload_iterations']} it)"
+                  f"  preload {row['preload_time']:.3g} s ({row['preload_iterations']} it,"
+                  f" coarser levels nx:it {row['preload_levels'] or 'none'})"
                   f"  load {float(row['load']):.10g}  other CPU {row['other_cpu']:.2f}",
                   flush=True)
+
+
+def _levels(row):
+    """The preload's iterations: the fine grid's, after those of its coarser levels."""
+    coarse = row.get("preload_levels") or ""
+    levels = [f"{int(nx).bit_length() - 1}: {it}" for nx, it in
+              (level.split(":") for level in coarse.split())]
+    return " + ".join([*(f"2^{level}" for level in levels), str(row["preload_iterations"])])
 
 
 def uptime():
@@ -232,7 +243,7 @@ def report(path, markdown=None, notes=()):
     """Print the scaling table of the CSV file ``path``; also write it to ``markdown``."""
     head = ["n_x", "ranks", "steps", "iterations", "s/step", "ms/iteration", "speedup/it",
             "speedup/step", "FFT comm", "Domain comm", "pairs/it", "msgs/it", "setup s",
-            "preload s (it)", "load of last step", "rel. diff", "other CPU"]
+            "preload s (iterations per level, coarsest first)", "load of last step", "rel. diff", "other CPU"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for nx, by_ranks in sorted(latest_rows(path).items()):
         base = by_ranks[min(by_ranks)]  # the fewest ranks, normally 1
@@ -248,7 +259,7 @@ def report(path, markdown=None, notes=()):
                      f"{int(r['fft_pairs']) / iterations:.2f}",
                      f"{int(r['messages']) / iterations:.1f}",
                      f"{float(r['setup_time']):.3g} ({r['planner'].removeprefix('FFTW_')})",
-                     f"{float(r['preload_time']):.3g} ({r['preload_iterations']})",
+                     f"{float(r['preload_time']):.3g} ({_levels(r)})",
                      f"{load:.10g}", f"{abs(load - load0) / abs(load0):.1e}",
                      f"{float(r['other_cpu']):.2f}"]
             lines.append("| " + " | ".join(cells) + " |")

@@ -120,6 +120,21 @@ def test_tip_lag_sets_the_step_first_order_and_rejects_at_four():
     assert not d.accepted and d.next_dt == grid(5.0)
 
 
+def test_tip_lag_uses_the_solved_zone_width_when_given():
+    # a glassy tip's zone is wider than the relaxed w: the same edge motion is a smaller
+    # share of it, and the passage slower (theta smaller)
+    zone, k = 0.01, 0.1
+    c = controller(first_dt=20.0, dt_max=64.0, edge_allowance=10 * zone, lag_allowance=1.0,
+                   zone_width=zone, modulus_ratio=k)
+    wide = c.judge(20.0, 20.0, 0.0, 0.5 * zone, zone_width=3 * zone).lag_error
+    assert wide == pytest.approx(tip_lag_error(20.0, 0.5 * zone, 3 * zone, k), rel=1e-12)
+    for unknown in (math.nan, 0.0, math.inf):  # the relaxed w stands in
+        c.dt = 20.0
+        lag = c.judge(20.0, 20.0, 0.0, 0.5 * zone, zone_width=unknown).lag_error
+        assert lag == pytest.approx(tip_lag_error(20.0, 0.5 * zone, zone, k), rel=1e-12)
+    assert wide < lag
+
+
 def test_state_round_trip():
     c = controller()
     c.accept(0.0, 1.0)

@@ -28,6 +28,7 @@ from ..parallel.fft import aligned_empty, plan_real_fft
 from ..solvers import EdgeWatch, make_solver
 from ..solvers.predictor import Predictor
 from ..solvers.stepping import HistoryError, make_step_control
+from .coarse_start import coarse_start
 
 
 @dataclass
@@ -68,6 +69,7 @@ class Retraction:
         n = case.numerics.nx
         self.n = n
         self.dx = case.cell / n
+        self.planner_effort = planner_effort
         self.fft = plan_real_fft(comm, n, planner_effort=planner_effort)
         self.domain = Domain(comm, n, case.cell, self.fft.x_blocks)
         self.x = self.domain.x  # this rank's nodes; the indenter axis is on node n/2
@@ -97,6 +99,7 @@ class Retraction:
         self.total_iterations = 0
         self.rejected_steps = 0  # adaptive steps repeated with a shorter dt
         self.preload_iterations = 0
+        self.preload_levels = []  # (nx, iterations) of the coarser preload levels (coarse_start)
         self.dt_previous = None  # length of the last accepted step (None after the preload)
         self._edges = (np.nan, np.nan)  # contact edges of the last step
         self._edges_previous = None
@@ -148,8 +151,12 @@ class Retraction:
 
     # --- protocol ----------------------------------------------------------------------
     def preload(self) -> StepRecord:
-        """Relaxed adhesive indentation to u_z = -h0 (the t = 0 state)."""
+        """Relaxed adhesive indentation to u_z = -h0 (the t = 0 state), started from its
+        solution on coarser grids when there are any (:mod:`.coarse_start`), else flat."""
         self.history[:] = 0.0
+        start, self.preload_levels = coarse_start(self.case, self.domain, self.planner_effort)
+        if start is not None:
+            self.u[:] = start
         record = self._equilibrate(self.substrate.operators(math.inf), 0.0,
                                    self.solver.preload_solver())
         self.preload_iterations = record.iterations
@@ -170,8 +177,9 @@ class Retraction:
             if record is None:  # abandoned: its edges moved too far, the verdict is known
                 decision = self.steps.judge(dt, self.time, None, math.inf)
             else:
-                decision = self.steps.judge(dt, record.time, record.load, self._edge_motion(),
-                                            self._history_error())
+                decision = self.steps.judge(
+                    dt, record.time, record.load, self._edge_motion(), self._history_error(),
+                    record.cohesive_half_width - record.contact_half_width)
             if decision.accepted:
                 break
             self.rejected_steps += 1

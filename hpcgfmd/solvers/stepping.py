@@ -59,7 +59,7 @@ ABANDON_EDGE = REJECT_EDGE  # edge ratio at which a solve is abandoned (module d
 CURVATURE_AGE = 8      # steps a smooth curvature stands in for windows with crossings ...
 CURVATURE_LIFETIME = 0.05  # ... and time, in relaxation times tau (u_tt changes over tau)
 REJECT_LAG = 4.0       # ... or the tip's lag error four times its allowance (jumps at crossings)
-LAG_PER_LOAD = 3.0     # pull-off error / tip lag bound, measured (tip_lag_error)
+LAG_PER_LOAD = 4.0     # pull-off error / tip lag bound, measured (tip_lag_error)
 
 
 def tip_lag_error(dt, edge_motion, zone_width, modulus_ratio):
@@ -67,18 +67,20 @@ def tip_lag_error(dt, edge_motion, zone_width, modulus_ratio):
     a moving contact edge (internal units, tau = 1; docs/numerics.md, "Time steps").
 
     Near an edge moving at v_a = |da| / dt a node's displacement follows the passing crack
-    tip, u = U(x - a(t)): its strain rate changes over the passage time w / v_a. The SLS
+    tip, u = U(x - a(t)): its strain rate changes over the passage time w_c / v_a, w_c the
+    cohesive zone's width (the relaxed w for a slow tip, up to about k^(-4/3) w for a
+    glassy one, as the zone width scales with lambda^-2 and lambda with E^(-2/3)). The SLS
     step (exact for u linear in time) sees the step's mean rate instead of the rate at its
     end, a lag of dt/2 in time when dt >> tau (the memory is shorter than the step), and of
     dt^2 / (12 tau) when dt << tau (the midpoint rule of the memory integral); as one
-    expression, a relative rate error (|da| / 2w) x / (x + 6), x = dt / tau, at most 1 (a
+    expression, a relative rate error (|da| / 2 w_c) x / (x + 6), x = dt / tau, at most 1 (a
     rate cannot be more than wholly wrong; the edge criterion keeps |da| to a few w). How much the
     zone's traction depends on its rate is the sensitivity S = d ln sigma / d ln theta of
-    an SLS strained at a constant rate over the passage time, theta = tau v_a / w:
+    an SLS strained at a constant rate over the passage time, theta = tau v_a / w_c:
     sigma / (E0 eps) = k + (1 - k) F(theta), F = theta (1 - exp(-1/theta)), so
     S = (1 - k) theta F'(theta) / (k + (1 - k) F). S vanishes for a relaxed tip
     (theta << k) and a glassy one (theta >> 1), and is largest in between: the creeping
-    retractions, chi_ve / k of order 1. The estimate is S min(1, (|da| / 2w) x / (x + 6)).
+    retractions, chi_ve / k of order 1. The estimate is S min(1, (|da| / 2 w_c) x / (x + 6)).
 
     Parameters
     ----------
@@ -87,9 +89,9 @@ def tip_lag_error(dt, edge_motion, zone_width, modulus_ratio):
     edge_motion : float
         Largest contact-edge displacement of the step |da| (R); NaN or inf: none.
     zone_width : float
-        Relaxed cohesive-zone width w (R).
+        Cohesive-zone width w_c (R): the solved zone's at the step's end, or the relaxed w.
     modulus_ratio : float
-        k = Einf / E0 (1: elastic, no lag).
+        k = E0 / Einf (1: elastic, no lag).
 
     Returns
     -------
@@ -132,7 +134,8 @@ class FixedSteps:
     def first_dt(self) -> float:
         return self.dt
 
-    def judge(self, dt, time, load, edge_motion, history_error=0.0) -> StepDecision:
+    def judge(self, dt, time, load, edge_motion, history_error=0.0,
+              zone_width=math.nan) -> StepDecision:
         return StepDecision(True, self.dt, 0.0, 0.0)
 
     def edge_limit(self, dt) -> float:
@@ -170,7 +173,8 @@ class AdaptiveSteps:
         Largest relative traction error of the tip's lag per step (:func:`tip_lag_error`);
         inf: not controlled.
     zone_width, modulus_ratio : float
-        Relaxed cohesive-zone width w (R) and k = Einf / E0, for :func:`tip_lag_error`.
+        Relaxed cohesive-zone width w (R; the stand-in for a step's solved zone width when
+        that is unknown) and k = E0 / Einf, for :func:`tip_lag_error`.
     """
 
     adaptive = True
@@ -205,13 +209,16 @@ class AdaptiveSteps:
         j = math.floor(GRID_PER_OCTAVE * math.log2(dt / self.dt_min) + 1e-9)
         return min(self.dt_min * 2.0 ** (j / GRID_PER_OCTAVE), self.dt_max)
 
-    def judge(self, dt, time, load, edge_motion, history_error=0.0) -> StepDecision:
+    def judge(self, dt, time, load, edge_motion, history_error=0.0,
+              zone_width=math.nan) -> StepDecision:
         """The verdict on a solved step of length dt ending at ``time`` with ``load``.
 
         ``edge_motion`` is the largest displacement of a contact edge over the step (length;
         NaN or inf when the contact appeared or vanished). ``load`` is None for an abandoned
         solve (no equilibrium: only its edge motion counts). ``history_error`` is the load
         error the step's history integration made (:class:`HistoryError`; load per length).
+        ``zone_width`` is the cohesive zone's width at the step's end (length; NaN: unknown,
+        the relaxed width w stands in), the length a passing edge strains a node over.
         """
         edge_error = (edge_motion / self.edge_allowance if math.isfinite(edge_motion)
                       else (0.0 if math.isnan(edge_motion) else math.inf))
@@ -225,8 +232,8 @@ class AdaptiveSteps:
         # allowance that the accumulated error loses meanwhile, so that it stays within it.
         history_ratio = history_error / (self.history_allowance
                                          * -math.expm1(-dt / self.memory_time))
-        lag_error = (tip_lag_error(dt, edge_motion, self.zone_width, self.modulus_ratio)
-                     / self.lag_allowance)
+        zone = zone_width if zone_width > 0.0 and math.isfinite(zone_width) else self.zone_width
+        lag_error = tip_lag_error(dt, edge_motion, zone, self.modulus_ratio) / self.lag_allowance
         # first order where it binds (dt >> tau)
         worst = max(edge_error, math.sqrt(load_error), math.sqrt(history_ratio), lag_error)
         factor = SAFETY / worst if worst > 0.0 else GROWTH_LIMIT
