@@ -1,4 +1,4 @@
-"""Command line: ``python -m hpcgfmd [run|farm|info|plot|bench] ...``, on one rank or under
+"""Command line: ``python -m hpcgfmd [run|farm|info|plot|paper|bench] ...``, on one rank or under
 mpirun/srun.
 
 Exit statuses are those of :mod:`hpcgfmd.errors` (0 finished, 1 failure, 2 bad input with one
@@ -18,7 +18,6 @@ import logging
 import os
 import signal
 import sys
-import tempfile
 import time
 from importlib import resources
 
@@ -97,25 +96,8 @@ def _farm_directory(args, sweep):
     return os.path.splitext(args.sweep)[0]
 
 
-def _check_farm_directory(comm, out_dir):
-    """Collective: the farm's directory exists (made if need be) and takes a file, else one
-    UsageError line on every rank, before any case runs."""
-    error = None
-    if comm.Get_rank() == 0:
-        try:
-            os.makedirs(out_dir, exist_ok=True)
-            fd, probe = tempfile.mkstemp(dir=out_dir, prefix=".write-test-")
-            os.close(fd)
-            os.remove(probe)
-        except OSError as err:
-            error = f"-o {out_dir}: cannot write there ({err.strerror})"
-    error = comm.bcast(error, root=0)
-    if error:
-        raise UsageError(error)
-
-
 def cmd_farm(comm, args):
-    from .runs.farm import plan_table, run_farm
+    from .runs.farm import check_farm_directory, plan_table, run_farm
     from .runs.sweep import load_sweep
 
     try:
@@ -140,7 +122,7 @@ def cmd_farm(comm, args):
     if args.dry_run:
         logger.info(plan_table(sweep, out_dir, size // ranks))
         return EXIT_OK
-    _check_farm_directory(comm, out_dir)
+    check_farm_directory(comm, out_dir)
     logger.info(f"farm: {len(sweep.cases)} cases in {out_dir}, {size} ranks, {ranks} per case")
     return run_farm(sweep, comm, out_dir, ranks_per_case=ranks, only=args.case, stop=args.stop)
 
@@ -247,6 +229,9 @@ def build_parser():
     plot.add_argument("file")
     plot.add_argument("-o", "--output", default=None, help="PNG path (default: file name .png)")
     plot.set_defaults(func=cmd_plot)
+    from .paper.command import add_parser as add_paper_parser
+
+    add_paper_parser(sub, common)
     sub.add_parser("bench", add_help=False,
                    help="speed against error of the fast solver and the paper's method"
                         " (python -m hpcgfmd bench --help)")

@@ -177,7 +177,7 @@ def test_shell_commands_exist(source, line):
     rest = words[words.index("hpcgfmd") + 1:]
     subcommand = rest[0] if rest and not rest[0].startswith("-") else None
     if subcommand is not None:
-        assert subcommand in ("run", "farm", "info", "plot", "bench"), (source, line)
+        assert subcommand in ("run", "farm", "info", "plot", "paper", "bench"), (source, line)
     text = help_text(subcommand)
     for word in rest:
         if word.startswith("-") and word != "-":

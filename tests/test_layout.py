@@ -22,9 +22,10 @@ ALLOWED = {
     "storage": {"model"},
     "runs": {"model", "parallel", "solvers", "storage"},
     "studies": {"model", "parallel", "solvers", "storage", "runs"},
+    "paper": {"model", "runs", "storage", "studies"},
     "api": {"model", "storage", "runs"},
     "logs": set(),
-    "cli": {"model", "runs", "storage", "studies", "logs"},
+    "cli": {"model", "runs", "storage", "studies", "paper", "logs"},
     "entry": {"cli"},
     "__main__": {"entry"},
     "hpcgfmd": {"api", "model", "storage"},  # __init__: the lazy API names

@@ -30,6 +30,7 @@ import csv
 import fcntl
 import logging
 import os
+import tempfile
 import time
 
 import h5py
@@ -82,20 +83,38 @@ def file_status(path, item) -> str:
     return "resumable" if chosen else "damaged" if problems else "unfinished"
 
 
+def check_farm_directory(comm, out_dir):
+    """Collective: the farm's directory exists (made if need be) and takes a file, else one
+    UsageError line on every rank, before any case runs."""
+    error = None
+    if comm.Get_rank() == 0:
+        try:
+            os.makedirs(out_dir, exist_ok=True)
+            fd, probe = tempfile.mkstemp(dir=out_dir, prefix=".write-test-")
+            os.close(fd)
+            os.remove(probe)
+        except OSError as err:
+            error = f"-o {out_dir}: cannot write there ({err.strerror})"
+    error = comm.bcast(error, root=0)
+    if error:
+        raise UsageError(error)
+
+
 def plan_table(sweep, out_dir, groups):
     """The dry run's listing: each case, its groups, its file's state and its estimated cost."""
+    width = max([32] + [len(item.name) for item in sweep.cases])
     lines = [f"{len(sweep.cases)} cases; outputs in {out_dir}",
-             f"{'#':>3}  {'name':<32} {'lambda0':>8} {'k':>6} {'V_z':>8} {'chi_ve':>9}"
+             f"{'#':>3}  {'name':<{width}} {'lambda0':>8} {'k':>6} {'V_z':>8} {'chi_ve':>9}"
              f" {'h0/R':>6} {'nx':>8} {'cost/s':>8}  file"]
     loads = [0.0] * max(groups, 1)
     for item in sorted(sweep.cases, key=lambda c: -c.cost()):
         loads[loads.index(min(loads))] += item.cost()  # longest first onto the freest group
     for item in sweep.cases:
         if item.case is None:
-            lines.append(f"{item.index:>3}  {item.name:<32} invalid: {item.error}")
+            lines.append(f"{item.index:>3}  {item.name:<{width}} invalid: {item.error}")
             continue
         g = item.case.groups()
-        lines.append(f"{item.index:>3}  {item.name:<32} {g['lambda0']:>8.4g} {g['k']:>6.3g}"
+        lines.append(f"{item.index:>3}  {item.name:<{width}} {g['lambda0']:>8.4g} {g['k']:>6.3g}"
                      f" {g['Vz']:>8.4g} {g['chi_ve']:>9.4g} {g['depth']:>6.3g}"
                      f" {item.case.numerics.nx:>8} {item.cost():>8.3g}"
                      f"  {file_status(case_file(out_dir, item), item)}")

@@ -45,6 +45,7 @@ import numpy as np
 from ..errors import CaseError
 from ..model.case import parse_case
 from ..runs.protocol import Retraction
+from .distance import polyline_distances
 
 logger = logging.getLogger(__name__)
 
@@ -145,16 +146,7 @@ def curve_error(reference, result):
                        result["lbar"][:end][keep] / l_scale], 1)
     if len(line) < 2 or len(points) == 0:
         return math.nan
-    start, end_ = line[:-1], line[1:]
-    seg = end_ - start
-    length2 = np.maximum((seg**2).sum(1), 1e-300)
-    worst = 0.0
-    for chunk in np.array_split(points, max(1, len(points) // 256)):
-        rel = chunk[:, None, :] - start[None, :, :]
-        s = np.clip((rel * seg[None]).sum(2) / length2[None], 0.0, 1.0)
-        d = np.sqrt(((rel - s[..., None] * seg[None]) ** 2).sum(2)).min(1)
-        worst = max(worst, float(d.max()))
-    return worst
+    return float(polyline_distances(points, line).max())
 
 
 def paper_dt(vz):

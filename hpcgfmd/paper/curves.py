@@ -1,0 +1,188 @@
+"""What the paper's checks measure on a retraction (pure functions of a case file's series).
+
+All in the paper's dgamma0 scaling (docs/model.md, "Scales and dimensionless groups"):
+abar = a_c / beta, Lbar = L_n / (R dgamma0^2 E0)^(1/3), the scaled curve
+(x, y) = (Lbar / sqrt(abar), (pi/4) abar^(3/2)) of Figs. 4, 5a, 8a and 9, and the effective
+work of adhesion of a point, dgamma_eff / dgamma0 = (y - x)^2 / (2 pi) (the intercept of the
+slope-1 line through it; paper Sec. 5.1, :func:`hpcgfmd.model.theory.effective_work_ratio`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model import theory
+from ..studies.distance import polyline_distances
+
+@dataclass
+class Retraction:
+    """The attached part of one retraction, up to its last step with contact.
+
+    Attributes (one entry per step with contact, t = 0 first; internal units R = tau = 1)
+    ----------
+    time, abar, lbar, x, y : ndarray
+        Time (tau), scaled half-width and load, and the scaled curve's coordinates.
+    rhodot : ndarray
+        Peeling velocity -d a_c / dt (R / tau), by central differences in time.
+    pull_off : int
+        Index of the most tensile load.
+    groups : dict
+        lambda0, k, Vz, chi_ve, depth and cell (the file's attributes; lengths in R).
+    """
+
+    time: np.ndarray
+    abar: np.ndarray
+    lbar: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    rhodot: np.ndarray
+    pull_off: int
+    groups: dict
+    beta: float
+
+    @classmethod
+    def from_series(cls, series) -> "Retraction":
+        """From :class:`hpcgfmd.storage.reader.Series` (any units: converted to R, tau)."""
+        a = series.attrs
+        keep = series.contact_half_width > 0
+        last = int(np.flatnonzero(keep)[-1]) + 1 if keep.any() else 0
+        keep = keep[:last]
+        time = series.time[:last][keep] / a["time_unit"]
+        half_width = series.contact_half_width[:last][keep] / a["length_unit"]
+        beta = a["beta"] / a["length_unit"]
+        abar = half_width / beta
+        lbar = series.lbar[:last][keep]
+        rhodot = (-np.gradient(half_width, time) if time.size > 1
+                  else np.zeros_like(time))
+        groups = {key: float(a[key]) for key in ("lambda0", "k", "Vz", "chi_ve", "depth", "cell")}
+        return cls(time=time, abar=abar, lbar=lbar, x=lbar / np.sqrt(abar),
+                   y=np.pi / 4.0 * abar**1.5, rhodot=rhodot,
+                   pull_off=int(np.argmin(lbar)) if lbar.size else 0, groups=groups, beta=beta)
+
+    def effective_work(self) -> np.ndarray:
+        """dgamma_eff / dgamma0 of every point (paper Sec. 5.1)."""
+        return theory.effective_work_ratio(self.x, self.y)
+
+    def vbar(self, convention: str) -> np.ndarray:
+        """The peeling velocity in Eq. 8's scaling vbar = 2 pi rhodot tau_c / c0.
+
+        ``convention`` "retardation": tau_c = tau / k (the one with which the closed form of
+        Eq. 8 equals the quadrature of Eq. 6; docs/model.md (M31)); "relaxation": tau_c = tau
+        (the paper's wording), k times smaller.
+        """
+        k = self.groups["k"]
+        retardation = theory.peel_velocity(self.rhodot, 1.0, k, self.groups["lambda0"],
+                                           self.beta)
+        if convention == "retardation":
+            return retardation
+        if convention == "relaxation":
+            return k * retardation
+        raise ValueError(f"convention {convention!r}: expected retardation or relaxation")
+
+    def steady(self, from_abar: float) -> np.ndarray:
+        """Mask of the steady part: the points from ``from_abar`` down (where the curves of
+        two indentation depths have merged, :func:`merged_from`: the initial conditions no
+        longer matter, paper Sec. 5.1) to the pull-off (past it the two edges interact or
+        the contact jumps off). Empty for a NaN ``from_abar``."""
+        mask = np.zeros(self.abar.size, dtype=bool)
+        mask[:self.pull_off + 1] = self.abar[:self.pull_off + 1] <= from_abar
+        return mask
+
+
+def point_distances(curve: Retraction, reference: Retraction, upto: int | None = None):
+    """Distance of each point of ``curve`` (up to index ``upto``, default its pull-off) to
+    ``reference``'s attached curve, in the (abar, Lbar) plane scaled by the reference's
+    abar(0) and |pull-off Lbar|: the curve error of the accuracy knob
+    (:func:`hpcgfmd.studies.benchmark.curve_error`)."""
+    end = (curve.pull_off if upto is None else upto) + 1
+    a_scale, l_scale = reference.abar[0], abs(reference.lbar[reference.pull_off])
+    line = np.stack([reference.abar / a_scale, reference.lbar / l_scale], 1)
+    points = np.stack([curve.abar[:end] / a_scale, curve.lbar[:end] / l_scale], 1)
+    if len(line) < 2 or not len(points):
+        return np.full(len(points), np.nan)
+    return polyline_distances(points, line)
+
+
+def curve_distance(a: Retraction, b: Retraction, below: float = np.inf) -> float:
+    """Largest :func:`point_distances` of ``a``'s points up to its pull-off with abar <=
+    ``below`` from ``b``'s curve; NaN without such points."""
+    distances = point_distances(a, b)
+    keep = a.abar[:a.pull_off + 1] <= below
+    return float(np.max(distances[keep])) if keep.any() else np.nan
+
+
+def merged_from(deep: Retraction, shallow: Retraction, tolerance: float):
+    """Where two depths' curves have merged (paper Fig. 5a): the largest abar of the shallow
+    curve from which on (down to its pull-off) its points stay within ``tolerance`` of the
+    deep curve (:func:`point_distances`).
+
+    Returns (abar from which on, largest distance there, that abar as a fraction of the
+    shallow curve's abar(0)); NaN when the last point before the pull-off is not within.
+    """
+    gap = point_distances(shallow, deep)
+    inside = np.isfinite(gap) & (gap <= tolerance)
+    if not inside.size or not inside[-1]:
+        return np.nan, np.nan, np.nan
+    outside = np.flatnonzero(~inside)
+    first = outside[-1] + 1 if outside.size else 0
+    return (float(shallow.abar[first]), float(np.max(gap[first:])),
+            float(shallow.abar[first] / shallow.abar[0]))
+
+
+def depth_pairs(retractions, key):
+    """{value of ``key``: (deep, shallow)} of the retractions that share ``key``'s value (e.g.
+    V_z) at two indentation depths, deep first."""
+    by_value = {}
+    for curve in retractions:
+        by_value.setdefault(curve.groups[key], {})[curve.groups["depth"]] = curve
+    return {value: tuple(depths[d] for d in sorted(depths, reverse=True))
+            for value, depths in sorted(by_value.items()) if len(depths) == 2}
+
+
+def steady_masks(retractions, key, tolerance):
+    """The steady part of each retraction (same order): from where its pair of depths
+    merged within ``tolerance`` (:func:`merged_from`) to its pull-off; empty without a
+    pair or when the pair never merges."""
+    start = {}
+    for deep, shallow in depth_pairs(retractions, key).values():
+        abar = merged_from(deep, shallow, tolerance)[0]
+        start[id(deep)] = start[id(shallow)] = abar
+    return [curve.steady(start.get(id(curve), np.nan)) for curve in retractions]
+
+
+def log_ratio_statistics(measured, predicted):
+    """Median and largest |ln(measured / predicted)| over the finite positive pairs."""
+    measured, predicted = np.asarray(measured), np.asarray(predicted)
+    ok = (measured > 0) & (predicted > 0) & np.isfinite(measured) & np.isfinite(predicted)
+    if not ok.any():
+        return np.nan, np.nan
+    ratio = np.abs(np.log(measured[ok] / predicted[ok]))
+    return float(np.median(ratio)), float(np.max(ratio))
+
+
+def snapshot_profiles(result, contact_levels=(5.0, 3.0)):
+    """The snapshots at (4/pi) abar_c = 5, 3 and at zero load of one case file.
+
+    Returns [(title, x / a_c(0), (u - u_z) / R, p / E0, contact edge / a_c(0))] for those
+    that exist."""
+    s, snaps = result.series, result.snapshots
+    beta = s.attrs["beta"]
+    a0 = s.contact_half_width[0]
+    found = []
+    targets = [(f"(4/pi) abar_c = {lv:g}", np.flatnonzero(
+        s.contact_half_width < lv * np.pi / 4 * beta)) for lv in contact_levels]
+    targets.append(("L = 0", np.flatnonzero(s.load < 0)))
+    for title, steps in targets:
+        if not steps.size or not snaps.time.size:
+            continue
+        i = int(steps[0])
+        j = int(np.argmin(np.abs(snaps.time - s.time[i])))
+        if not np.isclose(snaps.time[j], s.time[i], rtol=1e-9, atol=1e-12 * s.time[-1]):
+            continue
+        length, stress = s.attrs["length_unit"], s.attrs["stress_unit"]
+        inside = snaps.x[(snaps.gap[j] <= 0.0) & (snaps.x >= 0.0)]
+        edge = float(inside.max() / a0) if inside.size else np.nan
+        found.append((title, snaps.x / a0, (snaps.surface[j] - s.indenter[i]) / length,
+                      snaps.pressure[j] / stress, edge))
+    return found
