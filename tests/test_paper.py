@@ -3,7 +3,7 @@ an elastic retraction against Baney-Hui, and `python -m hpcgfmd paper` on a tiny
 import csv
 import subprocess
 import sys
-from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -83,12 +83,33 @@ def test_vbar_conventions_differ_by_k():
 def test_collapse_ratio_of_identical_pairs_is_zero():
     abar = np.linspace(6.0, 1.0, 80)
     a = synthetic(abar, theory.jkr_load(abar, 2.0), lambda0=7.0, vz=1.0)
-    b = replace(synthetic(abar, theory.jkr_load(abar, 2.0), lambda0=14.0, vz=0.25))
+    b = synthetic(abar, theory.jkr_load(abar, 2.0), lambda0=14.0, vz=0.25)
     c = synthetic(abar, theory.jkr_load(abar, 5.0), lambda0=7.0, vz=4.0)
     d = synthetic(abar, theory.jkr_load(abar, 5.0), lambda0=3.5, vz=16.0)
-    whole, past = checks.check_collapse([a, b, c, d], accuracy=1e-2)
+    whole, past = checks.check_collapse([a, b, c, d])
     assert whole.values["ratio"] == 0.0 and whole.supported
     assert past.values["ratio"] == 0.0
+
+
+def test_instantaneous_limit_and_convergence_checks_on_known_curves():
+    abar = np.linspace(6.0, 1.0, 60)
+    # JKR curves of work ratio w have dgamma_eff / dgamma0 = w at every point; k = 0.1
+    runs = [synthetic(abar, theory.jkr_load(abar, w), lambda0=lam, depth=d)
+            for lam, w in ((3.5, 5.0), (14.0, 9.5)) for d in (0.1, 0.05)]
+    masks = [np.ones(abar.size, dtype=bool)] * len(runs)
+    short, rising = checks.check_instantaneous(runs, masks, accuracy=1e-2)
+    assert short.values["lambda0=14,Vz=1,h0=0.1: largest"] == pytest.approx(0.95)
+    assert short.supported  # 1 - 0.95 > 3 x 1e-2: resolved short of the limit
+    assert rising.supported and rising.values["lambda0=3.5"] == pytest.approx(0.5)
+    assert not checks.check_instantaneous(runs, masks, accuracy=2e-2)[0].supported
+    # convergence: the finest last, the paper's setting judged on pull-off and curve
+    finest = synthetic(abar, theory.jkr_load(abar))
+    coarse = synthetic(abar, theory.jkr_load(abar) * 1.05)
+    (grid,) = checks.check_convergence({"grid": [("2^17", coarse), ("2^18", finest)]}, 1e-2)
+    assert grid.values["finest"] == "2^18" and not grid.supported
+    assert grid.values["2^17: pull-off"] == pytest.approx(0.05)
+    (fine,) = checks.check_convergence({"grid": [("2^17", finest), ("2^18", finest)]}, 1e-2)
+    assert fine.supported and fine.values["2^17: curve"] == 0.0
 
 
 def elastic_run(maugis):
@@ -137,6 +158,10 @@ def test_elastic_retraction_lies_on_baney_hui_and_its_work_is_theirs(maugis):
 
 
 def test_figures_option_names_the_accepted_values():
+    from hpcgfmd.cli import build_parser
+
+    args = build_parser().parse_args(["paper"])  # docs/paper.md: DIR defaults to paper
+    assert args.output == "paper" and parse_figures(args.figures) == list(study.FIGURES)
     assert parse_figures("9,2,B1") == ["2", "9", "B1"]  # the paper's order
     with pytest.raises(UsageError, match="--figures 3: expected .*2, 4, 5, 6, 7, 8, 9, B1"):
         parse_figures("3")
@@ -156,6 +181,10 @@ def test_shipped_study_merges_shared_runs():
         assert item.case.cell == 10.0 and item.case.alpha == 5e-5
         assert item.case.k == (1.0 if item.name in members["4"] else 0.1)
     assert {c.case.numerics.accuracy for c in sweep.cases} == {study.DEFAULT_ACCURACY}
+    # what docs/paper.md states: 31 runs at accuracy 1e-2, the output directory "paper"
+    assert len(sweep.cases) == 31 and study.DEFAULT_ACCURACY == 1e-2
+    text = (Path(__file__).parents[1] / "docs" / "paper.md").read_text()
+    assert "the 31 runs" in text and "at accuracy 1e-2" in text
     coarser, _ = study.paper_study(["5"], accuracy=2e-2)
     assert {c.case.numerics.accuracy for c in coarser.cases} == {2e-2}
 
@@ -254,6 +283,14 @@ def test_paper_command_runs_draws_and_checks_a_tiny_study(tmp_path):
     again = paper(tmp_path, "--figures", figures, "--draw-only")
     assert again.returncode == 0 and "starting" not in again.stdout
     assert (out / "checks.txt").read_text().splitlines() == lines
+    # with a run missing, the figures are drawn from the others and say so
+    (out / "runs" / "lambda0_1.5-k_1-Vz_1-h0_0.05.h5").unlink()
+    partial = paper(tmp_path, "--figures", "4", "--draw-only")
+    assert partial.returncode == 0, partial.stderr
+    assert "1 of 2 runs missing" in partial.stdout + partial.stderr
+    assert "lambda=1.5" not in (out / "fig4-checks.txt").read_text()
+    # the other figures' checks stay in checks.txt
+    assert any(line.startswith("Fig. 9:") for line in (out / "checks.txt").read_text().splitlines())
 
 
 def test_paper_command_refuses_bad_options_in_one_line(tmp_path):

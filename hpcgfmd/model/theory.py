@@ -173,6 +173,14 @@ def peel_velocity(rhodot, tau, k, lambda0, beta):
     return 2.0 * np.pi * np.asarray(rhodot, dtype=float) * tau / (k * c0)
 
 
+def scaled_curve(abar, lbar):
+    """The paper's scaled load-area coordinates (Figs. 4, 5a, 8a, 9; docs/model.md,
+    "Observables"): x = Lbar / sqrt(abar), y = (pi/4) abar^(3/2). The JKR curve of work
+    ratio w is the line y = x + sqrt(2 pi w) (Eq. 10)."""
+    abar = np.asarray(abar, dtype=float)
+    return np.asarray(lbar, dtype=float) / np.sqrt(abar), np.pi / 4.0 * abar**1.5
+
+
 def effective_work_ratio(x, y):
     """dgamma_eff / dgamma0 of a point (x, y) = (Lbar/sqrt(abar), (pi/4) abar^(3/2)).
 

@@ -15,10 +15,10 @@ import logging
 import os
 import time
 
-from ..errors import EXIT_OK, ResultFileError, SweepError, UsageError
+from ..errors import EXIT_FAILURE, EXIT_OK, ResultFileError, SweepError, UsageError
 from . import checks as claims
 from .curves import Retraction, steady_masks
-from .study import DEFAULT_ACCURACY, FIGURES, paper_study
+from .study import DEFAULT_ACCURACY, FIGURES, SWEEP_FILES, paper_study
 
 logger = logging.getLogger(__name__)
 
@@ -59,8 +59,6 @@ def parse_figures(text: str) -> list:
 
 def own_sweeps(directory):
     """{figure: sweep file text} of the files of ``--sweeps DIR`` (empty without it)."""
-    from .study import SWEEP_FILES
-
     if directory is None:
         return {}
     if not os.path.isdir(directory):
@@ -112,15 +110,21 @@ def cmd_paper(comm, args):
                     f" {runs_dir}, {size} ranks")
         status = run_farm(sweep, comm, runs_dir, ranks_per_case=args.ranks_per_case,
                           stop=args.stop)
+    drawn = EXIT_OK
     if comm.Get_rank() == 0:
-        os.makedirs(args.output, exist_ok=True)
-        effective = accuracy if accuracy is not None else DEFAULT_ACCURACY
-        draw_all(args.output, runs_dir, figures, members, effective)
-    return comm.bcast(status, root=0)
+        # rank 0 alone draws; whatever fails there, the others must hear its status
+        try:
+            os.makedirs(args.output, exist_ok=True)
+            draw_all(args.output, runs_dir, figures, members)
+        except (OSError, ValueError, KeyError, IndexError, RuntimeError) as err:
+            logger.error(f"failed: drawing the figures: {type(err).__name__}: {err}")
+            drawn = EXIT_FAILURE
+    drawn = comm.bcast(drawn, root=0)
+    return comm.bcast(status, root=0) if drawn == EXIT_OK else drawn
 
 
 def _load(runs_dir, name):
-    """(Retraction, Result) of a finished run, or None."""
+    """(Retraction, Result) of a finished run with contact, or None."""
     from ..storage.reader import read_result
 
     path = os.path.join(runs_dir, name + ".h5")
@@ -130,14 +134,16 @@ def _load(runs_dir, name):
         result = read_result(path)
     except ResultFileError:
         return None
-    if not result.finished:
+    if not result.finished or not (result.series.contact_half_width > 0).any():
         return None
     return Retraction.from_series(result.series), result
 
 
-def _label(curve):
-    g = curve.groups
-    return f"lambda0 = {g['lambda0']:g}, V_z = {g['Vz']:g}, h0/R = {g['depth']:g}"
+def run_accuracy(result) -> float:
+    """The ``[numerics] accuracy`` a run was made with (its stored case file)."""
+    from ..model.case import parse_case
+
+    return parse_case(result.attrs["config"]).numerics.accuracy
 
 
 def _setting(result):
@@ -150,11 +156,25 @@ def _setting(result):
     return grid, "adaptive"
 
 
-def draw_all(out_dir, runs_dir, figures, members, accuracy):
-    """Rank 0: every figure's PNG and CSV, the checks (printed and written)."""
+def _remove(path, suffixes):
+    """A figure without data leaves no stale file of an earlier drawing."""
+    for suffix in suffixes:
+        if os.path.exists(path + suffix):
+            os.remove(path + suffix)
+
+
+def draw_all(out_dir, runs_dir, figures, members):
+    """Rank 0: every figure's PNG and CSV, the checks (printed and written).
+
+    The checks' resolution is the coarsest ``[numerics] accuracy`` of the runs found (the
+    study's default when there are none)."""
     from . import figures as draw
 
     found = {name: _load(runs_dir, name) for f in figures for name in members[f]}
+    accuracies = [run_accuracy(r) for item in found.values() if item for r in item[1:]]
+    accuracy = max(accuracies, default=DEFAULT_ACCURACY)
+    logger.info(f"paper: checks resolve distances down to {claims.RESOLVED:g} x accuracy"
+                f" {accuracy:g} (the coarsest of the runs)")
     all_checks, costs = [], {}
     for figure in figures:
         names = members[figure]
@@ -176,25 +196,26 @@ def draw_all(out_dir, runs_dir, figures, members, accuracy):
         elif figure in ("5", "8"):
             key = "Vz" if figure == "5" else "lambda0"
             masks = steady_masks(curves, key, claims.RESOLVED * accuracy)
-            draw.draw_curves_and_work(path, [(_label(c), c) for c in curves], masks, key)
+            draw.draw_curves_and_work(path, [(c.label(), c) for c in curves], masks, key)
             all_checks += claims.check_depths(f"{figure}a", curves, key, accuracy)
             all_checks += claims.check_eq8(f"{figure}b", curves, masks)
             if figure == "8":
-                all_checks += claims.check_instantaneous(curves, masks)
+                all_checks += claims.check_instantaneous(curves, masks, accuracy)
         elif figure in ("6", "7"):  # the profiles of the deeper indentation (the paper's)
             depth = max((c.groups["depth"] for c in curves), default=0.0)
             deep = sorted(((c, r) for c, r in loaded if c.groups["depth"] == depth),
                           key=lambda item: item[0].groups["Vz"])
-            draw.draw_profiles(path, [(c.groups["Vz"], r) for c, r in deep],
-                               "surface" if figure == "6" else "pressure",
-                               0.08 if figure == "6" else 0.04)
+            if not draw.draw_profiles(path, [(c.groups["Vz"], r) for c, r in deep],
+                                      "surface" if figure == "6" else "pressure",
+                                      0.08 if figure == "6" else 0.04):
+                _remove(path, (".png", ".csv"))
             if figure == "6":
                 all_checks += claims.check_separation([(c.groups["Vz"], r) for c, r in deep])
             if figure == "7":
                 all_checks += claims.check_annulus([(c, r.series) for c, r in deep])
         elif figure == "9":
-            draw.draw_fig9(path, [(_label(c), c) for c in curves])
-            all_checks += claims.check_collapse(curves, accuracy)
+            draw.draw_fig9(path, [(c.label(), c) for c in curves])
+            all_checks += claims.check_collapse(curves)
         elif figure == "B1":
             panels, series = _convergence(loaded)
             draw.draw_convergence(path, panels)

@@ -15,20 +15,28 @@ import numpy as np
 from ..model import theory
 from ..studies.distance import polyline_distances
 
+
+
 @dataclass
 class Retraction:
     """The attached part of one retraction, up to its last step with contact.
 
-    Attributes (one entry per step with contact, t = 0 first; internal units R = tau = 1)
+    Attributes
     ----------
-    time, abar, lbar, x, y : ndarray
-        Time (tau), scaled half-width and load, and the scaled curve's coordinates.
+    time : ndarray
+        Time of each step with contact, t = 0 first (tau).
+    abar, lbar : ndarray
+        Scaled contact half-width a_c / beta and load L_n / (R dgamma0^2 E0)^(1/3).
+    x, y : ndarray
+        The scaled curve (:func:`hpcgfmd.model.theory.scaled_curve`).
     rhodot : ndarray
         Peeling velocity -d a_c / dt (R / tau), by central differences in time.
     pull_off : int
         Index of the most tensile load.
     groups : dict
         lambda0, k, Vz, chi_ve, depth and cell (the file's attributes; lengths in R).
+    beta : float
+        (R^2 dgamma0 / E0)^(1/3) (R).
     """
 
     time: np.ndarray
@@ -56,9 +64,14 @@ class Retraction:
         rhodot = (-np.gradient(half_width, time) if time.size > 1
                   else np.zeros_like(time))
         groups = {key: float(a[key]) for key in ("lambda0", "k", "Vz", "chi_ve", "depth", "cell")}
-        return cls(time=time, abar=abar, lbar=lbar, x=lbar / np.sqrt(abar),
-                   y=np.pi / 4.0 * abar**1.5, rhodot=rhodot,
+        x, y = theory.scaled_curve(abar, lbar)
+        return cls(time=time, abar=abar, lbar=lbar, x=x, y=y, rhodot=rhodot,
                    pull_off=int(np.argmin(lbar)) if lbar.size else 0, groups=groups, beta=beta)
+
+    def label(self) -> str:
+        """lambda0, V_z and h0/R, for legends and check values."""
+        g = self.groups
+        return f"lambda0 = {g['lambda0']:g}, V_z = {g['Vz']:g}, h0/R = {g['depth']:g}"
 
     def effective_work(self) -> np.ndarray:
         """dgamma_eff / dgamma0 of every point (paper Sec. 5.1)."""
@@ -152,37 +165,50 @@ def steady_masks(retractions, key, tolerance):
 
 
 def log_ratio_statistics(measured, predicted):
-    """Median and largest |ln(measured / predicted)| over the finite positive pairs."""
+    """Median and largest |ln(measured / predicted)|, and the median signed ln, over the
+    finite positive pairs (NaN for none)."""
     measured, predicted = np.asarray(measured), np.asarray(predicted)
     ok = (measured > 0) & (predicted > 0) & np.isfinite(measured) & np.isfinite(predicted)
     if not ok.any():
-        return np.nan, np.nan
-    ratio = np.abs(np.log(measured[ok] / predicted[ok]))
-    return float(np.median(ratio)), float(np.max(ratio))
+        return np.nan, np.nan, np.nan
+    signed = np.log(measured[ok] / predicted[ok])
+    return float(np.median(np.abs(signed))), float(np.max(np.abs(signed))), float(np.median(signed))
 
 
 def snapshot_profiles(result, contact_levels=(5.0, 3.0)):
-    """The snapshots at (4/pi) abar_c = 5, 3 and at zero load of one case file.
+    """The snapshots at (4/pi) abar_c = 5 and 3 and at zero load of one case file (the
+    paper's Figs. 6 and 7), each picked among the file's snapshots by its own step: the one
+    whose contact half-width is nearest the level (within 2 %: the run took it when the
+    contact first dropped below a width given in the case file), and the first with a
+    tensile load.
 
-    Returns [(title, x / a_c(0), (u - u_z) / R, p / E0, contact edge / a_c(0))] for those
-    that exist."""
+    Returns
+    -------
+    list of (title, x / a_c(0), (u - u_z) / R, p / E0, gap / R, contact edge / a_c(0))
+        For the snapshots found; x and the profiles over the whole cell.
+    """
     s, snaps = result.series, result.snapshots
-    beta = s.attrs["beta"]
+    if not snaps.time.size or not s.time.size:
+        return []
+    steps = [int(np.argmin(np.abs(s.time - t))) for t in snaps.time]
+    widths = s.contact_half_width[steps]
     a0 = s.contact_half_width[0]
+    chosen = []
+    for level in contact_levels:
+        target = level * np.pi / 4.0 * s.attrs["beta"]
+        j = int(np.argmin(np.abs(widths - target)))
+        if abs(widths[j] - target) <= 0.02 * target:
+            chosen.append((f"(4/pi) abar_c = {level:g}", j))
+    tensile = [j for j, i in enumerate(steps) if s.load[i] < 0.0 and i > 0
+               and s.load[i - 1] >= 0.0]
+    if tensile:
+        chosen.append(("L = 0", tensile[0]))
+    length, stress = s.attrs["length_unit"], s.attrs["stress_unit"]
     found = []
-    targets = [(f"(4/pi) abar_c = {lv:g}", np.flatnonzero(
-        s.contact_half_width < lv * np.pi / 4 * beta)) for lv in contact_levels]
-    targets.append(("L = 0", np.flatnonzero(s.load < 0)))
-    for title, steps in targets:
-        if not steps.size or not snaps.time.size:
-            continue
-        i = int(steps[0])
-        j = int(np.argmin(np.abs(snaps.time - s.time[i])))
-        if not np.isclose(snaps.time[j], s.time[i], rtol=1e-9, atol=1e-12 * s.time[-1]):
-            continue
-        length, stress = s.attrs["length_unit"], s.attrs["stress_unit"]
+    for title, j in chosen:
+        i = steps[j]
         inside = snaps.x[(snaps.gap[j] <= 0.0) & (snaps.x >= 0.0)]
         edge = float(inside.max() / a0) if inside.size else np.nan
         found.append((title, snaps.x / a0, (snaps.surface[j] - s.indenter[i]) / length,
-                      snaps.pressure[j] / stress, edge))
+                      snaps.pressure[j] / stress, snaps.gap[j] / length, edge))
     return found

@@ -43,15 +43,15 @@ def _save(fig, path):
     os.replace(tmp, path)
 
 
-def _limits(ax, lambda0, k, x_range):
-    """Relaxed (Baney-Hui, lambda0) and instantaneous (JKR, dgamma0/k) limits."""
+def _limits(ax, lambda0, k, top):
+    """Relaxed (Baney-Hui, lambda0) and instantaneous (JKR, dgamma0/k) limits; the y range
+    up to ``top`` (the x range is the curves', set before)."""
     abar = np.linspace(0.3, 14.0, 300)
-    lbar = theory.maugis_dugdale(abar, lambda0)[0]
-    ax.plot(lbar / np.sqrt(abar), np.pi / 4 * abar**1.5, "k:", lw=1.2,
+    ax.plot(*theory.scaled_curve(abar, theory.maugis_dugdale(abar, lambda0)[0]), "k:", lw=1.2,
             label=rf"relaxed limit ($\lambda_0$ = {lambda0:g})")
-    xs = np.linspace(*x_range, 50)
-    ax.plot(xs, xs + np.sqrt(2 * np.pi / k), "r:", lw=1.2,
+    ax.plot(*theory.scaled_curve(abar, theory.jkr_load(abar, 1.0 / k)), "r:", lw=1.2,
             label=r"instantaneous limit (JKR, $\Delta\gamma_0/k$)")
+    ax.set_ylim(0, top)
 
 
 def _curve_rows(label, curve, steady):
@@ -79,7 +79,11 @@ def _scaled_axes(ax, runs, styles):
     ax.set_xlim(lo, hi + 0.05 * (hi - lo))
     ax.set_xlabel(X_LABEL)
     ax.set_ylabel(Y_LABEL)
-    return lo, hi
+
+
+def _top(runs):
+    """The y range's top: 15 % above the highest point of the runs."""
+    return 1.15 * max((float(np.max(c.y)) for _, c in runs), default=10.0)
 
 
 def _reference(runs):
@@ -92,14 +96,16 @@ def _reference(runs):
 
 
 def draw_fig2(path, k=0.1):
-    """Eq. 8 in both velocity conventions."""
+    """Eq. 8 against vbar = 2 pi rhodot tau / (k c0) (retardation time): read with that
+    convention it is Eq. 6; read with the relaxation time tau it predicts Eq. 8 at k vbar
+    (the dashed line, the convention of Figs. 5b and 8b's dashed lines)."""
     vbar = np.logspace(-3, 4, 300)
     retardation = theory.persson_brener(vbar, k)
-    relaxation = theory.persson_brener(vbar / k, k)
+    relaxation = theory.persson_brener(k * vbar, k)
     fig, ax = plt.subplots(figsize=(5.5, 4))
-    ax.semilogx(vbar, retardation, "k-", label=r"$\tau_c = \tau/k$ (retardation; Eq. 6)")
-    ax.semilogx(vbar, relaxation, "k--", label=r"$\tau_c = \tau$ (relaxation)")
-    ax.set_xlabel(r"$\bar v = 2\pi\dot\rho\,\tau_c/c_0$")
+    ax.semilogx(vbar, retardation, "k-", label=r"Eq. 8, $\tau_c = \tau/k$ (= Eq. 6)")
+    ax.semilogx(vbar, relaxation, "k--", label=r"Eq. 8, $\tau_c = \tau$")
+    ax.set_xlabel(r"$\bar v(\dot\rho) = 2\pi\dot\rho\,\tau/(k c_0)$")
     ax.set_ylabel(r"$\Delta\gamma_{eff}/\Delta\gamma_0$")
     ax.set_title(f"Eq. 8, k = {k:g}")
     ax.legend(fontsize=8)
@@ -116,7 +122,7 @@ def draw_fig4(path, runs, lambdas=(0.75, 1.5, 3.5, 7.0)):
     abar = np.linspace(0.05, 14.0, 400)
     for i, lam in enumerate(lambdas):
         lbar = theory.maugis_dugdale(abar, lam)[0]
-        x, y = lbar / np.sqrt(abar), np.pi / 4 * abar**1.5
+        x, y = theory.scaled_curve(abar, lbar)
         ax.plot(x, y, color=f"C{i}", lw=1, label=rf"Baney-Hui $\lambda$ = {lam:g}")
         rows += [("Baney-Hui", lam, a, b, u, v) for a, b, u, v in zip(abar, lbar, x, y)]
     for i, lam in enumerate(lambdas):
@@ -125,8 +131,7 @@ def draw_fig4(path, runs, lambdas=(0.75, 1.5, 3.5, 7.0)):
                     label=rf"hpcgfmd $\lambda$ = {lam:g}, k = 1")
             rows += [("hpcgfmd", lam, a, b, u, v) for a, b, u, v in
                      zip(curve.abar, curve.lbar, curve.x, curve.y)]
-    xs = np.linspace(-12, 25, 10)
-    ax.plot(xs, xs + np.sqrt(2 * np.pi), "k--", lw=1, label="JKR (Eq. 10)")
+    ax.plot(*theory.scaled_curve(abar, theory.jkr_load(abar)), "k--", lw=1, label="JKR (Eq. 10)")
     ax.set_xlim(-12, 25)
     ax.set_ylim(0, 12)
     ax.set_xlabel(X_LABEL)
@@ -146,9 +151,8 @@ def draw_curves_and_work(path, runs, masks, color_key):
     styles = [dict(color=f"C{keys.index(c.groups[color_key])}", lw=1,
                    ls="--" if c.groups["depth"] == depths[0] and len(depths) > 1 else "-")
               for _, c in runs]
-    lo, hi = _scaled_axes(ax1, runs, styles)
-    _limits(ax1, lambda0, k, (lo, hi))
-    ax1.set_ylim(0, None)
+    _scaled_axes(ax1, runs, styles)
+    _limits(ax1, lambda0, k, _top(runs))
     shallow = f", solid {depths[-1]:g}" if len(depths) > 1 else ""
     ax1.set_title(f"(a) dashed h0/R = {depths[0]:g}{shallow}" if depths else "(a)")
     ax1.legend(fontsize=6)
@@ -182,9 +186,8 @@ def draw_fig9(path, runs):
         seen[chi] = seen.get(chi, 0) + 1
         styles.append(dict(color=f"C{chis.index(chi)}", lw=1,
                            ls="-" if seen[chi] == 1 else "--"))
-    lo, hi = _scaled_axes(ax, runs, styles)
-    _limits(ax, lambda0, k, (lo, hi))
-    ax.set_ylim(0, None)
+    _scaled_axes(ax, runs, styles)
+    _limits(ax, lambda0, k, _top(runs))
     ax.legend(fontsize=6)
     ax.set_title(f"h0/R = {', '.join(f'{d:g}' for d in depths)}, colour:"
                  r" $\chi_{ve} = V_z\lambda_0^2$")
@@ -201,7 +204,7 @@ def draw_profiles(path, cases, field, zoom):
     per_level = {}
     rows = []
     for vz, result in cases:
-        for title, x, surface, pressure, edge in snapshot_profiles(result):
+        for title, x, surface, pressure, _, edge in snapshot_profiles(result):
             values = surface if field == "surface" else pressure
             per_level.setdefault(title, []).append((vz, x, values, edge))
             keep = (x >= 0.0) & (x <= 2.0)

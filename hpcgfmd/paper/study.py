@@ -23,7 +23,7 @@ SWEEP_FILES = {"4": "fig4.toml", "5": "fig5.toml", "8": "fig8.toml", "9": "fig9.
                "B1": "figB1.toml"}
 #: Figures drawn from another figure's runs.
 RUNS_OF = {"6": "5", "7": "5"}
-#: The keys a study may override in every case (the command's options).
+#: ``[numerics] accuracy`` of the shipped sweep files (the command's ``--accuracy`` replaces it).
 DEFAULT_ACCURACY = 1e-2
 
 
@@ -106,9 +106,29 @@ def paper_study(figures, accuracy=None, texts=None):
                 by_identity[identity] = replace(item, index=len(merged),
                                                 name=case_name(item.case))
                 merged.append(by_identity[identity])
+            elif _snapshots(item.case) > _snapshots(by_identity[identity].case):
+                # the same run ([output] is not part of the identity): keep the snapshots
+                kept = by_identity[identity]
+                by_identity[identity] = replace(item, index=kept.index, name=kept.name)
+                merged[kept.index] = by_identity[identity]
             names.append(by_identity[identity].name)
         swept += [key for key in sweep.swept if key not in swept]
         members[figure] = names
     for figure in figures:
         members[figure] = members[runs_of(figure)]
+    seen = {}
+    for item in merged:  # different runs, one name: a study that varies more than the name
+        if item.name in seen:
+            raise SweepError(f"paper: runs {seen[item.name]} and {item.index} would both be"
+                             f" named {item.name} (they differ in a key the name leaves out:"
+                             " cell, adhesion, units or numerics); vary lambda0, k, V_z, h0,"
+                             " nx or dt only")
+        seen[item.name] = item.index
     return Sweep(cases=merged, swept=swept, path="paper"), members
+
+
+def _snapshots(case) -> int:
+    """How many snapshot triggers a case's [output] sets."""
+    out = case.output
+    return (len(out.snapshot_times) + len(out.snapshot_contact_widths)
+            + int(out.snapshot_zero_load))

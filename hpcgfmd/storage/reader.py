@@ -62,8 +62,7 @@ class Series:
     def scaled_curve(self):
         """(x, y) = (Lbar / sqrt(abar), (pi/4) abar^(3/2)) over the steps with contact (Fig. 5a)."""
         keep = self.contact_half_width > 0
-        ab, lb = self.abar[keep], self.lbar[keep]
-        return lb / np.sqrt(ab), np.pi / 4.0 * ab**1.5
+        return theory.scaled_curve(self.abar[keep], self.lbar[keep])
 
     def effective_work(self):
         """dgamma_eff/dgamma0 of each step with contact (docs/model.md, "Observables")."""
