@@ -189,57 +189,17 @@ def test_shipped_study_merges_shared_runs():
     assert {c.case.numerics.accuracy for c in coarser.cases} == {2e-2}
 
 
+# the tests' shared groups (tests/cases.py) as sweep bases: a tiny study of 10 runs
 TINY = {
-    "fig4.toml": """[base.case]
-maugis = 3.5
-modulus_ratio = 1.0
-velocity = 1.0
-depth = 0.05
-cell = 4.0
-adhesion = 1e-4
-[base.numerics]
-accuracy = 1e-2
-[grid]
-maugis = [1.5, 3.5]
-""",
-    "fig5.toml": """[base.case]
-maugis = 3.5
-modulus_ratio = 0.1
-velocity = 1.0
-depth = 0.05
-cell = 2.0
-adhesion = 1e-4
-[base.numerics]
-accuracy = 1e-2
-[base.output]
-snapshot_contact_widths = [0.18226, 0.10936]
-snapshot_zero_load = true
-[grid]
-velocity = [0.3, 3.0]
-depth = [0.05, 0.025]
-""",
-    "fig9.toml": """[base.case]
-maugis = 3.5
-modulus_ratio = 0.1
-velocity = 1.0
-depth = 0.025
-cell = 2.0
-adhesion = 1e-4
-[base.numerics]
-accuracy = 1e-2
-[[cases]]
-velocity = 1.0
-maugis = 3.5
-[[cases]]
-velocity = 4.0
-maugis = 1.75
-[[cases]]
-velocity = 0.1
-maugis = 3.5
-[[cases]]
-velocity = 0.4
-maugis = 1.75
-""",
+    "fig4.toml": case_text("accuracy = 1e-2", prefix="base.", modulus_ratio=1.0, depth=0.05,
+                           cell=4.0) + "[grid]\nmaugis = [1.5, 3.5]\n",
+    "fig5.toml": case_text("accuracy = 1e-2", prefix="base.", depth=0.05,
+                           output="snapshot_contact_widths = [0.18226, 0.10936]\n"
+                                  "snapshot_zero_load = true")
+    + "[grid]\nvelocity = [0.3, 3.0]\ndepth = [0.05, 0.025]\n",
+    "fig9.toml": case_text("accuracy = 1e-2", prefix="base.", depth=0.025)
+    + "".join(f"[[cases]]\nvelocity = {v}\nmaugis = {m}\n"
+              for v, m in ((1.0, 3.5), (4.0, 1.75), (0.1, 3.5), (0.4, 1.75))),
 }
 
 
