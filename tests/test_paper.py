@@ -73,11 +73,16 @@ def test_distances_and_merging_of_curves():
 
 
 def test_vbar_conventions_differ_by_k():
-    c = synthetic(np.linspace(6.0, 1.0, 30), theory.jkr_load(np.linspace(6.0, 1.0, 30)))
+    abar = np.linspace(6.0, 1.0, 30)
+    c = synthetic(abar, theory.jkr_load(abar))
     np.testing.assert_allclose(c.vbar("relaxation"), 0.1 * c.vbar("retardation"))
-    # vbar = 2 pi rhodot tau / (k c0), c0 = beta / (pi lambda0^2) (paper Eq. 7)
-    c0 = c.beta / (np.pi * 49.0)
-    np.testing.assert_allclose(c.vbar("retardation"), 2 * np.pi * c.rhodot / (0.1 * c0))
+    # c0 = dgamma0 E0 / (pi sigma_a^2) (paper Eq. 7) in internal units E0 = R = 1:
+    # dgamma0 = alpha = beta^3, sigma_a = lambda0 beta (docs/model.md, "Scales")
+    beta, lambda0 = c.beta, 7.0
+    c0 = beta**3 / (np.pi * (lambda0 * beta) ** 2)
+    tau_retardation = 1.0 / 0.1
+    np.testing.assert_allclose(c.vbar("retardation"), 2 * np.pi * c.rhodot * tau_retardation / c0,
+                               rtol=1e-12)
 
 
 def test_collapse_ratio_of_identical_pairs_is_zero():

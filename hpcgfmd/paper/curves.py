@@ -104,10 +104,23 @@ class Retraction:
 
 
 def point_distances(curve: Retraction, reference: Retraction, upto: int | None = None):
-    """Distance of each point of ``curve`` (up to index ``upto``, default its pull-off) to
-    ``reference``'s attached curve, in the (abar, Lbar) plane scaled by the reference's
-    abar(0) and |pull-off Lbar|: the curve error of the accuracy knob
-    (:func:`hpcgfmd.studies.benchmark.curve_error`)."""
+    """Distance of each point of ``curve`` to ``reference``'s attached curve.
+
+    Measured in the (abar, Lbar) plane scaled by the reference's abar(0) and |pull-off
+    Lbar| (dimensionless): the curve error of the accuracy knob
+    (:func:`hpcgfmd.studies.benchmark.curve_error`).
+
+    Parameters
+    ----------
+    curve, reference : Retraction
+    upto : int, optional
+        Last index of ``curve`` taken (default its pull-off).
+
+    Returns
+    -------
+    ndarray, shape (upto + 1,)
+        NaN when the reference has fewer than two points.
+    """
     end = (curve.pull_off if upto is None else upto) + 1
     a_scale, l_scale = reference.abar[0], abs(reference.lbar[reference.pull_off])
     line = np.stack([reference.abar / a_scale, reference.lbar / l_scale], 1)

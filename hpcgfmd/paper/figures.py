@@ -116,7 +116,18 @@ def draw_fig2(path, k=0.1):
 
 
 def draw_fig4(path, runs, lambdas=(0.75, 1.5, 3.5, 7.0)):
-    """Baney-Hui curves, the JKR line and our elastic retractions."""
+    """Fig. 4: the Baney-Hui curves of ``lambdas`` (Eqs. 12-13), the JKR line (Eq. 10) and
+    our elastic retractions as points.
+
+    Parameters
+    ----------
+    path : str
+        Output prefix: ``path.png`` and ``path.csv`` (source, lambda, abar, Lbar, x, y).
+    runs : list of Retraction
+        The elastic (k = 1) runs; each drawn in the colour of its lambda0.
+    lambdas : tuple of float
+        Maugis parameters of the Baney-Hui curves.
+    """
     fig, ax = plt.subplots(figsize=(6, 4.5))
     rows = []
     abar = np.linspace(0.05, 14.0, 400)
@@ -143,8 +154,21 @@ def draw_fig4(path, runs, lambdas=(0.75, 1.5, 3.5, 7.0)):
 
 def draw_curves_and_work(path, runs, masks, color_key):
     """Figs. 5 and 8: (a) scaled curves of both depths with the limits, (b) per-point
-    effective work against vbar with Eq. 8, the steady points (``masks``) marked.
-    ``runs``: [(label, curve)]."""
+    effective work against vbar (retardation convention) with Eq. 8 in both readings.
+
+    Parameters
+    ----------
+    path : str
+        Output prefix: ``path.png`` and ``path.csv`` (:data:`CURVE_COLUMNS`).
+    runs : list of (str, Retraction)
+        Legend label and retraction.
+    masks : list of ndarray of bool
+        The steady points of each run (:func:`hpcgfmd.paper.curves.steady_masks`), drawn
+        large in (b).
+    color_key : str
+        The group that sets the colour ("Vz" in Fig. 5, "lambda0" in Fig. 8); the deeper
+        indentation is dashed.
+    """
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
     lambda0, k, depths = _reference(runs)
     keys = sorted({c.groups[color_key] for _, c in runs})
@@ -176,7 +200,9 @@ def draw_curves_and_work(path, runs, masks, color_key):
 
 
 def draw_fig9(path, runs):
-    """Scaled curves at one depth coloured by chi_ve; solid/dashed within a pair."""
+    """Fig. 9: scaled curves coloured by chi_ve, solid and dashed within a pair of equal
+    chi_ve, with the limits. ``runs``: list of (legend label, Retraction); writes
+    ``path.png`` and ``path.csv``."""
     fig, ax = plt.subplots(figsize=(6.5, 4.8))
     lambda0, k, depths = _reference(runs)
     chis = sorted({round(c.groups["chi_ve"], 6) for _, c in runs}, reverse=True)
@@ -198,9 +224,25 @@ def draw_fig9(path, runs):
 
 
 def draw_profiles(path, cases, field, zoom):
-    """Figs. 6 (``field`` "surface") and 7 ("pressure"): one panel per snapshot level,
-    the velocities overlaid, and a zoom of half-width ``zoom`` (in x / a_c(0)) around the
-    contact edge of the first level. ``cases``: [(Vz, result)]."""
+    """Figs. 6 and 7: one panel per snapshot level, the velocities overlaid, and a zoom
+    around the contact edge of the first level.
+
+    Parameters
+    ----------
+    path : str
+        Output prefix: ``path.png`` and ``path.csv`` (snapshot, Vz, x / a_c(0), value).
+    cases : list of (float, Result)
+        V_z and the case file's results, by increasing V_z.
+    field : {"surface", "pressure"}
+        (u - u_z) / R (Fig. 6) or the traction p / E0, attractive positive (Fig. 7).
+    zoom : float
+        Half-width of the zoom window, in x / a_c(0).
+
+    Returns
+    -------
+    bool
+        False when no case has the snapshots (nothing written).
+    """
     per_level = {}
     rows = []
     for vz, result in cases:
@@ -240,7 +282,7 @@ def draw_profiles(path, cases, field, zoom):
 
 
 def draw_convergence(path, panels):
-    """Fig. B1: per case, the scaled curves of every resolution near the pull-off.
+    """Fig. B1: per case, the scaled curves of every resolution, pull-off in the legend.
 
     ``panels``: {case label: [(setting label, curve)]}."""
     fig, axes = plt.subplots(1, max(len(panels), 1), figsize=(6 * max(len(panels), 1), 4.5))
