@@ -171,7 +171,7 @@ def draw_all(out_dir, runs_dir, figures, members):
     from . import figures as draw
 
     found = {name: _load(runs_dir, name) for f in figures for name in members[f]}
-    accuracies = [run_accuracy(r) for item in found.values() if item for r in item[1:]]
+    accuracies = [run_accuracy(item[1]) for item in found.values() if item is not None]
     accuracy = max(accuracies, default=DEFAULT_ACCURACY)
     logger.info(f"paper: checks resolve distances down to {claims.RESOLVED:g} x accuracy"
                 f" {accuracy:g} (the coarsest of the runs)")
@@ -243,18 +243,15 @@ def _convergence(loaded):
         if step == "adaptive":
             series.setdefault(f"{case}, grid", []).append((f"{grid}", curve,
                                                            int(result.attrs["nx"])))
-        series.setdefault(f"{case}, time on {grid}", []).append((step, curve, int(
-            result.attrs["time_unit"] / result.attrs["dt"])
-            if step != "adaptive" else 10**9))
+        # steps per tau: the adaptive run first, the finest fixed step last (the reference)
+        per_tau = 0 if step == "adaptive" else round(result.attrs["time_unit"]
+                                                     / result.attrs["dt"])
+        series.setdefault(f"{case}, time on {grid}", []).append((step, curve, per_tau))
     ordered = {}
     for label, runs in series.items():
         runs.sort(key=lambda item: item[2])
-        if "time on" in label and not any(s.startswith("tau/") for s, _, _ in runs):
+        if "time on" in label and runs[-1][2] == 0:
             continue  # a grid without fixed-step runs
-        if "time on" in label:  # the finest fixed step is the reference, adaptive compared
-            fixed = [r for r in runs if r[0].startswith("tau/")]
-            adaptive = [r for r in runs if not r[0].startswith("tau/")]
-            runs = adaptive + fixed
         ordered[label] = [(s, c) for s, c, _ in runs]
     for label in panels:
         panels[label].sort(key=lambda item: item[0])
@@ -264,18 +261,26 @@ def _convergence(loaded):
 CHECK_COLUMNS = ("figure", "claim", "supported", "measured", "quantity", "value")
 
 
-def write_checks(prefix, checks):
-    """PREFIX.txt (one line per check) and PREFIX.csv (one row per number), atomically."""
-    with open(prefix + ".txt.tmp", "w") as fh:
-        fh.write("".join(c.line() + "\n" for c in checks))
-    os.replace(prefix + ".txt.tmp", prefix + ".txt")
-    with open(prefix + ".csv.tmp", "w", newline="") as fh:
+def _write_lines(path, lines):
+    with open(path + ".tmp", "w") as fh:
+        fh.write("".join(line + "\n" for line in lines))
+    os.replace(path + ".tmp", path)
+
+
+def _write_table(path, rows):
+    with open(path + ".tmp", "w", newline="") as fh:
         writer = csv.writer(fh)
         writer.writerow(CHECK_COLUMNS)
-        for c in checks:
-            for key, value in (c.values or {"-": ""}).items():
-                writer.writerow((c.figure, c.claim, c.supported, c.measured, key, value))
-    os.replace(prefix + ".csv.tmp", prefix + ".csv")
+        writer.writerows(rows)
+    os.replace(path + ".tmp", path)
+
+
+def write_checks(prefix, checks):
+    """PREFIX.txt (one line per check) and PREFIX.csv (one row per number), atomically."""
+    _write_lines(prefix + ".txt", [c.line() for c in checks])
+    _write_table(prefix + ".csv", [(c.figure, c.claim, c.supported, c.measured, key, value)
+                                   for c in checks
+                                   for key, value in (c.values or {"-": ""}).items()])
 
 
 def collect_checks(out_dir):
@@ -290,13 +295,5 @@ def collect_checks(out_dir):
             lines += fh.read().splitlines()
         with open(prefix + ".csv", newline="") as fh:
             rows += list(csv.reader(fh))[1:]
-    text = os.path.join(out_dir, "checks.txt")
-    with open(text + ".tmp", "w") as fh:
-        fh.write("".join(line + "\n" for line in lines))
-    os.replace(text + ".tmp", text)
-    table = os.path.join(out_dir, "checks.csv")
-    with open(table + ".tmp", "w", newline="") as fh:
-        writer = csv.writer(fh)
-        writer.writerow(CHECK_COLUMNS)
-        writer.writerows(rows)
-    os.replace(table + ".tmp", table)
+    _write_lines(os.path.join(out_dir, "checks.txt"), lines)
+    _write_table(os.path.join(out_dir, "checks.csv"), rows)
