@@ -2,6 +2,7 @@
 
     python scripts/bench_fft.py --n 17 20 22
     mpirun -n 2 python scripts/bench_fft.py --n 17 20 22
+    python scripts/bench_fft.py --sizes 65536 73728 98304 131072   # any even lengths
 
 For each n = 2**e three transforms are timed, interleaved round by round so that a change of
 the machine's load hits all of them alike:
@@ -32,7 +33,8 @@ import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from hpcgfmd.parallel.fft import SerialRealFFT, TransposedRealFFT
+from hpcgfmd.model.grid import grid_label  # noqa: E402
+from hpcgfmd.parallel.fft import SerialRealFFT, TransposedRealFFT  # noqa: E402
 from hpcgfmd.parallel.fft_transposed import TRANSPORTS  # noqa: E402
 
 
@@ -124,8 +126,10 @@ def bench(comm, n, rounds, calls, effort, transport):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--n", type=int, nargs="+", default=[17, 20],
-                        help="exponents e of the lengths n = 2**e")
+    parser.add_argument("--n", type=int, nargs="+",
+                        help="exponents e of the lengths n = 2**e (default 17 20 without --sizes)")
+    parser.add_argument("--sizes", type=int, nargs="+", default=[],
+                        help="further lengths n, any even number (the automatic grids f 2^a)")
     parser.add_argument("--rounds", type=int, default=10, help="interleaved rounds")
     parser.add_argument("--seconds", type=float, default=0.05,
                         help="rough time of one block of calls (sets the calls per block)")
@@ -136,9 +140,10 @@ def main():
     comm = MPI.COMM_WORLD
     size = comm.Get_size()
     rows = []
-    for e in args.n:
-        n = 2 ** e
-        calls = max(3, int(args.seconds / (6e-9 * n * e)))  # ~6 ns * n log2 n per serial pair
+    exponents = args.n if args.n or args.sizes else [17, 20]
+    lengths = sorted({2 ** e for e in exponents or []} | set(args.sizes))
+    for n in lengths:
+        calls = max(3, int(args.seconds / (6e-9 * n * np.log2(n))))  # ~6 ns n log2 n per pair
         rows.append(bench(comm, n, args.rounds, calls, args.effort, args.transport))
     if comm.Get_rank() != 0:
         return
@@ -148,12 +153,13 @@ def main():
     if size > 1:
         title += f", transport {rows[0]['transport']}"
     print(title + f", load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
-    header = f"{'n':>5} {'serial ms':>10} {'T x 1 ms':>9} {'/serial':>7}"
+    header = f"{'n':>7} {'serial ms':>10} {'ns/node':>7} {'T x 1 ms':>9} {'/serial':>7}"
     if size > 1:
         header += f" {wide + ' ms':>9} {'/serial':>7} {'comm':>5}"
     print(header + "   plan s (serial, T x 1" + (f", {wide})" if size > 1 else ")"))
     for r in rows:
-        line = (f"{'2^%d' % round(np.log2(r['n'])):>5} {1e3 * r['serial']:10.3f} "
+        line = (f"{grid_label(r['n']):>7} {1e3 * r['serial']:10.3f} "
+                f"{1e9 * r['serial'] / r['n']:7.2f} "
                 f"{1e3 * r['T x 1']:9.3f} {r['T x 1'] / r['serial']:7.2f}")
         plans = [r["plan serial"], r["plan T x 1"]]
         if size > 1:

@@ -62,6 +62,8 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):  # one BLAS thread, as 
 
 import numpy as np  # noqa: E402
 
+from hpcgfmd.model.grid import grid_label  # noqa: E402  (no MPI: the model layer only)
+
 # mpi4py (and hpcgfmd, which imports it) is imported only where a measurement runs: --launch
 # and --report must not initialise MPI, or the mpirun they start would inherit a singleton's
 # environment.
@@ -202,9 +204,9 @@ def run_here(args):
 def _levels(row):
     """The preload's iterations: the fine grid's, after those of its coarser levels."""
     coarse = row.get("preload_levels") or ""
-    levels = [f"{int(nx).bit_length() - 1}: {it}" for nx, it in
+    levels = [f"{grid_label(int(nx))}: {it}" for nx, it in
               (level.split(":") for level in coarse.split())]
-    return " + ".join([*(f"2^{level}" for level in levels), str(row["preload_iterations"])])
+    return " + ".join([*levels, str(row["preload_iterations"])])
 
 
 def uptime():
@@ -251,7 +253,7 @@ def report(path, markdown=None, notes=()):
             it, step = float(r["time_per_iteration"]), float(r["time_per_step"])
             iterations = max(int(r["iterations"]), 1)
             load, load0 = float(r["load"]), float(base["load"])
-            cells = [f"2^{nx.bit_length() - 1}" if nx & (nx - 1) == 0 else str(nx), str(ranks),
+            cells = [grid_label(nx), str(ranks),
                      r["steps"], r["iterations"], f"{step:.4g}", f"{1e3 * it:.4g}",
                      f"{float(base['time_per_iteration']) / it:.2f}",
                      f"{float(base['time_per_step']) / step:.2f}",

@@ -1,8 +1,11 @@
 """The accuracy knob's grid (hpcgfmd.model.accuracy): the creep factor, and a creeping
 retraction run at the default accuracy against a converged run of the same case."""
+import math
+
 import pytest
 
 from hpcgfmd.model import accuracy
+from hpcgfmd.model.grid import grid_label, smallest_grid
 from hpcgfmd.model.case import parse_case
 
 from cases import case_text, pull_off_run
@@ -36,3 +39,12 @@ def test_creeping_retraction_meets_the_default_accuracy():
     nx = parse_case(case_text("accuracy = 5e-3", **CREEPING)).numerics.nx
     converged, _ = pull_off_run(case_text(f"accuracy = 5e-4\nnx = {4 * nx}", **CREEPING))
     assert abs(run / converged - 1) <= 5e-3
+
+
+def test_automatic_grid_sizes_are_the_smallest_of_their_family():
+    sizes = sorted({f * 2**a for f in (1, 3, 9) for a in range(1, 90)})
+    for need in (1, 63, 64, 65, 72, 73, 96, 97, 69587.6, 131072, 131073, 2.0**80):
+        want = min(s for s in sizes if s >= max(need, 64))
+        assert smallest_grid(math.log2(need)) == want, need
+    assert [grid_label(n) for n in (131072, 73728, 98304, 100)] == [
+        "2^17", "9x2^13", "3x2^15", "100"]

@@ -108,13 +108,17 @@ def test_existing_output_is_refused(tmp_path):
 
 
 @pytest.mark.parametrize("knob", [1e-2, 5e-3, 1e-3])
-def test_automatic_nx_is_smallest_power_of_two_resolving_the_zone(knob):
+def test_automatic_nx_is_the_smallest_grid_size_resolving_the_zone(knob):
     case = parse_case(case_text(maugis="7.0", numerics=f"accuracy = {knob}"))
     assert case.numerics.nx_automatic
-    points = case.zone_width / case.dx
+    nx = case.numerics.nx
     want = accuracy.zone_points(knob, case.chi_ve, case.k)
-    assert want <= points < 2 * want
-    assert case.numerics.nx & (case.numerics.nx - 1) == 0
+    assert case.zone_width / case.dx >= want
+    # every size f 2^a (f = 1, 3, 9) below nx leaves the zone under-resolved
+    sizes = {f * 2**a for f in (1, 3, 9) for a in range(1, 30)}
+    smaller = max(s for s in sizes if s < nx)
+    assert case.zone_width / (case.cell / smaller) < want
+    assert nx in sizes
 
 
 def test_finer_accuracy_asks_for_more_work():

@@ -106,6 +106,20 @@ def test_same_answer_on_any_rank_count(serial_run, tmp_path, ranks):
     assert_same(reference, read(tmp_path / "out.h5"), 1e-10)
 
 
+def test_same_answer_on_a_grid_of_nine_times_a_power_of_two(tmp_path):
+    # the automatic grids are f 2^a, f in {1, 3, 9} (hpcgfmd.model.grid): 2304 = 9 2^8 is
+    # laid out as 48 rows of 48 nodes, split over 3 ranks as 16 rows each
+    answers = []
+    for ranks in (0, 3):  # serial, then 3 ranks
+        cwd = tmp_path / str(ranks)
+        cwd.mkdir()
+        (cwd / "case.toml").write_text(case(nx=2304))
+        done = run(ranks, "run", "case.toml", "-o", "out.h5", cwd=cwd)
+        assert done.returncode == 0, done.stderr
+        answers.append(read(cwd / "out.h5"))
+    assert_same(answers[0], answers[1], 1e-10)
+
+
 def interrupt(tmp_path, ranks, signum):
     """Start a run, signal it at a random step after its first checkpoint, return the result."""
     (tmp_path / "case.toml").write_text(case(checkpoint_steps=5))

@@ -133,7 +133,7 @@ def test_documented_defaults_are_the_parsed_ones(name):
         for key, expression in default_rows(section).items():
             if key in given:  # set by this case file, not a default
                 continue
-            want = eval(expression, {"__builtins__": {}}, namespace(case))  # noqa: S307
+            want = eval(expression, {"__builtins__": {}, **namespace(case)})  # noqa: S307
             got = parsed(case, key)
             if isinstance(want, float) or isinstance(got, float):
                 assert got == pytest.approx(want, rel=1e-12), (name, key, expression)

@@ -23,8 +23,9 @@ CASE = case_text("nx = 2048", "snapshot_times = [0.0, 3.0, 8.0]\nsnapshot_zero_l
 COARSE_FAST = case_text("nx = 1024", "snapshot_times = [0.0, 0.2]", velocity=9.0)
 
 
-# (the coarse case stops after step 41: steps 40-43 are windows with crossings that use the
-# curvature kept from before, so the resumed run needs it from the checkpoint)
+# (the coarse case stops after step 41, a window without crossings: steps 42-45 are windows
+# with crossings that use its curvature, and step 42's kept history error compares with its
+# correction, so the resumed run needs both from the checkpoint)
 @pytest.mark.parametrize("text, stop", [(CASE, 38), (COARSE_FAST, 41)],
                          ids=["default", "coarse-fast"])
 def test_interrupted_and_resumed_equals_uninterrupted_bitwise(tmp_path, text, stop):

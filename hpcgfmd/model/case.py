@@ -32,6 +32,7 @@ import tomli_w
 from ..errors import CaseError
 from . import accuracy as knob
 from . import theory
+from .grid import smallest_grid
 
 # Cohesive-zone resolution w/dx (w: relaxed zone width pi E0 dmax / (4 sigma_a)); the
 # accuracy it buys is measured in docs/results.md ("Grid and time-step convergence").
@@ -259,8 +260,9 @@ class Case:
             equilibration_steps=equilibration)
 
     def _grid(self, num, accuracy):
-        """(nx, chosen automatically): given and checked, or the smallest power of two with
-        the zone points :func:`~hpcgfmd.model.accuracy.zone_points` of ``accuracy`` (and of the
+        """(nx, chosen automatically): given and checked, or the smallest grid size
+        (:func:`~hpcgfmd.model.grid.smallest_grid`: f 2^a, f in {1, 3, 9}) with the zone
+        points :func:`~hpcgfmd.model.accuracy.zone_points` of ``accuracy`` (and of the
         retraction's rate) across the relaxed cohesive zone (:attr:`zone_width`)."""
         width = self.zone_width
         if "nx" not in num:
@@ -272,7 +274,7 @@ class Case:
                 raise CaseError(f"[numerics] accuracy = {accuracy:g}: the grid it needs is out of"
                                 " the floating-point range; expected a relative error in (0, 0.1)"
                                 " of a size a grid can reach")
-            nx = 2 ** max(6, _ceil_log2(points, self.cell, width))
+            nx = smallest_grid(_log2_ratio(points, self.cell, width))
             _check_memory(nx, True)
             return nx, True
         nx = num["nx"]
@@ -281,7 +283,9 @@ class Case:
         _check_memory(nx, False)  # first: nx may exceed the float range
         points = width / (self.cell / nx)
         if points < MIN_ZONE_POINTS:
-            need = 2 ** _ceil_log2(MIN_ZONE_POINTS, self.cell, width)
+            ratio = MIN_ZONE_POINTS * self.cell / width  # inf when beyond the float range
+            need = (max(64, 2 * math.ceil(ratio / 2)) if math.isfinite(ratio)
+                    else smallest_grid(_log2_ratio(MIN_ZONE_POINTS, self.cell, width)))
             raise CaseError(f"[numerics] nx = {nx}: resolves the cohesive zone with"
                             f" {points:.3g} points; at least {MIN_ZONE_POINTS:g} is needed"
                             f" (nx >= {need}; left out, nx follows [numerics] accuracy)")
@@ -380,12 +384,12 @@ class Case:
                 "zone_points": self.zone_width / self.dx}
 
 
-def _ceil_log2(a, b, c):
-    """ceil(log2(a b / c)), also where a b / c leaves the float range (in logarithms then)."""
+def _log2_ratio(a, b, c):
+    """log2(a b / c), also where a b / c leaves the float range (in logarithms then)."""
     ratio = a * b / c
     if 0.0 < ratio < math.inf:
-        return math.ceil(math.log2(ratio))
-    return math.ceil(math.log2(a) + math.log2(b) - math.log2(c))
+        return math.log2(ratio)
+    return math.log2(a) + math.log2(b) - math.log2(c)
 
 
 def _check_memory(nx, automatic):

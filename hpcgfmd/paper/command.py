@@ -16,6 +16,7 @@ import os
 import time
 
 from ..errors import EXIT_FAILURE, EXIT_OK, ResultFileError, SweepError, UsageError
+from ..model.grid import grid_label
 from . import checks as claims
 from .curves import Retraction, steady_masks
 from .study import DEFAULT_ACCURACY, FIGURES, SWEEP_FILES, paper_study
@@ -150,7 +151,7 @@ def _setting(result):
     """How a Fig. B1 run was resolved: its grid, and its fixed step or adaptive."""
     a = result.attrs
     nx = int(a["nx"])
-    grid = f"2^{nx.bit_length() - 1}" if nx & (nx - 1) == 0 else str(nx)
+    grid = grid_label(nx)
     if a["step_control"] == "fixed":
         return grid, f"tau/{round(a['time_unit'] / a['dt']):d}"
     return grid, "adaptive"

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import theory
-from ..studies.distance import polyline_distances
+from ..studies.distance import load_area_distances
 
 
 
@@ -119,15 +119,11 @@ def point_distances(curve: Retraction, reference: Retraction, upto: int | None =
     Returns
     -------
     ndarray, shape (upto + 1,)
-        NaN when the reference has fewer than two points.
+        NaN when the reference has fewer than two points up to its pull-off.
     """
     end = (curve.pull_off if upto is None else upto) + 1
-    a_scale, l_scale = reference.abar[0], abs(reference.lbar[reference.pull_off])
-    line = np.stack([reference.abar / a_scale, reference.lbar / l_scale], 1)
-    points = np.stack([curve.abar[:end] / a_scale, curve.lbar[:end] / l_scale], 1)
-    if len(line) < 2 or not len(points):
-        return np.full(len(points), np.nan)
-    return polyline_distances(points, line)
+    return load_area_distances(curve.abar[:end], curve.lbar[:end], reference.abar,
+                               reference.lbar)
 
 
 def curve_distance(a: Retraction, b: Retraction, below: float = np.inf) -> float:

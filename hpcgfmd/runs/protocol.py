@@ -62,7 +62,7 @@ class Retraction:
     """
 
     FIELDS = ("u", "u_previous", "u_older", "substrate_traction", "traction",
-              "history_curvature")
+              "history_curvature", "history_correction")
 
     def __init__(self, case: Case, comm, planner_effort="FFTW_MEASURE"):
         self.case = case
@@ -177,9 +177,10 @@ class Retraction:
             if record is None:  # abandoned: its edges moved too far, the verdict is known
                 decision = self.steps.judge(dt, self.time, None, math.inf)
             else:
+                step_error, kept = self._history_error()
                 decision = self.steps.judge(
-                    dt, record.time, record.load, self._edge_motion(), self._history_error(),
-                    record.cohesive_half_width - record.contact_half_width)
+                    dt, record.time, record.load, self._edge_motion(), step_error,
+                    record.cohesive_half_width - record.contact_half_width, kept)
             if decision.accepted:
                 break
             self.rejected_steps += 1
@@ -198,12 +199,13 @@ class Retraction:
         return record
 
     def _history_error(self):
-        """Collective: the load error of the last step's history (0 without an estimate)."""
+        """Collective: the load error of the last step's history and the part of it kept in
+        the history after the correction (:meth:`HistoryError.estimate`; 0 without one)."""
         if self.history_error is None:
-            return 0.0
+            return 0.0, 0.0
         self.history_error.forget()
         if self._older is None:
-            return 0.0
+            return 0.0, 0.0
         older, time_older = self._older
         time_before = float(self._saved_attrs["time"])
         return self.history_error.estimate(
@@ -301,7 +303,9 @@ class Retraction:
                   "traction": self.traction, "u_previous": u_previous,
                   "u_older": self._older[0] if self._older else self._absent,
                   "history_curvature": (self.history_error.smooth_curvature
-                                        if self.history_error else self._absent)}
+                                        if self.history_error else self._absent),
+                  "history_correction": (self.history_error.previous_correction
+                                         if self.history_error else self._absent)}
         attrs.update(time=self.time, indenter=self.indenter, step_index=self.step_index,
                      total_iterations=self.total_iterations, fft_pairs=self.fft.pairs,
                      rejected_steps=self.rejected_steps,
@@ -313,7 +317,11 @@ class Retraction:
                      curvature_age=(self.history_error.curvature_age if self.history_error
                                     else math.inf),
                      curvature_time=(self.history_error.curvature_time if self.history_error
-                                     else -math.inf))
+                                     else -math.inf),
+                     has_previous_correction=bool(self.history_error
+                                                  and self.history_error.has_previous),
+                     previous_correction_reused=bool(self.history_error
+                                                     and self.history_error.previous_reused))
         attrs.update(self.solver.statistics())
         attrs.update(self.steps.state())
         return fields, attrs
@@ -351,6 +359,15 @@ class Retraction:
                                                                     -math.inf))
                 if "history_curvature" in fields:
                     self.history_error.smooth_curvature[:] = fields["history_curvature"]
+                # (absent from checkpoints before the correction's error was estimated: the
+                # first estimate after the restart then bounds it by the step's error)
+                previous = "history_correction" in fields and bool(
+                    attrs.get("has_previous_correction", False))
+                self.history_error.has_previous = previous
+                self.history_error.previous_reused = bool(
+                    attrs.get("previous_correction_reused", False))
+                if previous:
+                    self.history_error.previous_correction[:] = fields["history_correction"]
         else:  # the predictor's u_{n-1} goes back too, its counters stay
             choices, rejected = self.predictor.choices, self.predictor.rejected
             self.predictor.restore(fields["u_previous"], attrs)

@@ -74,7 +74,7 @@ def describe(case: Case) -> str:
     g = case.groups()
     u = case.units
     num = case.numerics
-    auto = (f" (from accuracy {num.accuracy:g}: the smallest power of two with"
+    auto = (f" (from accuracy {num.accuracy:g}: the smallest f 2^a, f in {{1, 3, 9}}, with"
             f" {knob.zone_points(num.accuracy, case.chi_ve, case.k):.2g} points across w)"
             if num.nx_automatic
             else "")

@@ -22,7 +22,8 @@ Where the time discretisation errs (docs/model.md, "Substrate" and "Protocol"):
   ``time_tolerance``.
 
 Controller. After each step the error ratios e_edge = |da|max / (edge_fraction w) and e_lag
-(first order in dt), e_load and e_history (second order) give the next step
+(first order in dt), e_load (second order) and e_history (third order for steps short
+against tau, first to second for long ones: its square root is between) give the next step
 dt * clip(0.9 / max(e_edge, e_lag, sqrt(e_load), sqrt(e_history)), 1/4, 2), rounded down to
 the grid dt_min 2^(j/4) within [dt_min, dt_max]. A step with e_edge > 2, e_load > 4,
 e_history > 4 or e_lag > 4 is rejected and repeated with that shorter step (the state is
@@ -135,7 +136,7 @@ class FixedSteps:
         return self.dt
 
     def judge(self, dt, time, load, edge_motion, history_error=0.0,
-              zone_width=math.nan) -> StepDecision:
+              zone_width=math.nan, history_kept=None) -> StepDecision:
         return StepDecision(True, self.dt, 0.0, 0.0)
 
     def edge_limit(self, dt) -> float:
@@ -165,8 +166,9 @@ class AdaptiveSteps:
         Largest deviation of a load from the linear extrapolation of the two before,
         load_tolerance * load scale (load per unit length, units of E0 R).
     history_allowance : float
-        Largest accumulated load error of the history integration, time_tolerance * load
-        scale (load per unit length); inf: not controlled (the elastic solid).
+        Largest load error of the history integration, a step's own and the one kept in the
+        history accumulated over ``memory_time`` (:class:`HistoryError`), time_tolerance *
+        load scale (load per unit length); inf: not controlled (the elastic solid).
     memory_time : float
         Time over which a history error persists, the retardation time tau/k (internal units).
     lag_allowance : float
@@ -210,13 +212,15 @@ class AdaptiveSteps:
         return min(self.dt_min * 2.0 ** (j / GRID_PER_OCTAVE), self.dt_max)
 
     def judge(self, dt, time, load, edge_motion, history_error=0.0,
-              zone_width=math.nan) -> StepDecision:
+              zone_width=math.nan, history_kept=None) -> StepDecision:
         """The verdict on a solved step of length dt ending at ``time`` with ``load``.
 
         ``edge_motion`` is the largest displacement of a contact edge over the step (length;
         NaN or inf when the contact appeared or vanished). ``load`` is None for an abandoned
         solve (no equilibrium: only its edge motion counts). ``history_error`` is the load
-        error the step's history integration made (:class:`HistoryError`; load per length).
+        error the step's history integration made in its own load, ``history_kept`` the part
+        of it that stays in the history the next steps start from (:class:`HistoryError`;
+        load per length; None: all of it).
         ``zone_width`` is the cohesive zone's width at the step's end (length; NaN: unknown,
         the relaxed width w stands in), the length a passing edge strains a node over.
         """
@@ -228,10 +232,13 @@ class AdaptiveSteps:
             (t0, l0), (t1, l1) = self.points
             predicted = l1 + (l1 - l0) * (time - t1) / (t1 - t0)
             load_error = abs(load - predicted) / self.load_allowance
-        # The history's error persists over the memory time: a step may add the share of the
-        # allowance that the accumulated error loses meanwhile, so that it stays within it.
-        history_ratio = history_error / (self.history_allowance
-                                         * -math.expm1(-dt / self.memory_time))
+        # The error kept in the history persists over the memory time: a step may add the
+        # share of the allowance that the accumulated error loses meanwhile, so that it stays
+        # within it; the step's own error is bounded by the allowance.
+        kept = history_error if history_kept is None else history_kept
+        history_ratio = max(history_error / self.history_allowance,
+                            kept / (self.history_allowance
+                                    * -math.expm1(-dt / self.memory_time)))
         zone = zone_width if zone_width > 0.0 and math.isfinite(zone_width) else self.zone_width
         lag_error = tip_lag_error(dt, edge_motion, zone, self.modulus_ratio) / self.lag_allowance
         # first order where it binds (dt >> tau)
@@ -336,15 +343,41 @@ class HistoryError:
         self.curvature_time = -math.inf  # end time of its window
         self._lifetime = CURVATURE_LIFETIME * substrate.material.relaxation_time
         self._smooth = False  # the last estimate's window had no crossing
+        self._reused = False  # the last estimate took the smooth curvature
+        self.previous_reused = False  # ... and so did the previous accepted one
         self._time = -math.inf  # end time of the last estimate's window
+        self._response = 0.0  # curvature_response of the last estimate's step
+        # K c of the last accepted estimate's curvature c, per unit curvature response
+        # (dp / response), for the error of the correction (estimate's docstring)
+        self.previous_correction = aligned_empty(n)
+        self.previous_correction[:] = 0.0
+        self.has_previous = False  # set by correct(); restored from checkpoints
 
     def estimate(self, older, time_older, state_older, before, time_before, state_before,
                  after, time_after, state):
-        """Collective (one FFT pair): the step's load error (load per unit length, >= 0).
+        """Collective (one FFT pair): the step's load error and the error its correction
+        leaves in the history (load per unit length, both >= 0).
+
+        The step's error |sum of dp over the contact| dx is that of this step's equilibrium
+        only: :meth:`correct` removes it from the history the next steps start from. What
+        stays in the history is the correction's own error, the change of the curvature
+        over the step (u_ttt dt, which the quadratic through the last three states does not
+        see): estimated as the difference of this estimate's dp and the previous accepted
+        estimate's, taken at this step's curvature response,
+        |sum over the contact of (dp - response K c_prev)| dx (an embedded third-order
+        estimate: for u cubic in time it is about twice the corrected step's local error,
+        tests/test_history_error.py). Where either curvature is not the window's own (the
+        smooth curvature stood in for a crossing) or no accepted estimate came before, the
+        step's error stands in for it.
 
         ``older``, ``before``, ``after``: this rank's u at the three times; ``state_*``:
         their nodes' interaction states (2 on the wall, 1 in the cohesive zone, 0 beyond;
         ``state``: after the step).
+
+        Returns
+        -------
+        (float, float)
+            The step's load error and the correction's (load per unit length).
         """
         h1, h0 = time_after - time_before, time_before - time_older
         c = self._curvature
@@ -361,16 +394,26 @@ class HistoryError:
         self.substrate.history_error(self.fft, self.smooth_curvature if reuse else c, h1,
                                      self._traction)
         self._estimated = True
+        self._response = self.substrate.material.curvature_response(h1)
         contact = state == 2
-        local = self._traction[contact].sum() if contact.size else 0.0
-        return abs(self.domain.sum(local)) * self.domain.dx
+        comparable = self.has_previous and not reuse and not self.previous_reused
+        self._reused = reuse
+        step_part = self._traction[contact].sum()  # 0 on a rank without nodes
+        kept = self.previous_correction[contact].sum() * self._response if comparable else 0.0
+        step_error, change = self.domain.sums(step_part, step_part - kept)
+        dx = self.domain.dx
+        return abs(step_error) * dx, abs(change if comparable else step_error) * dx
 
     def correct(self, substrate_traction):
         """Add the last estimate's missed traction to the accepted step's substrate traction
         (nothing when the step had no estimate), and keep its curvature when its window had
-        no crossing; the estimate is used up."""
+        no crossing, and its dp per unit curvature response for the next estimate's error of
+        the correction; the estimate is used up."""
         if self._estimated:
             substrate_traction += self._traction
+            if self._response > 0.0:
+                np.multiply(self._traction, 1.0 / self._response, out=self.previous_correction)
+                self.has_previous, self.previous_reused = True, self._reused
             if self._smooth:
                 self.smooth_curvature[:] = self._curvature
                 self.curvature_age = 0

@@ -24,6 +24,7 @@ import os
 
 from ..errors import CaseError
 from ..model.case import parse_case
+from ..model.grid import grid_label
 from . import benchmark
 
 ACCURACIES = (1e-2, 5e-3, 1e-3)
@@ -70,7 +71,7 @@ def markdown(rows):
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['lambda0']:g} | {r['k']:g} | {r['Vz']:g} | {r['depth']:g} |"
-                     f" {r['accuracy']:g} | 2^{int(r['nx']).bit_length() - 1} | {r['steps']} |"
+                     f" {r['accuracy']:g} | {grid_label(int(r['nx']))} | {r['steps']} |"
                      f" {r['iterations_per_step']:.1f} | {r['cpu_s']:.1f} |"
                      f" {r['pulloff_Lbar']:.5f} | {r['pulloff_error']:.1e} |"
                      f" {r['curve_error']:.1e} | {'yes' if r['within'] else 'NO'} |")

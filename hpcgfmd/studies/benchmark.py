@@ -45,7 +45,7 @@ import numpy as np
 from ..errors import CaseError
 from ..model.case import parse_case
 from ..runs.protocol import Retraction
-from .distance import polyline_distances
+from .distance import load_area_distances
 
 logger = logging.getLogger(__name__)
 
@@ -128,25 +128,19 @@ def _max():
 
 
 def curve_error(reference, result):
-    """Largest distance of the run's points (abar, Lbar) to the reference's polyline (scaled).
+    """Largest distance of the run's points (abar, Lbar) up to its pull-off to the
+    reference's load-area curve up to the reference's pull-off
+    (:func:`~hpcgfmd.studies.distance.load_area_distances`, scaled by the reference's
+    abar_c at t = 0 and |Lbar| at pull-off).
 
-    The run's points up to its pull-off (after it the contact jumps; the pull-off error
-    measures where it came); the reference is sampled much more densely, so its polyline
-    stands for the exact curve and the distance is the error of the computed points, not
-    of interpolating between them. Both coordinates are divided by the reference's abar_c
-    at t = 0 and |Lbar| at pull-off.
+    After the run's pull-off the contact jumps; the pull-off error measures where it came.
+    The reference is sampled much more densely, so its polyline stands for the exact curve
+    and the distance is the error of the computed points, not of interpolating between them.
     """
     end = int(np.argmin(result["lbar"])) + 1
-    a_scale = reference["abar"][0]
-    l_scale = abs(reference["lbar"].min())
-    keep_r = reference["abar"] > 0
-    keep = result["abar"][:end] > 0
-    line = np.stack([reference["abar"][keep_r] / a_scale, reference["lbar"][keep_r] / l_scale], 1)
-    points = np.stack([result["abar"][:end][keep] / a_scale,
-                       result["lbar"][:end][keep] / l_scale], 1)
-    if len(line) < 2 or len(points) == 0:
-        return math.nan
-    return float(polyline_distances(points, line).max())
+    distances = load_area_distances(result["abar"][:end], result["lbar"][:end],
+                                    reference["abar"], reference["lbar"])
+    return float(distances.max()) if len(distances) else math.nan
 
 
 def paper_dt(vz):

@@ -29,3 +29,34 @@ def polyline_distances(points: np.ndarray, line: np.ndarray) -> np.ndarray:
                                               .sum(2)).min(1)
         done += len(chunk)
     return out
+
+
+def load_area_distances(abar, lbar, reference_abar, reference_lbar) -> np.ndarray:
+    """Distance of the points (abar, Lbar) to a reference's attached load-area curve.
+
+    The reference curve is its polyline from the start to its pull-off (its most tensile
+    load), points without contact (abar = 0: the contact can vanish before the pull-off on
+    fast retractions) included, so a point near the curve's end is measured against the
+    end; after the pull-off the contact jumps off and nothing is compared. Both coordinates
+    are divided by the reference's abar at t = 0 and its |Lbar| at pull-off
+    (dimensionless).
+
+    Parameters
+    ----------
+    abar, lbar : ndarray, shape (m,)
+        The points' contact half-widths and loads (the paper's scaled abar_c and Lbar).
+    reference_abar, reference_lbar : ndarray, shape (k,)
+        The reference's series, from t = 0.
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        NaN when the reference has fewer than two points up to its pull-off.
+    """
+    end = int(np.argmin(reference_lbar)) + 1
+    a_scale, l_scale = reference_abar[0], abs(reference_lbar[end - 1])
+    line = np.stack([reference_abar[:end] / a_scale, reference_lbar[:end] / l_scale], 1)
+    points = np.stack([np.asarray(abar) / a_scale, np.asarray(lbar) / l_scale], 1)
+    if len(line) < 2 or not len(points):
+        return np.full(len(points), np.nan)
+    return polyline_distances(points, line)
