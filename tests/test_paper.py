@@ -164,22 +164,37 @@ def test_elastic_retraction_lies_on_baney_hui_and_its_work_is_theirs(maugis):
     ours, _ = checks.baney_hui_distance(curve)
     # the accuracy knob bounds the curve error against a converged run (curve_bound);
     # Baney-Hui is the converged run's limit up to the periodic correction's O((a/L)^4)
-    assert ours <= curve_bound(maugis)
+    bound = curve_bound(maugis)
+    assert ours <= bound
     # the effective work of each point before the pull-off against that of the Baney-Hui
     # point of the same contact width (Eqs. 12-13; for an elastic solid dgamma_eff is a
-    # property of the equilibrium curve alone). The knob bounds the load and width errors by
-    # the accuracy; dgamma_eff is quadratic in the intercept y - x: typically within the
-    # accuracy (median; measured 0.5 % and 0.9 %), at the pull-off within twice it.
+    # property of the equilibrium curve alone). The knob bounds the load and width errors
+    # (curve_bound); dgamma_eff is quadratic in the intercept y - x: typically within the
+    # bound (median; measured 1.5 % against 2.2 % at lambda = 1.5, 0.9 % against 1 % at 3.5),
+    # at the pull-off within twice it.
     end = curve.pull_off + 1
     bh = np.array([theory.maugis_dugdale(a, maugis)[0] for a in curve.abar[:end]])
     bh *= theory.periodic_load_factor(curve.abar[:end] * curve.beta, 4.0)
     work_bh = theory.effective_work_ratio(bh / np.sqrt(curve.abar[:end]),
                                           np.pi / 4 * curve.abar[:end]**1.5)
     deviation = np.abs(curve.effective_work()[:end] / work_bh - 1)
-    assert np.median(deviation) <= 1e-2
-    assert deviation[-1] <= 2e-2
-    # and at its pull-off a Baney-Hui contact has (nearly) the relaxed work: 1 to 1 %
-    assert work_bh[-1] == pytest.approx(1.0, abs=1e-2)
+    assert np.median(deviation) <= bound
+    assert deviation[-1] <= 2 * bound
+    # and at its own pull-off (its load minimum, with the cell's factor) a Baney-Hui contact
+    # has the relaxed work of the JKR relation (Eqs. 12-13) to 1 % where Baney-Hui is JKR-like
+    # (lambda >= 3.5, Fig. 4), and more below (measured 1.0016 at 3.5, 1.038 at 1.5). (Not at
+    # our pull-off's width: the load is flat in the width there, so a load within the
+    # accuracy leaves the width a few % off.)
+    a = np.linspace(0.5 * curve.abar[end - 1], curve.abar[0], 4001)
+    load = np.array([theory.maugis_dugdale(x, maugis)[0] for x in a])
+    load *= theory.periodic_load_factor(a * curve.beta, 4.0)
+    i = int(np.argmin(load))
+    assert 0 < i < len(a) - 1  # a minimum inside the range
+    work = theory.effective_work_ratio(load[i] / np.sqrt(a[i]), np.pi / 4 * a[i]**1.5)
+    if maugis >= 3.5:
+        assert work == pytest.approx(1.0, abs=1e-2)
+    else:
+        assert work > 1.02
 
 
 def test_figures_option_names_the_accepted_values():
