@@ -141,6 +141,11 @@ def cmd_info(comm, args):
     print(f"groups: lambda0 = {a['lambda0']:.6g}, lambda_inf = {a['lambda_inf']:.6g},"
           f" k = {a['k']:.6g}, V_z = {a['Vz']:.6g}, chi_ve = {a['chi_ve']:.6g},"
           f" alpha = {a['alpha']:.6g}, w/dx = {a['zone_points']:.3g}")
+    if "relaxation_moduli" in a:
+        print(f"Prony series: E_i/E0 = {a['relaxation_moduli']}, tau_i/tau_r ="
+              f" {a['relaxation_times']}")
+    if "drive_stiffness" in a:
+        print(f"compliant drive: k_s / E0 = {a['drive_stiffness']:.6g}")
     print(f"numerics: nx = {a['nx']}, dt = {a['dt']:.6g}, tolerance = {a['tolerance']:g}")
     print(f"scales: beta = {a['beta']:.6g}, load scale = {a['load_scale']:.6g}")
     if s.load.size:

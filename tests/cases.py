@@ -42,20 +42,30 @@ def case_text(numerics="nx = 2048", output="", prefix="", **groups):
     return text + (f"[{prefix}output]\n{output}\n" if output else "")
 
 
-def pull_off_run(text):
-    """A whole serial retraction of the case file ``text``: (pull-off Lbar, the finished run).
-
-    The pull-off is the most tensile load over the run (preload included) in load scales.
-    """
+def whole_run(text):
+    """A whole serial retraction of the case file ``text``: (its step records, preload
+    first, and the finished run, closed)."""
     from mpi4py import MPI
 
     from hpcgfmd.model.case import parse_case
     from hpcgfmd.runs.protocol import Retraction
 
-    case = parse_case(text)
-    sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
-    loads = [sim.preload().load]
-    while not sim.detached():
-        loads.append(sim.step().load)
-    sim.close()
-    return min(loads) / case.load_scale, sim
+    sim = Retraction(parse_case(text), MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
+    try:
+        records = [sim.preload()]
+        while not sim.detached():
+            records.append(sim.step())
+    finally:
+        sim.close()
+    return records, sim
+
+
+def pull_off_run(text):
+    """A whole serial retraction of the case file ``text``: (pull-off Lbar, the finished run).
+
+    The pull-off is the most tensile load over the run (preload included) in load scales.
+    """
+    from hpcgfmd.model.case import parse_case
+
+    records, sim = whole_run(text)
+    return min(r.load for r in records) / parse_case(text).load_scale, sim

@@ -120,6 +120,23 @@ def test_same_answer_on_a_grid_of_nine_times_a_power_of_two(tmp_path):
     assert_same(answers[0], answers[1], 1e-10)
 
 
+@pytest.mark.parametrize("groups", [
+    # the branch tractions are real-space blocks of each rank (hpcgfmd.model.prony)
+    dict(modulus_ratio=None, relaxation_moduli=[3.0, 6.0], relaxation_times=[0.1, 1.45]),
+    # the indenter's search: every rank takes the same decisions from reduced loads
+    dict(drive_stiffness=0.3)], ids=["prony", "spring"])
+def test_prony_series_and_spring_same_answer_on_two_ranks(tmp_path, groups):
+    answers = []
+    for ranks in (0, 2):
+        cwd = tmp_path / str(ranks)
+        cwd.mkdir()
+        (cwd / "case.toml").write_text(case(**groups))
+        done = run(ranks, "run", "case.toml", "-o", "out.h5", cwd=cwd)
+        assert done.returncode == 0, done.stderr
+        answers.append(read(cwd / "out.h5"))
+    assert_same(answers[0], answers[1], 1e-10)
+
+
 def interrupt(tmp_path, ranks, signum):
     """Start a run, signal it at a random step after its first checkpoint, return the result."""
     (tmp_path / "case.toml").write_text(case(checkpoint_steps=5))

@@ -21,13 +21,22 @@ CASE = case_text("nx = 2048", "snapshot_times = [0.0, 3.0, 8.0]\nsnapshot_zero_l
 # crossings uses the kept smooth curvature (HistoryError, "Crossings"), which the
 # checkpoint must hold too.
 COARSE_FAST = case_text("nx = 1024", "snapshot_times = [0.0, 0.2]", velocity=9.0)
+# A two-branch Prony series: its branch tractions are state the checkpoint must hold.
+PRONY = case_text("nx = 2048", "snapshot_times = [0.0, 3.0]", modulus_ratio=None,
+                  relaxation_moduli=[3.0, 6.0], relaxation_times=[0.1, 1.45])
+# A compliant drive: the drive's start, the indenter's rate and slope are state too (with a
+# Prony series: the branches' step start).
+SPRING = case_text("nx = 2048", "snapshot_times = [0.0, 3.0]", drive_stiffness=0.3)
+PRONY_SPRING = case_text("nx = 1024", "", modulus_ratio=None, relaxation_moduli=[3.0, 6.0],
+                         relaxation_times=[0.1, 1.45], drive_stiffness=0.3)
 
 
 # (the coarse case stops after step 41, a window without crossings: steps 42-45 are windows
 # with crossings that use its curvature, and step 42's kept history error compares with its
 # correction, so the resumed run needs both from the checkpoint)
-@pytest.mark.parametrize("text, stop", [(CASE, 38), (COARSE_FAST, 41)],
-                         ids=["default", "coarse-fast"])
+@pytest.mark.parametrize("text, stop", [(CASE, 38), (COARSE_FAST, 41), (PRONY, 57),
+                                        (SPRING, 60), (PRONY_SPRING, 45)],
+                         ids=["default", "coarse-fast", "prony", "spring", "prony-spring"])
 def test_interrupted_and_resumed_equals_uninterrupted_bitwise(tmp_path, text, stop):
     case = parse_case(text)
     quiet = {"planner_effort": "FFTW_ESTIMATE"}
@@ -40,11 +49,11 @@ def test_interrupted_and_resumed_equals_uninterrupted_bitwise(tmp_path, text, st
     run_case(case, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, resume=True,
              stop=StopAtStep(10**9))
     whole, parts = read_series(tmp_path / "whole.h5"), read_series(tmp_path / "parts.h5")
-    for name in ("time", "load", "contact_half_width", "cohesive_half_width", "iterations",
-                 "residual"):
+    for name in ("time", "indenter", "drive", "load", "contact_half_width",
+                 "cohesive_half_width", "iterations", "residual"):
         np.testing.assert_array_equal(getattr(parts, name), getattr(whole, name), err_msg=name)
     for key in ("steps", "iterations", "fft_pairs", "projections", "cut_steps",
-                "moving_edge_predictions", "rejected_predictions"):
+                "moving_edge_predictions", "rejected_predictions", "spring_solves"):
         assert parts.attrs[key] == whole.attrs[key], key
     import h5py
 

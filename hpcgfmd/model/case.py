@@ -5,10 +5,14 @@ groups"; docs/case-file.md lists every key with its default):
 
 ``[case]`` the dimensionless groups in units R = E0 = tau = 1:
     maugis (lambda0), modulus_ratio (k = E0/Einf, in (0, 1]), velocity (V_z),
-    depth (h0/R), cell (L/R), adhesion (alpha = dgamma0 / (E0 R)).
+    depth (h0/R), cell (L/R), adhesion (alpha = dgamma0 / (E0 R)); for a generalized Maxwell
+    (Prony) solid relaxation_moduli (E_i / E0) and relaxation_times (tau_i / tau_r, tau_r their
+    modulus-weighted mean, docs/model.md (M41)) in place of modulus_ratio.
 ``[physical]`` SI values:
     radius, modulus_relaxed, modulus_instantaneous (plane-strain moduli E*), relaxation_time,
-    work_of_adhesion, interaction_range, velocity, depth, cell_length.
+    work_of_adhesion, interaction_range, velocity, depth, cell_length; for a Prony solid
+    relaxation_moduli (Pa) and relaxation_times (s) in place of modulus_instantaneous and
+    relaxation_time.
 
 ``[numerics]`` and ``[output]`` are optional; times and lengths there are in the case's units
 (tau and R with ``[case]``, seconds and metres with ``[physical]``).
@@ -23,16 +27,20 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import numbers
 import os
 import tomllib
 from dataclasses import dataclass, field
 
+import numpy as np
 import tomli_w
 
 from ..errors import CaseError
 from . import accuracy as knob
 from . import theory
 from .grid import smallest_grid
+from .material import StandardLinearSolid
+from .prony import GeneralizedMaxwell
 
 # Cohesive-zone resolution w/dx (w: relaxed zone width pi E0 dmax / (4 sigma_a)); the
 # accuracy it buys is measured in docs/results.md ("Grid and time-step convergence").
@@ -50,17 +58,22 @@ SOLVERS = ("cg", "paper")  # the names of hpcgfmd.solvers' registry
 STEP_CONTROLS = ("adaptive", "fixed")
 MIN_TOLERANCE = 1e-13      # the residual's round-off floor (max norm relative to sigma_a)
 BYTES_PER_POINT = 320      # about 40 float64 work arrays per grid point
+BYTES_PER_BRANCH = 24      # a Prony branch's traction, its step start and its undo copy
+MEAN_TIME_TOLERANCE = 1e-6  # [case] relaxation_times: their weighted mean is 1 to this
 
 CASE_KEYS = ("maugis", "modulus_ratio", "velocity", "depth", "cell", "adhesion")
 PHYSICAL_KEYS = ("radius", "modulus_relaxed", "modulus_instantaneous", "relaxation_time",
                  "work_of_adhesion", "interaction_range", "velocity", "depth", "cell_length")
+PRONY_KEYS = ("relaxation_moduli", "relaxation_times")  # [case] and [physical]
+DRIVE_KEYS = ("drive_stiffness",)  # [case] (in E0) and [physical] (in Pa): the compliant drive
 NUMERICS_KEYS = ("accuracy", "nx", "dt", "tolerance", "max_iterations", "solver",
                  "step_control", "dt_min", "dt_max", "edge_fraction", "load_tolerance",
                  "time_tolerance", "equilibration_steps")
 OUTPUT_KEYS = ("snapshot_times", "snapshot_contact_widths", "snapshot_zero_load",
                "progress_interval", "checkpoint_interval", "checkpoint_steps")
-SECTIONS = {"case": CASE_KEYS, "physical": PHYSICAL_KEYS, "numerics": NUMERICS_KEYS,
-            "output": OUTPUT_KEYS}
+SECTIONS = {"case": CASE_KEYS + PRONY_KEYS + DRIVE_KEYS,
+            "physical": PHYSICAL_KEYS + PRONY_KEYS + DRIVE_KEYS,
+            "numerics": NUMERICS_KEYS, "output": OUTPUT_KEYS}
 
 
 @dataclass(frozen=True)
@@ -129,7 +142,8 @@ class Case:
     ----------
     maugis, modulus_ratio, velocity, depth, cell, adhesion : float
         lambda0, k = E0/Einf in (0, 1], V_z, h0/R, L/R and alpha = dgamma0/(E0 R), all
-        dimensionless (docs/model.md, "Scales and dimensionless groups").
+        dimensionless (docs/model.md, "Scales and dimensionless groups"). With a Prony series
+        ``modulus_ratio`` may be None: it is 1 / (1 + sum of relaxation_moduli).
     numerics, output : dict or Numerics / Output, optional
         The ``[numerics]`` and ``[output]`` keys of a case file (in the case's units), or the
         resolved objects; left out, every default applies.
@@ -139,6 +153,14 @@ class Case:
         The case file (stored in the output); made from the keys when not given.
     form : {"case", "physical"}
         Which section the case came from (error messages name its keys).
+    relaxation_moduli, relaxation_times : sequence of float, optional
+        A generalized Maxwell (Prony) substrate (docs/model.md, (M38)-(M41)): E_i / E0 and
+        tau_i / tau_r of each branch, tau_r = sum E_i tau_i / sum E_i the reference time (so
+        the times' weighted mean is 1). Left out: the standard linear solid of k.
+    drive_stiffness : float, optional
+        k_s / E0 > 0 of the spring between the drive and the indenter, per unit length of the
+        cylinder (docs/model.md, "Protocol"): the drive follows -h0 + v_z t and the indenter
+        is where the spring balances the load. inf (the default): displacement control.
 
     Raises
     ------
@@ -157,9 +179,20 @@ class Case:
     units: Units = field(default_factory=Units)
     text: str = ""
     form: str = "case"
+    relaxation_moduli: tuple = ()
+    relaxation_times: tuple = ()
+    drive_stiffness: float = math.inf
 
     def __post_init__(self):
         given = {"numerics": self.numerics, "output": self.output}
+        if any(value is not None and not (hasattr(value, "__len__") and len(value) == 0)
+               for value in (self.relaxation_moduli, self.relaxation_times)):
+            self._resolve_prony()
+        if self.drive_stiffness != math.inf:
+            section = "case" if self.form == "case" else "physical"
+            stiffness = _number({"drive_stiffness": self.drive_stiffness}, section,
+                                "drive_stiffness")
+            object.__setattr__(self, "drive_stiffness", stiffness)
         if self.form == "case":
             groups = {key: getattr(self, key) for key in CASE_KEYS}
             for key in CASE_KEYS:
@@ -178,10 +211,60 @@ class Case:
         if not isinstance(self.output, Output):
             object.__setattr__(self, "output", _resolve_output(self.output or {}, self.units))
         if not self.text:  # built from keywords: the case file that gives this case
-            doc = {"case": {key: getattr(self, key) for key in CASE_KEYS}}
+            keys = CASE_KEYS if not self.prony else (
+                tuple(key for key in CASE_KEYS if key != "modulus_ratio") + PRONY_KEYS)
+            if self.compliant:
+                keys += DRIVE_KEYS
+            doc = {"case": {key: _plain(getattr(self, key)) for key in keys}}
             doc.update({name: value for name, value in given.items()
                         if isinstance(value, dict) and value})
             object.__setattr__(self, "text", tomli_w.dumps(doc))
+
+    def _resolve_prony(self):
+        """Check a Prony series (two lists of numbers > 0, one length; [case] times with a
+        weighted mean of 1) and derive k = E0 / Einf = 1 / (1 + sum E_i / E0) from it."""
+        section = "case" if self.form == "case" else "physical"
+        moduli = _positive_list(self.relaxation_moduli, section, "relaxation_moduli")
+        times = _positive_list(self.relaxation_times, section, "relaxation_times")
+        if len(moduli) != len(times):
+            raise CaseError(f"[{section}] relaxation_times = {_fmt(list(times))}: expected as"
+                            f" many times as relaxation_moduli ({len(moduli)})")
+        mean = math.fsum(m * t for m, t in zip(moduli, times)) / math.fsum(moduli)
+        if self.form == "case" and not abs(mean - 1.0) <= MEAN_TIME_TOLERANCE:
+            scaled = ", ".join(f"{t / mean:.10g}" for t in times)
+            raise CaseError(
+                f"[case] relaxation_times = {_fmt(list(times))}: expected times in units of the"
+                " reference time sum E_i tau_i / sum E_i, whose mean weighted by"
+                f" relaxation_moduli is 1; these average {mean:.10g}: the same solid is"
+                f" relaxation_times = [{scaled}] with velocity times {mean:.10g}")
+        k = 1.0 / (1.0 + math.fsum(moduli))
+        given = self.modulus_ratio
+        if given is not None and (isinstance(given, bool) or not isinstance(given, (int, float))
+                                  or not abs(given - k) <= 1e-12 * k):
+            raise CaseError(f"[{section}] modulus_ratio = {_fmt(given)}: a Prony series sets"
+                            f" k = 1 / (1 + sum of relaxation_moduli) = {k:.12g}; leave"
+                            " modulus_ratio out")
+        object.__setattr__(self, "relaxation_moduli", moduli)
+        object.__setattr__(self, "relaxation_times", times)
+        object.__setattr__(self, "modulus_ratio", k)
+
+    @property
+    def compliant(self) -> bool:
+        """True when the indenter hangs on a spring (finite drive_stiffness)."""
+        return self.drive_stiffness != math.inf
+
+    @property
+    def prony(self) -> bool:
+        """True for a generalized Maxwell (Prony series) substrate, False for the SLS."""
+        return bool(self.relaxation_moduli)
+
+    def material(self):
+        """The substrate's material in internal units (E0 = tau_r = 1): a
+        :class:`~hpcgfmd.model.prony.GeneralizedMaxwell` for a Prony series, else the
+        :class:`~hpcgfmd.model.material.StandardLinearSolid` of k."""
+        if self.prony:
+            return GeneralizedMaxwell(1.0, self.relaxation_moduli, self.relaxation_times)
+        return StandardLinearSolid(1.0, 1.0 / self.k, 1.0)
 
     def _check_scales(self):
         """The derived scales the numerics divide by, finite and > 0: extreme groups (1e308,
@@ -275,12 +358,12 @@ class Case:
                                 " the floating-point range; expected a relative error in (0, 0.1)"
                                 " of a size a grid can reach")
             nx = smallest_grid(_log2_ratio(points, self.cell, width))
-            _check_memory(nx, True)
+            _check_memory(nx, True, len(self.relaxation_moduli))
             return nx, True
         nx = num["nx"]
         if isinstance(nx, bool) or not isinstance(nx, int) or nx < 64 or nx % 2:
             raise CaseError(f"[numerics] nx = {_fmt(nx)}: expected an even integer >= 64")
-        _check_memory(nx, False)  # first: nx may exceed the float range
+        _check_memory(nx, False, len(self.relaxation_moduli))  # first: nx may exceed floats
         points = width / (self.cell / nx)
         if points < MIN_ZONE_POINTS:
             ratio = MIN_ZONE_POINTS * self.cell / width  # inf when beyond the float range
@@ -374,14 +457,24 @@ class Case:
                                 n.step_control, n.dt_min, n.dt_max, n.edge_fraction,
                                 n.load_tolerance, n.time_tolerance, n.equilibration_steps,
                                 n.accuracy]}
+        if self.prony:  # (absent for the SLS: its identities predate Prony series)
+            content["prony"] = [list(self.relaxation_moduli), list(self.relaxation_times)]
+        if self.compliant:  # (likewise absent under displacement control)
+            content["drive_stiffness"] = self.drive_stiffness
         return hashlib.sha256(json.dumps(content).encode()).hexdigest()[:16]
 
     def groups(self) -> dict:
         """Every derived dimensionless group, as printed at start and stored in the output."""
-        return {"lambda0": self.lambda0, "lambda_inf": self.lambda_inf, "k": self.k,
-                "Vz": self.Vz, "chi_ve": self.chi_ve, "alpha": self.alpha,
-                "depth": self.depth, "cell": self.cell,
-                "zone_points": self.zone_width / self.dx}
+        groups = {"lambda0": self.lambda0, "lambda_inf": self.lambda_inf, "k": self.k,
+                  "Vz": self.Vz, "chi_ve": self.chi_ve, "alpha": self.alpha,
+                  "depth": self.depth, "cell": self.cell,
+                  "zone_points": self.zone_width / self.dx}
+        if self.prony:  # E_i / E0 and tau_i / tau_r; V_z and chi_ve are formed with tau_r
+            groups.update(relaxation_moduli=list(self.relaxation_moduli),
+                          relaxation_times=list(self.relaxation_times))
+        if self.compliant:  # k_s / E0
+            groups.update(drive_stiffness=self.drive_stiffness)
+        return groups
 
 
 def _log2_ratio(a, b, c):
@@ -392,9 +485,9 @@ def _log2_ratio(a, b, c):
     return math.log2(a) + math.log2(b) - math.log2(c)
 
 
-def _check_memory(nx, automatic):
+def _check_memory(nx, automatic, branches=0):
     memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    size = nx * BYTES_PER_POINT
+    size = nx * (BYTES_PER_POINT + BYTES_PER_BRANCH * branches)
     if size > memory:
         gib = (f"{size / 2**30:.1f}" if size.bit_length() < 1000  # else beyond float range
                else f"2^{size.bit_length() - 31}")
@@ -451,6 +544,24 @@ def _number(table, section, key):
     return number
 
 
+def _positive_list(value, section, key):
+    """A tuple of finite numbers > 0 from a non-empty list (CaseError naming the key)."""
+    if value is None:
+        raise CaseError(f"[{section}] {key} is missing: a Prony series needs"
+                        " relaxation_moduli and relaxation_times")
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) == 0 \
+            or any(isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real)
+                   or not 0.0 < _float(v) < math.inf for v in value):
+        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected a non-empty list of"
+                        " finite numbers > 0")
+    return tuple(float(v) for v in value)
+
+
+def _plain(value):
+    """A value as TOML writes it (tuples as lists)."""
+    return list(value) if isinstance(value, tuple) else value
+
+
 def _integer(table, section, key, smallest):
     value = table[key]
     if isinstance(value, bool) or not isinstance(value, int) or value < smallest:
@@ -502,7 +613,30 @@ def _resolve_output(out: dict, units: Units) -> Output:
 
 
 def _groups_from_physical(t):
-    """``[physical]`` SI values -> (the dimensionless groups, the units)."""
+    """``[physical]`` SI values -> (the dimensionless groups, the units).
+
+    A Prony series (relaxation_moduli in Pa, relaxation_times in s) stands in for
+    modulus_instantaneous and relaxation_time: Einf = E0 + sum E_i and the reference time
+    tau_r = sum E_i tau_i / sum E_i (docs/model.md, (M41)) is the case's unit of time.
+    """
+    prony = {}
+    if any(key in t for key in PRONY_KEYS):
+        for key in ("modulus_instantaneous", "relaxation_time"):
+            if key in t:
+                raise CaseError(f"[physical] {key}: a Prony series (relaxation_moduli,"
+                                " relaxation_times) sets the moduli and the times; leave"
+                                f" {key} out")
+        moduli = _positive_list(t.get("relaxation_moduli"), "physical", "relaxation_moduli")
+        times = _positive_list(t.get("relaxation_times"), "physical", "relaxation_times")
+        if len(moduli) != len(times):
+            raise CaseError(f"[physical] relaxation_times = {_fmt(list(times))}: expected as"
+                            f" many times as relaxation_moduli ({len(moduli)})")
+        t = dict(t)
+        t["modulus_instantaneous"] = _number(t, "physical", "modulus_relaxed") + math.fsum(moduli)
+        t["relaxation_time"] = math.fsum(m * x for m, x in zip(moduli, times)) / math.fsum(moduli)
+        e0, tau = t["modulus_relaxed"], t["relaxation_time"]
+        prony = {"relaxation_moduli": tuple(m / e0 for m in moduli),
+                 "relaxation_times": tuple(x / tau for x in times)}
     radius, e0, einf, tau, work, dmax, velocity, depth, cell = (
         _number(t, "physical", key) for key in PHYSICAL_KEYS)
     if einf < e0:
@@ -519,6 +653,10 @@ def _groups_from_physical(t):
     _finite_scales("[physical] " + ", ".join(f"{key} = {value:g}" for key, value
                                              in zip(PHYSICAL_KEYS, values)), formulas)
     groups = {key: formula() for key, formula in formulas.items()}
+    if prony:  # k from the series itself
+        groups.update(prony, modulus_ratio=None)
+    if "drive_stiffness" in t:  # Pa (N/m per m of cylinder and m of travel) -> E0
+        groups["drive_stiffness"] = _number(t, "physical", "drive_stiffness") / e0
     return groups, Units(length=radius, stress=e0, time=tau)
 
 
@@ -542,7 +680,16 @@ def parse_case(text: str) -> Case:
     form = "case" if "case" in doc else "physical"
     _unknown(doc[form], form, SECTIONS[form])
     if form == "case":
-        groups = {key: _number(doc["case"], "case", key) for key in CASE_KEYS}
+        table = doc["case"]
+        prony = any(key in table for key in PRONY_KEYS)
+        groups = {key: _number(table, "case", key) for key in CASE_KEYS
+                  if not (prony and key == "modulus_ratio")}
+        if prony:
+            groups.update(modulus_ratio=table.get("modulus_ratio"),
+                          relaxation_moduli=table.get("relaxation_moduli"),
+                          relaxation_times=table.get("relaxation_times"))
+        if "drive_stiffness" in table:
+            groups["drive_stiffness"] = _number(table, "case", "drive_stiffness")
         units = Units()
     else:
         groups, units = _groups_from_physical(doc["physical"])

@@ -59,6 +59,16 @@ class StandardLinearSolid:
     e_instantaneous: float
     relaxation_time: float
 
+    @property
+    def branch_moduli(self) -> tuple:
+        """(Einf - E0,): the SLS as a one-branch Prony series (:mod:`.prony`)."""
+        return (self.e_instantaneous - self.e_relaxed,)
+
+    @property
+    def branch_times(self) -> tuple:
+        """(tau,)."""
+        return (self.relaxation_time,)
+
     def step_factors(self, dt: float) -> StepFactors:
         """Factors of the exact step over dt (docs/model.md, "Substrate").
 
@@ -75,27 +85,55 @@ class StandardLinearSolid:
         """(Einf - E0) F(dt): the step's traction error per unit curvature of u (stress time^2).
 
         The exact step assumes u linear in time within it. For u(t_n + s) = u_n + v s + c s^2
-        the traction at the step's end misses (|q|/2) (Einf - E0) c F(dt) per mode, with
-
-            F(dt) = integral_0^dt exp(-(dt - s)/tau) (2 s - dt) ds
-                  = dt tau (1 + a) - 2 tau^2 (1 - a),   a = exp(-dt/tau),
-
-        F ~ dt^3 / (6 tau) for dt << tau and ~ dt tau for dt >> tau (docs/model.md, (M8)).
-        Zero for the elastic solid.
+        the traction at the step's end misses (|q|/2) (Einf - E0) c F(dt) per mode
+        (:func:`curvature_integral`). Zero for the elastic solid.
         """
+        return (self.e_instantaneous - self.e_relaxed) * curvature_integral(
+            dt, self.relaxation_time)
+
+    @property
+    def shortest_time(self) -> float:
+        """tau, the fastest (only) memory time (time units)."""
+        return self.relaxation_time
+
+    @property
+    def retardation_time(self) -> float:
+        """tau Einf / E0 = tau / k, the creep compliance's time (M9) (time units)."""
+        return self.relaxation_time * self.e_instantaneous / self.e_relaxed
+
+    def relaxation_modulus(self, t):
+        """E*(t) = E0 + (Einf - E0) exp(-t/tau) (M5), stress units; t in time units."""
+        t = np.asarray(t, dtype=float)
         e0, einf, tau = self.e_relaxed, self.e_instantaneous, self.relaxation_time
-        x = dt / tau
-        if x < 1e-2:  # the closed form cancels: its series, x^3/6 - x^4/12 + x^5/40
-            f = tau * tau * x**3 * (1.0 / 6.0 - x / 12.0 + x * x / 40.0)
-        else:
-            a = math.exp(-x)
-            f = dt * tau * (1.0 + a) - 2.0 * tau * tau * (1.0 - a)
-        return (einf - e0) * f
+        return e0 + (einf - e0) * np.exp(-t / tau)
+
+    def complex_modulus(self, omega):
+        """E*(omega) = E0 + (Einf - E0) i omega tau / (1 + i omega tau) (stress units)."""
+        omega = np.asarray(omega, dtype=float)
+        e0, einf, tau = self.e_relaxed, self.e_instantaneous, self.relaxation_time
+        return e0 + (einf - e0) * 1j * omega * tau / (1.0 + 1j * omega * tau)
 
     def creep_compliance(self, t):
         """J(t) = 1/E0 - (1/E0 - 1/Einf) exp(-t E0 / (Einf tau)) (docs/model.md, "Substrate")."""
         e0, einf, tau = self.e_relaxed, self.e_instantaneous, self.relaxation_time
         return 1.0 / e0 - (1.0 / e0 - 1.0 / einf) * np.exp(-np.asarray(t) * e0 / (einf * tau))
+
+
+def curvature_integral(dt: float, tau: float) -> float:
+    """F(dt) = integral_0^dt exp(-(dt - s)/tau) (2 s - dt) ds (time^2; docs/model.md, (M8)).
+
+    A Maxwell element of relaxation time tau, stepped exactly for u linear in time, misses
+    E c F(dt) of its stress when u(t_n + s) = u_n + v s + c s^2:
+
+        F(dt) = dt tau (1 + a) - 2 tau^2 (1 - a),   a = exp(-dt/tau),
+
+    F ~ dt^3 / (6 tau) for dt << tau and ~ dt tau for dt >> tau.
+    """
+    x = dt / tau
+    if x < 1e-2:  # the closed form cancels: its series, x^3/6 - x^4/12 + x^5/40
+        return tau * tau * x**3 * (1.0 / 6.0 - x / 12.0 + x * x / 40.0)
+    a = math.exp(-x)
+    return dt * tau * (1.0 + a) - 2.0 * tau * tau * (1.0 - a)
 
 
 @dataclass
@@ -160,6 +198,25 @@ class ViscoelasticHalfSpace:
         fft.apply_diagonal(u, self._history_diag, out)
         out += self._decay * substrate_traction
         return out
+
+    def field_names(self):
+        """Names of state fields beyond u and p: none (p_n holds the SLS's history)."""
+        return ()
+
+    def fields(self):
+        """{name: block} of the state fields beyond u and p: none."""
+        return {}
+
+    def restore(self, fields):
+        """Nothing to restore beyond u and p."""
+
+    def update(self, elastic_traction, history, dt, substrate_traction):
+        """After a step's solve: the substrate traction p_{n+1} = K u_{n+1} + H (M8)."""
+        np.add(elastic_traction, history, out=substrate_traction)
+
+    def correct(self, missed, dt, substrate_traction):
+        """Add the traction the step of length dt missed to p (the whole history)."""
+        substrate_traction += missed
 
     def history_error(self, fft, curvature, dt, out):
         """Collective (one FFT pair): the traction the exact-for-linear step of length dt misses

@@ -163,6 +163,63 @@ def persson_brener_quadrature(vbar, k):
     return new
 
 
+def persson_brener_modulus(rhodot, c0, modulus):
+    """dgamma_eff / dgamma0 by quadrature of the paper's Eq. 6 with Eq. 7, for any linear
+    viscoelastic solid (docs/model.md (M31) and (M42)).
+
+    Eq. 6: dgamma_eff / dgamma0 = cbar, cbar = [1 + (2/pi) integral_0^1 sqrt(1 - w^2) / w
+    Im(E0 / E(omega_c w)) dw]^(-1) (integrated in ln w) with omega_c = 2 pi rhodot /
+    (cbar c0), solved for cbar as a fixed point (Eq. 7: the tip radius c = cbar c0 grows
+    with the dissipation). For the SLS
+    it equals :func:`persson_brener_quadrature` (and the closed form :func:`persson_brener`
+    with the retardation-time convention of vbar).
+
+    Parameters
+    ----------
+    rhodot : float
+        Peeling-edge velocity (length / time), >= 0.
+    c0 : float
+        Relaxed tip radius dgamma0 E0 / (pi sigma_a^2) = beta / (pi lambda0^2) (length).
+    modulus : callable
+        omega (1 / time, array) -> E(omega) / E0 (complex): for a Prony series
+        ``material.complex_modulus(omega) / material.e_relaxed``
+        (:meth:`~hpcgfmd.model.prony.GeneralizedMaxwell.complex_modulus`).
+
+    Returns
+    -------
+    float
+        dgamma_eff / dgamma0, between 1 (rhodot -> 0) and Einf / E0 (rhodot -> infinity).
+    """
+    if rhodot <= 0.0:
+        return 1.0
+
+    def enhancement(cbar):
+        omega_c = 2.0 * np.pi * rhodot / (cbar * c0)
+
+        # in s = ln w: each branch's loss peak is a bump of a few units of s wherever
+        # omega_c lies; below w = exp(s_low) the integrand (~ omega) adds nothing
+        def integrand(s):
+            w = np.exp(s)
+            return np.sqrt(-np.expm1(2.0 * s)) * (1.0 / modulus(omega_c * w)).imag
+
+        s_low = -40.0 - max(0.0, np.log(omega_c))
+        val, _ = integrate.quad(integrand, s_low, 0.0, limit=400, epsabs=1e-13, epsrel=1e-12)
+        return 1.0 / (1.0 + 2.0 / np.pi * val)
+
+    # the fixed point cbar = enhancement(cbar) lies in [1, Einf/E0] (between the relaxed and
+    # the glassy work of adhesion); found by bracketed root finding (a fixed-point iteration
+    # converges slowly where cbar is large)
+    def excess(c):
+        return enhancement(c) - c
+
+    if excess(1.0) <= 0.0:
+        return 1.0
+    high = float(np.real(modulus(1e300)))  # Einf / E0
+    while excess(high) > 0.0:  # (only by the quadrature's error)
+        high *= 1.0 + 1e-9
+    return float(optimize.brentq(excess, 1.0, high, xtol=1e-13, rtol=1e-12))
+
+
 def peel_velocity(rhodot, tau, k, lambda0, beta):
     """Dimensionless peeling velocity vbar = 2 pi rhodot tau / (k c0) (retardation convention).
 

@@ -3,10 +3,17 @@
 1. Preload (t = 0): adhesive indentation of the RELAXED substrate (elastic, E0) from a flat
    surface to u_z = -h0, solved as one elastic problem (the loading-branch equilibrium); the
    material history starts fully relaxed, p_n = (|q| E0 / 2) u_n.
-2. Retraction: u_z(t) = -h0 + v_z t, one exact SLS step of length dt per time step, each an
-   elastic problem of stiffness (|q|/2) Eeff with the history traction
-   H = a p_n + (|q|/2)(E0 (1 - a) - Eeff) u_n, until no node has g <= dmax (complete
-   detachment). Displacement control: jumps of the contact are recorded, never a stop.
+2. Retraction: u_z(t) = -h0 + v_z t, one exact step of length dt per time step, each an
+   elastic problem of stiffness (|q|/2) Eeff with a history traction H: the SLS's
+   H = a p_n + (|q|/2)(E0 (1 - a) - Eeff) u_n (M8), or a Prony series' from its branch
+   tractions (M40), until no node has g <= dmax (complete detachment). Displacement
+   control: jumps of the contact are recorded, never a stop.
+
+A compliant drive (``drive_stiffness`` k_s, :mod:`.drive`): the indenter hangs on a spring
+whose far end, the drive, moves as u_z did; each step the indenter position is the unknown
+that balances the spring (docs/model.md, "Protocol", (M43)). Where the attached branch has
+no balance left the indenter jumps: the step control shrinks the steps towards the jump and
+takes it at dt_min, as it does a snap-off.
 
 Internal units R = E0 = tau = 1 throughout; the output file converts to the case's units.
 Every method is collective over the case's communicator: each rank holds its block of the
@@ -22,13 +29,15 @@ import numpy as np
 from ..errors import NonConvergenceError
 from ..model.case import Case
 from ..model.interface import DugdaleMaugis, edge_positions
-from ..model.material import StandardLinearSolid, ViscoelasticHalfSpace
+from ..model.material import ViscoelasticHalfSpace
+from ..model.prony import MaxwellHalfSpace
 from ..parallel.domain import Domain
 from ..parallel.fft import aligned_empty, plan_real_fft
 from ..solvers import EdgeWatch, make_solver
 from ..solvers.predictor import Predictor
 from ..solvers.stepping import HistoryError, make_step_control
 from .coarse_start import coarse_start
+from .drive import CompliantDrive
 
 
 @dataclass
@@ -43,6 +52,7 @@ class StepRecord:
     iterations: int
     residual: float
     dt: float
+    drive: float = math.nan  # the spring's far end (compliant drive; else the indenter)
 
     def as_dict(self):
         return dict(self.__dict__)
@@ -75,8 +85,11 @@ class Retraction:
         self.x = self.domain.x  # this rank's nodes; the indenter axis is on node n/2
         self.profile = self.x**2 / 2.0  # h(x) = x^2 / (2R), paper Eq. 1, R = 1
         self.half_q = np.pi * np.abs(self.fft.wavenumber) / case.cell  # |q|/2 per local mode
-        self.substrate = ViscoelasticHalfSpace(StandardLinearSolid(1.0, 1.0 / case.k, 1.0),
-                                               self.half_q, n)
+        self.substrate = (MaxwellHalfSpace(case.material(), self.half_q, n,
+                                           self.domain.local_n) if case.prony
+                          else ViscoelasticHalfSpace(case.material(), self.half_q, n))
+        # the state's fields: these and the substrate's own (a Prony series' branches)
+        self.field_names = self.FIELDS + self.substrate.field_names()
         self.law = DugdaleMaugis(case.sigma_a, case.dmax)
         self.solver = make_solver(case, self.domain, self.fft, self.law, self.half_q)
         self.steps = make_step_control(case)
@@ -95,21 +108,27 @@ class Retraction:
         self.traction = np.zeros(n)  # interface traction on the substrate, attractive positive
         self.time = 0.0
         self.indenter = -case.depth
+        self.drive = -case.depth  # Z(t) (the indenter itself without a spring)
+        self.spring = CompliantDrive(case) if case.compliant else None
         self.step_index = 0
         self.total_iterations = 0
         self.rejected_steps = 0  # adaptive steps repeated with a shorter dt
         self.preload_iterations = 0
         self.preload_levels = []  # (nx, iterations) of the coarser preload levels (coarse_start)
         self.dt_previous = None  # length of the last accepted step (None after the preload)
-        self._edges = (np.nan, np.nan)  # contact edges of the last step
-        self._edges_previous = None
-        self._older = None  # (u, time) of the accepted step before the last (HistoryError)
-        self._saved = {name: np.empty(n) for name in self.FIELDS}
+        self.edges = (np.nan, np.nan)  # contact edges of the last step
+        self.edges_previous = None
+        self._older = None  # (u, time, indenter) of the accepted step before the last
+        self._saved = {name: np.empty(n) for name in self.field_names}
         self._absent = np.zeros(n)  # a field the state does not have yet (read only)
 
     # --- one equilibrium -------------------------------------------------------------
-    def _equilibrate(self, ops, dt, solver, edge_watch=None):
-        """Solve the step; None when the solve was abandoned by ``edge_watch``."""
+    def _equilibrate(self, ops, dt, solver, edge_watch=None, substrate_dt=None):
+        """Solve the step; None when the solve was abandoned by ``edge_watch``.
+
+        ``substrate_dt``: the step length the substrate's state advances by, when it is not
+        ``dt`` (the preload: dt = 0 is recorded, the relaxed solid is dt = inf).
+        """
         np.add(self.profile, self.indenter, out=self.wall)
         result = solver.solve(self.u, self.wall, ops, self.history, edge_watch=edge_watch)
         self.total_iterations += result.iterations
@@ -124,8 +143,11 @@ class Retraction:
                 f" {result.iterations} iterations; raise [numerics] max_iterations or reduce dt")
         solver.interface_traction(self.u, self.wall, self.history, result.mean_traction,
                                   self.traction)
-        # Substrate traction of the new state, p_{n+1} = K u + H (zero mean).
-        np.add(solver.elastic_traction(), self.history, out=self.substrate_traction)
+        # Substrate traction of the new state, p_{n+1} = K u + H (zero mean), and the
+        # substrate's own state
+        self.substrate.update(solver.elastic_traction(), self.history,
+                              dt if substrate_dt is None else substrate_dt,
+                              self.substrate_traction)
         return self._record(result, dt)
 
     def _non_finite_report(self, residual):
@@ -141,9 +163,9 @@ class Retraction:
     def _record(self, result, dt):
         gap = self.wall - self.u
         left, right = edge_positions(self.domain, gap, 0.0, 1.5)
-        self._edges_previous, self._edges = self._edges, (left, right)
+        self.edges_previous, self.edges = self.edges, (left, right)
         zl, zr = edge_positions(self.domain, gap, self.case.dmax, 1.0)
-        return StepRecord(time=self.time, indenter=self.indenter,
+        return StepRecord(time=self.time, indenter=self.indenter, drive=self.drive,
                           load=-self.domain.sum(self.traction.sum()) * self.dx,
                           contact_half_width=0.5 * (right - left) if left == left else 0.0,
                           cohesive_half_width=0.5 * (zr - zl) if zl == zl else 0.0,
@@ -158,7 +180,10 @@ class Retraction:
         if start is not None:
             self.u[:] = start
         record = self._equilibrate(self.substrate.operators(math.inf), 0.0,
-                                   self.solver.preload_solver())
+                                   self.solver.preload_solver(), substrate_dt=math.inf)
+        if self.spring is not None:  # the spring holds the preload's load
+            self.spring.hold(self.indenter, record.load)
+            self.drive = record.drive = self.spring.start
         self.preload_iterations = record.iterations
         self.steps.accept(record.time, record.load)
         return record
@@ -190,11 +215,15 @@ class Retraction:
         if self.history_error is not None:
             # the substrate traction the exact-for-quadratic history gives (HistoryError)
             self.history_error.correct(self.substrate_traction)
-            # u_n and t_n become the older state
+            # u_n, t_n and u_z,n become the older state
             if self._older is None:
-                self._older = (np.empty_like(self.u), 0.0)
+                self._older = (np.empty_like(self.u), 0.0, 0.0)
             self._older[0][:] = self._saved["u"]
-            self._older = (self._older[0], float(self._saved_attrs["time"]))
+            self._older = (self._older[0], float(self._saved_attrs["time"]),
+                           float(self._saved_attrs["indenter"]))
+        if self.spring is not None:
+            self.spring.accept(float(self._saved_attrs["indenter"]), self.indenter,
+                               record.load, dt)
         self.dt_previous = dt
         return record
 
@@ -206,24 +235,26 @@ class Retraction:
         self.history_error.forget()
         if self._older is None:
             return 0.0, 0.0
-        older, time_older = self._older
+        older, time_older, indenter_older = self._older
         time_before = float(self._saved_attrs["time"])
+        indenter_before = float(self._saved_attrs["indenter"])
         return self.history_error.estimate(
-            older, time_older, self._state_at(older, time_older), self._saved["u"],
-            time_before, self._state_at(self._saved["u"], time_before), self.u, self.time,
-            self._state_at(self.u, self.time))
+            older, time_older, self._state_at(older, indenter_older), self._saved["u"],
+            time_before, self._state_at(self._saved["u"], indenter_before), self.u, self.time,
+            self._state_at(self.u, self.indenter))
 
-    def _state_at(self, u, time):
-        """Each node's interaction state for displacement u at time ``time``: 2 on the wall,
-        1 in the cohesive zone (0 < gap < dmax), 0 beyond the range (int8)."""
-        gap = self.profile + (-self.case.depth + self.case.indenter_speed * time) - u
+    def _state_at(self, u, indenter):
+        """Each node's interaction state for displacement u under the indenter at
+        ``indenter``: 2 on the wall, 1 in the cohesive zone (0 < gap < dmax), 0 beyond the
+        range (int8)."""
+        gap = self.profile + indenter - u
         state = (gap <= 0.0).astype(np.int8)
         state += state
         state += (gap > 0.0) & (gap < self.case.dmax)
         return state
 
     def _advance(self, dt) -> StepRecord | None:
-        """One SLS step of length dt from the current state (paper Eq. 14, docs/model.md).
+        """One step of length dt from the current state (paper Eq. 14; docs/model.md (M8), (M40)).
 
         None when the solve was abandoned because its contact edges strayed beyond what the
         step control accepts (:meth:`~hpcgfmd.solvers.stepping.AdaptiveSteps.edge_limit`).
@@ -236,36 +267,51 @@ class Retraction:
             self.time += dt
         else:  # no accumulated round-off over many equal steps
             self.time = self.step_index * dt
-        self.indenter = -self.case.depth + self.case.indenter_speed * self.time
+        indenter_before = self.indenter
+        if self.spring is not None:  # the drive moves; the indenter's guess: its last rate
+            self.drive = self.spring.position(self.time)
+            self.indenter = self.spring.guess(indenter_before, dt)
+        else:
+            self.indenter = -self.case.depth + self.case.indenter_speed * self.time
+            self.drive = self.indenter
         ops = self.substrate.operators(dt)
         np.add(self.profile, self.indenter, out=self.wall)
         if self.solver.starts_from_prediction:
             ratio = 1.0 if self.dt_previous is None else dt / self.dt_previous
+            rise = (self.indenter - indenter_before if self.case.compliant
+                    else self.case.indenter_speed * dt)
             self.predictor.start(
-                self.u, self.wall, gap_before, contact, self.case.indenter_speed * dt, ratio,
-                self._edges, self._edges_previous,
+                self.u, self.wall, gap_before, contact, rise, ratio,
+                self.edges, self.edges_previous,
                 lambda v: self.solver.energy(v, self.wall, ops, self.history))
-        return self._equilibrate(ops, dt, self.solver, self._edge_watch(dt))
+        if self.spring is not None:
+            return self.spring.balance(self, ops, dt)
+        return self._equilibrate(ops, dt, self.solver, self.edge_watch(dt))
 
-    def _edge_watch(self, dt):
+    def equilibrate(self, ops, dt, edge_watch):
+        """Collective: the step's equilibrium at the current indenter position (the
+        compliant drive's search, :meth:`~hpcgfmd.runs.drive.CompliantDrive.balance`)."""
+        return self._equilibrate(ops, dt, self.solver, edge_watch)
+
+    def edge_watch(self, dt):
         """The limit on the solve's edge motion, or None (no contact before, or at dt_min)."""
         limit = self.steps.edge_limit(dt)
-        left, right = self._edges
+        left, right = self.edges
         if not (math.isfinite(limit) and math.isfinite(left) and math.isfinite(right)):
             return None
         return EdgeWatch(left, right, limit)
 
     def _edge_motion(self):
         """Largest contact-edge displacement of the last step; inf if the contact (dis)appeared."""
-        if self._edges_previous is None:
+        if self.edges_previous is None:
             return math.nan
-        before = np.isfinite(self._edges_previous)
-        after = np.isfinite(self._edges)
+        before = np.isfinite(self.edges_previous)
+        after = np.isfinite(self.edges)
         if not before.any() and not after.any():
             return math.nan
         if not (before.all() and after.all()):
             return math.inf
-        return float(np.max(np.abs(np.subtract(self._edges, self._edges_previous))))
+        return float(np.max(np.abs(np.subtract(self.edges, self.edges_previous))))
 
     def _save(self):
         """Keep the state before a step, to undo a rejected one."""
@@ -294,7 +340,8 @@ class Retraction:
         """The full state after a step: (this rank's field blocks, rank-independent scalars).
 
         With it, :meth:`restore` continues the run exactly (the history H and the wall are
-        recomputed from it at the next step): the fields of :attr:`FIELDS`, the clock, the
+        recomputed from it at the next step): the fields of :attr:`field_names` (those of
+        :attr:`FIELDS` and the substrate's), the clock, the
         contact edges of the last two steps, the predictor's, the step control's and the
         solver's state.
         """
@@ -306,14 +353,17 @@ class Retraction:
                                         if self.history_error else self._absent),
                   "history_correction": (self.history_error.previous_correction
                                          if self.history_error else self._absent)}
+        fields.update(self.substrate.fields())
         attrs.update(time=self.time, indenter=self.indenter, step_index=self.step_index,
                      total_iterations=self.total_iterations, fft_pairs=self.fft.pairs,
                      rejected_steps=self.rejected_steps,
                      dt_previous=math.nan if self.dt_previous is None else self.dt_previous,
-                     edges=np.array(self._edges),
-                     edges_previous=np.array(self._edges_previous or (np.nan, np.nan)),
-                     has_edges_previous=self._edges_previous is not None,
+                     edges=np.array(self.edges),
+                     edges_previous=np.array(self.edges_previous or (np.nan, np.nan)),
+                     has_edges_previous=self.edges_previous is not None,
                      time_older=self._older[1] if self._older else math.nan,
+                     indenter_older=self._older[2] if self._older else math.nan,
+                     drive=self.drive,
                      curvature_age=(self.history_error.curvature_age if self.history_error
                                     else math.inf),
                      curvature_time=(self.history_error.curvature_time if self.history_error
@@ -324,6 +374,8 @@ class Retraction:
                                                      and self.history_error.previous_reused))
         attrs.update(self.solver.statistics())
         attrs.update(self.steps.state())
+        if self.spring is not None:
+            attrs.update(self.spring.state())
         return fields, attrs
 
     def restore(self, fields, attrs, statistics=True):
@@ -335,16 +387,23 @@ class Retraction:
         self.u[:] = fields["u"]
         self.substrate_traction[:] = fields["substrate_traction"]
         self.traction[:] = fields["traction"]
+        self.substrate.restore(fields)
         self.time = float(attrs["time"])
         self.indenter = float(attrs["indenter"])
+        # (absent from checkpoints before the compliant drive: displacement control)
+        self.drive = float(attrs.get("drive", self.indenter))
+        if self.spring is not None:
+            self.spring.restore(attrs, statistics)
         self.step_index = int(attrs["step_index"])
-        self._edges = tuple(float(v) for v in attrs["edges"])
-        self._edges_previous = (tuple(float(v) for v in attrs["edges_previous"])
+        self.edges = tuple(float(v) for v in attrs["edges"])
+        self.edges_previous = (tuple(float(v) for v in attrs["edges_previous"])
                                 if attrs["has_edges_previous"] else None)
         if statistics:
             time_older = float(attrs.get("time_older", math.nan))
+            indenter_older = float(attrs.get(
+                "indenter_older", -self.case.depth + self.case.indenter_speed * time_older))
             self._older = (None if math.isnan(time_older)
-                           else (fields["u_older"].copy(), time_older))
+                           else (fields["u_older"].copy(), time_older, indenter_older))
             self.predictor.restore(fields["u_previous"], attrs)
             self.total_iterations = int(attrs["total_iterations"])
             self.fft.pairs = int(attrs["fft_pairs"])
@@ -377,6 +436,7 @@ class Retraction:
     def summary(self) -> dict:
         """Counters of the run so far (rank-independent), for the output file's summary."""
         return {"steps": self.step_index, "iterations": self.total_iterations,
+                "spring_solves": self.spring.solves if self.spring else 0,
                 "fft_pairs": self.fft.pairs, "rejected_steps": self.rejected_steps,
                 "rejected_predictions": self.predictor.rejected,
                 "moving_edge_predictions": self.predictor.choices[1],

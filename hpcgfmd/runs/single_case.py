@@ -85,14 +85,26 @@ def describe(case: Case) -> str:
                  f" {num.dt_max * u.time:.4g}], edge motion <= {num.edge_fraction:.3g} w,"
                  f" load deviation <= {num.load_tolerance:.3g}, history error <="
                  f" {num.time_tolerance:.3g} load scales")
+    material = ([f"Prony series: E_i/E0 = {_numbers(g['relaxation_moduli'])}, tau_i/tau_r ="
+                 f" {_numbers(g['relaxation_times'])}; V_z and chi_ve with tau_r ="
+                 f" {u.time:.6g}"] if case.prony else [])
+    if case.compliant:
+        material.append(f"compliant drive: the indenter on a spring of k_s ="
+                        f" {case.drive_stiffness * u.stress:.6g} per unit length"
+                        f" (k_s / E0 = {case.drive_stiffness:.6g})")
     return "\n".join([
         f"lambda0 = {g['lambda0']:.6g}   lambda_inf = {g['lambda_inf']:.6g}   k = {g['k']:.6g}"
         f"   V_z = {g['Vz']:.6g}   chi_ve = {g['chi_ve']:.6g}   alpha = {g['alpha']:.6g}",
+        *material,
         f"h0/R = {g['depth']:.6g}   L/R = {g['cell']:.6g}   beta = {case.beta * u.length:.6g}"
         f"   load scale = {case.load_scale * u.load:.6g}   w/dx = {g['zone_points']:.3g}",
         f"nx = {num.nx}{auto}   dt = {num.dt * u.time:.6g}   tolerance = {num.tolerance:g}"
         f"   accuracy = {num.accuracy:g}",
         f"solver: {solver_class(num.solver).describe(num)}; {steps}"])
+
+
+def _numbers(values) -> str:
+    return "[" + ", ".join(f"{v:.6g}" for v in values) + "]"
 
 
 def run_case(case: Case, path, comm, overwrite=False, resume=False,
@@ -148,7 +160,7 @@ def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
         logger.info(f"resuming from {checkpoint} at step {sim.step_index}"
                     f" (t = {sim.time * case.units.time:.6g}) on {comm.Get_size()} rank(s)")
         return out, snapshots, float(attrs["wall_time"])
-    room = room_for_a_step(sim.n, len(sim.FIELDS))
+    room = room_for_a_step(sim.n, len(sim.field_names))
     free = comm.bcast(free_bytes(path) if comm.Get_rank() == 0 else None, root=0)
     if free < 2 * room:  # the new file, its first steps and a checkpoint (storage/space.py)
         raise CaseError(f"-o {path}: {free} bytes free on its file system, at least"
@@ -218,7 +230,7 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
             raise CaseFailure(f"disk full at step {sim.step_index}: {err.strerror}") from None
 
     # the next step's output and one checkpoint must fit (storage/space.py); rank 0 asks
-    room = room_for_a_step(sim.n, len(sim.FIELDS))
+    room = room_for_a_step(sim.n, len(sim.field_names))
 
     def short_of_space():
         return comm.Get_rank() == 0 and free_bytes(path) < room

@@ -63,7 +63,7 @@ REJECT_LAG = 4.0       # ... or the tip's lag error four times its allowance (ju
 LAG_PER_LOAD = 4.0     # pull-off error / tip lag bound, measured (tip_lag_error)
 
 
-def tip_lag_error(dt, edge_motion, zone_width, modulus_ratio):
+def tip_lag_error(dt, edge_motion, zone_width, modulus_ratio, branches=None):
     """Relative error of the cohesive zone's traction from a step's linear-in-time history at
     a moving contact edge (internal units, tau = 1; docs/numerics.md, "Time steps").
 
@@ -93,6 +93,11 @@ def tip_lag_error(dt, edge_motion, zone_width, modulus_ratio):
         Cohesive-zone width w_c (R): the solved zone's at the step's end, or the relaxed w.
     modulus_ratio : float
         k = E0 / Einf (1: elastic, no lag).
+    branches : (sequence, sequence), optional
+        A Prony series' E_i / E0 and tau_i / tau (more than one branch): its zone traction
+        sigma / (E0 eps) = 1 + sum_i m_i F(theta_i), theta_i = tau_i v_a / w_c, whose rate
+        sensitivity sums the branches' with each branch's own rate error
+        (:func:`_prony_tip_lag_error`; one branch is the SLS above with k = 1 / (1 + m_1)).
 
     Returns
     -------
@@ -103,6 +108,8 @@ def tip_lag_error(dt, edge_motion, zone_width, modulus_ratio):
     moved = edge_motion / zone_width
     if modulus_ratio >= 1.0 or not (math.isfinite(moved) and moved > 0.0 and dt > 0.0):
         return 0.0
+    if branches is not None and len(branches[0]) > 1:
+        return _prony_tip_lag_error(dt, moved, *branches)
     k, x = modulus_ratio, dt
     theta = moved / x
     decay = math.exp(-1.0 / theta)
@@ -110,6 +117,25 @@ def tip_lag_error(dt, edge_motion, zone_width, modulus_ratio):
     slope = -math.expm1(-1.0 / theta) - decay / theta  # F'(theta)
     sensitivity = (1.0 - k) * theta * slope / (k + (1.0 - k) * rate_response)
     return sensitivity * min(1.0, 0.5 * moved * x / (x + 6.0))
+
+
+def _prony_tip_lag_error(dt, moved, moduli, times):
+    """:func:`tip_lag_error` of a Prony series (``moved`` = |da| / w_c > 0).
+
+    Each branch i sees the rate error (|da| / 2 w_c) x_i / (x_i + 6), x_i = dt / tau_i (at
+    most 1), weighted by its share of the traction's rate sensitivity:
+    sum_i m_i theta_i F'(theta_i) min(1, ...) / (1 + sum_j m_j F(theta_j)), theta_i = tau_i
+    moved / dt. For one branch, m = (1 - k) / k, this is the SLS's expression.
+    """
+    sensitivity, stiffness = 0.0, 1.0
+    for m, tau in zip(moduli, times):
+        x = dt / tau
+        theta = moved / x
+        decay = math.exp(-1.0 / theta)
+        stiffness += m * theta * -math.expm1(-1.0 / theta)  # m F(theta)
+        slope = -math.expm1(-1.0 / theta) - decay / theta  # F'(theta)
+        sensitivity += m * theta * slope * min(1.0, 0.5 * moved * x / (x + 6.0))
+    return sensitivity / stiffness
 
 
 @dataclass
@@ -170,21 +196,26 @@ class AdaptiveSteps:
         history accumulated over ``memory_time`` (:class:`HistoryError`), time_tolerance *
         load scale (load per unit length); inf: not controlled (the elastic solid).
     memory_time : float
-        Time over which a history error persists, the retardation time tau/k (internal units).
+        Time over which a history error persists, the retardation time tau/k (internal units;
+        for a Prony series the slowest of its retardation times).
     lag_allowance : float
         Largest relative traction error of the tip's lag per step (:func:`tip_lag_error`);
         inf: not controlled.
     zone_width, modulus_ratio : float
         Relaxed cohesive-zone width w (R; the stand-in for a step's solved zone width when
         that is unknown) and k = E0 / Einf, for :func:`tip_lag_error`.
+    branches : (tuple, tuple), optional
+        A Prony series' E_i / E0 and tau_i (internal units), for its tip lag
+        (:func:`tip_lag_error`); None: the SLS of ``modulus_ratio`` with tau = 1.
     """
 
     adaptive = True
 
     def __init__(self, first_dt, dt_min, dt_max, edge_allowance, load_allowance,
                  history_allowance=math.inf, memory_time=1.0, lag_allowance=math.inf,
-                 zone_width=1.0, modulus_ratio=1.0):
+                 zone_width=1.0, modulus_ratio=1.0, branches=None):
         self.dt_min, self.dt_max = dt_min, dt_max
+        self.branches = branches
         self.lag_allowance = lag_allowance
         self.zone_width, self.modulus_ratio = zone_width, modulus_ratio
         self.dt = self._on_grid(first_dt)
@@ -240,7 +271,8 @@ class AdaptiveSteps:
                             kept / (self.history_allowance
                                     * -math.expm1(-dt / self.memory_time)))
         zone = zone_width if zone_width > 0.0 and math.isfinite(zone_width) else self.zone_width
-        lag_error = tip_lag_error(dt, edge_motion, zone, self.modulus_ratio) / self.lag_allowance
+        lag_error = tip_lag_error(dt, edge_motion, zone, self.modulus_ratio,
+                                  self.branches) / self.lag_allowance
         # first order where it binds (dt >> tau)
         worst = max(edge_error, math.sqrt(load_error), math.sqrt(history_ratio), lag_error)
         factor = SAFETY / worst if worst > 0.0 else GROWTH_LIMIT
@@ -283,6 +315,7 @@ def make_step_control(case):
     if numerics.step_control == "fixed":
         return FixedSteps(numerics.dt)
     viscous = case.k < 1.0
+    material = case.material()
     # time_tolerance bounds the history's errors: the smooth part's in load scales, the
     # tip's lag as that load over the relaxed pull-off, shared for LAG_PER_LOAD
     lag = numerics.time_tolerance / (PULL_OFF_SCALE * LAG_PER_LOAD)
@@ -290,8 +323,10 @@ def make_step_control(case):
                          numerics.edge_fraction * case.zone_width,
                          numerics.load_tolerance * case.load_scale,
                          numerics.time_tolerance * case.load_scale if viscous else math.inf,
-                         1.0 / case.k,  # the retardation time tau / k, tau = 1
-                         lag if viscous else math.inf, case.zone_width, case.k)
+                         material.retardation_time,  # tau / k for the SLS, tau = 1
+                         lag if viscous else math.inf, case.zone_width, case.k,
+                         (material.branch_moduli, material.branch_times) if case.prony
+                         else None)
 
 
 class HistoryError:
@@ -341,12 +376,13 @@ class HistoryError:
         self.smooth_curvature[:] = 0.0
         self.curvature_age = math.inf  # accepted steps since it was estimated
         self.curvature_time = -math.inf  # end time of its window
-        self._lifetime = CURVATURE_LIFETIME * substrate.material.relaxation_time
+        self._lifetime = CURVATURE_LIFETIME * substrate.material.shortest_time
         self._smooth = False  # the last estimate's window had no crossing
         self._reused = False  # the last estimate took the smooth curvature
         self.previous_reused = False  # ... and so did the previous accepted one
         self._time = -math.inf  # end time of the last estimate's window
         self._response = 0.0  # curvature_response of the last estimate's step
+        self._step = 0.0  # ... and its length
         # K c of the last accepted estimate's curvature c, per unit curvature response
         # (dp / response), for the error of the correction (estimate's docstring)
         self.previous_correction = aligned_empty(n)
@@ -395,6 +431,7 @@ class HistoryError:
                                      self._traction)
         self._estimated = True
         self._response = self.substrate.material.curvature_response(h1)
+        self._step = h1
         contact = state == 2
         comparable = self.has_previous and not reuse and not self.previous_reused
         self._reused = reuse
@@ -410,7 +447,7 @@ class HistoryError:
         no crossing, and its dp per unit curvature response for the next estimate's error of
         the correction; the estimate is used up."""
         if self._estimated:
-            substrate_traction += self._traction
+            self.substrate.correct(self._traction, self._step, substrate_traction)
             if self._response > 0.0:
                 np.multiply(self._traction, 1.0 / self._response, out=self.previous_correction)
                 self.has_previous, self.previous_reused = True, self._reused

@@ -11,6 +11,7 @@ Layout (all values in the case's units: R, E0, tau with ``[case]`` input; SI wit
 /series/          one entry per time step, preload end (t = 0) included:
                   time, indenter (u_z), load (per unit length, compressive positive),
                   contact_half_width, cohesive_half_width, iterations, residual, dt;
+                  with a compliant drive also drive (the spring's far end);
                   ``time`` is an HDF5 dimension scale attached to every other series
 /snapshots/       time (s,), surface u, pressure p (traction on the substrate, attractive
                   positive), gap (each (s, nx)); x (nx,); attr complete; ``time`` and ``x``
@@ -51,9 +52,16 @@ SERIES = ("time", "indenter", "load", "contact_half_width", "cohesive_half_width
           "iterations", "residual", "dt")
 SERIES_UNITS = {"time": "time", "indenter": "length", "load": "load",
                 "contact_half_width": "length", "cohesive_half_width": "length",
-                "iterations": None, "residual": None, "dt": "time"}
+                "iterations": None, "residual": None, "dt": "time", "drive": "length"}
 _INT_SERIES = ("iterations",)
 FIELDS = ("surface", "pressure", "gap")
+
+
+def series_names(case):
+    """The /series datasets of ``case``: :data:`SERIES`, and ``drive`` with a compliant drive."""
+    return SERIES + (("drive",) if case.compliant else ())
+
+
 FIELD_UNITS = {"surface": "length", "pressure": "stress", "gap": "length"}
 # The ``units`` attribute of each dimension, by input form.
 UNIT_NAMES = {"case": {"time": "tau", "length": "R", "load": "E0 R", "stress": "E0", None: "1"},
@@ -118,12 +126,13 @@ class CaseFile:
         attrs["steps_complete"] = 0  # entries of /series fully written (readers truncate to it)
         names = UNIT_NAMES[case.form]
         series = self.file.create_group("series")
-        for name in SERIES:
+        for name in series_names(case):
             dtype = "i8" if name in _INT_SERIES else "f8"
             ds = series.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dtype,
                                        chunks=(1024,))
             ds.attrs["units"] = names[SERIES_UNITS[name]]
-        _attach(series["time"], [series[name] for name in SERIES if name != "time"], 0)
+        _attach(series["time"], [series[name] for name in series_names(case)
+                                 if name != "time"], 0)
         snaps = self.file.create_group("snapshots")
         x = snaps.create_dataset("x", shape=(n,), dtype="f8")
         x.attrs["units"] = names["length"]
@@ -148,6 +157,7 @@ class CaseFile:
 
     def _setup(self, file, case, comm, x_start):
         self.file, self.comm, self.x_start = file, comm, x_start
+        self.series_names = series_names(case)
         self.units = case.units
         self._scale = {"time": case.units.time, "length": case.units.length,
                        "load": case.units.load, None: 1.0}
@@ -192,7 +202,7 @@ class CaseFile:
             raise
         self._setup(file, case, comm, x_start)
         file.attrs["finished"] = False  # before truncating: a kill now leaves an unfinished file
-        for name in SERIES:
+        for name in self.series_names:
             file["series"][name].resize((steps,))
         file.attrs["steps_complete"] = steps
         snaps = file["snapshots"]
@@ -214,7 +224,7 @@ class CaseFile:
         """
         series = self.file["series"]
         i = series["time"].shape[0]
-        for name in SERIES:
+        for name in self.series_names:
             ds = series[name]
             ds.resize((i + 1,))
             scalar = [values[name] * self._scale[SERIES_UNITS[name]]] if self.comm.rank == 0 else []

@@ -44,6 +44,7 @@ class Series:
     iterations: np.ndarray
     residual: np.ndarray
     dt: np.ndarray
+    drive: np.ndarray | None = None  # the compliant drive's end; None: displacement control
 
     @property
     def abar(self):
@@ -123,7 +124,9 @@ class Result:
     def groups(self) -> dict:
         """The dimensionless groups stored with the case."""
         return {key: self.attrs[key] for key in ("lambda0", "lambda_inf", "k", "Vz", "chi_ve",
-                                                 "alpha", "depth", "cell") if key in self.attrs}
+                                                 "alpha", "depth", "cell", "relaxation_moduli",
+                                                 "relaxation_times", "drive_stiffness")
+                if key in self.attrs}
 
     def pull_off(self) -> PullOff:
         """The pull-off point: the most tensile load of the series."""
@@ -195,8 +198,13 @@ def _read(path, snapshots: bool):
                    "expected a complete hpcgfmd output file") from None
 
 
+LIST_ATTRS = ("relaxation_moduli", "relaxation_times")  # a Prony series: lists, any length
+
+
 def _attrs(f):
-    return {k: (v.item() if hasattr(v, "item") else v) for k, v in f.attrs.items()}
+    """The file's attributes: numbers as Python scalars, a Prony series' lists as lists."""
+    return {k: (np.atleast_1d(v).tolist() if k in LIST_ATTRS
+                else v.item() if hasattr(v, "item") else v) for k, v in f.attrs.items()}
 
 
 def _dataset(f, path, name, ndim):
@@ -248,10 +256,11 @@ def _series(f, path) -> Series:
     for key in REQUIRED_ATTRS:
         if key not in attrs:
             raise _bad(path, f"hpcgfmd output without root attribute {key} (damaged?)")
-    datasets = {f"/series/{name}": _dataset(f, path, f"series/{name}", 1) for name in SERIES}
+    names = SERIES + (("drive",) if "drive" in f["series"] else ())
+    datasets = {f"/series/{name}": _dataset(f, path, f"series/{name}", 1) for name in names}
     n = _count(path, attrs, "steps_complete", datasets, "/")
     return Series(attrs=attrs, **{name: _values(path, ds, slice(0, n))
-                                  for name, ds in zip(SERIES, datasets.values())})
+                                  for name, ds in zip(names, datasets.values())})
 
 
 def _snapshots(f, path) -> Snapshots:

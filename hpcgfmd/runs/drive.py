@@ -1,0 +1,188 @@
+"""The compliant drive: the indenter on a spring whose far end follows the retraction.
+
+docs/model.md, "Protocol", (M43): the drive Z(t) = Z0 + v_z t with Z0 = -h0 - L_0 / k_s (the
+preload's spring holds its load L_0), and each step's indenter position u_z balances the
+spring, f(u_z) = L(u_z) - k_s (u_z - Z) = 0, L the load (compressive positive) of the
+equilibrium at u_z. :meth:`CompliantDrive.balance` searches u_z around the retraction's
+equilibrium solve (docs/numerics.md, "The compliant drive").
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import NonConvergenceError
+
+SPRING_TOLERANCE = 0.1    # spring imbalance accepted, in load allowances
+MAX_SPRING_SOLVES = 40    # the solves one step's search may take
+SPRING_TRUST = 0.5        # its Newton moves of the indenter at most, in dmax
+SPRING_TRAVEL = 1e-3      # the indenter's uncertainty accepted with a stiff spring, in dmax
+
+
+class CompliantDrive:
+    """State and search of the spring between the drive and the indenter (module docstring).
+
+    Parameters
+    ----------
+    case : Case
+        A case with a finite ``drive_stiffness`` (internal units).
+
+    Attributes
+    ----------
+    start : float
+        Z0, the drive's position at t = 0 (length).
+    rate : float
+        du_z/dt of the last accepted step, for the next step's first guess (length/time).
+    slope : float
+        The secant dL/du_z between the last accepted steps where it is below k_s (NaN
+        before one is known; it includes the history's relaxation over the step): the
+        search's first Newton slope (stress).
+    solves : int
+        Equilibrium solves beyond one per step.
+    accepted_load : float
+        The load of the last accepted step (load per length).
+    """
+
+    def __init__(self, case):
+        self.stiffness = case.drive_stiffness
+        self.speed = case.indenter_speed
+        self.tolerance = SPRING_TOLERANCE * case.numerics.load_tolerance * case.load_scale
+        self.reach = SPRING_TRUST * case.dmax
+        self.travel = SPRING_TRAVEL * case.dmax
+        self.dmax = case.dmax
+        self.start = -case.depth
+        self.rate = case.indenter_speed
+        self.slope = math.nan
+        self.solves = 0
+        self.accepted_load = math.nan
+
+    def position(self, time: float) -> float:
+        """Z(t) = Z0 + v_z t (length)."""
+        return self.start + self.speed * time
+
+    def hold(self, indenter: float, load: float):
+        """After the preload: the drive's start that makes the spring hold ``load``."""
+        self.start = indenter - load / self.stiffness
+        self.accepted_load = load
+
+    def guess(self, indenter: float, dt: float) -> float:
+        """The indenter's first position for a step of length dt: its last rate."""
+        return indenter + self.rate * dt
+
+    def accept(self, indenter_before: float, indenter: float, load: float, dt: float):
+        """After an accepted step: the indenter's rate, and the slope dL/du_z of the steps
+        when it is below the spring's stiffness (a Newton slope of a stable balance)."""
+        moved = indenter - indenter_before
+        self.rate = moved / dt
+        if moved != 0.0:
+            secant = (load - self.accepted_load) / moved
+            if secant < self.stiffness:
+                self.slope = secant
+        self.accepted_load = load
+
+    def balance(self, sim, ops, dt):
+        """Collective: the step's indenter position where the spring balances the load.
+
+        ``sim`` is the :class:`~hpcgfmd.runs.protocol.Retraction` in the middle of a step
+        (time, drive and first indenter guess set; u its start): each evaluation of
+        f(u_z) = L(u_z) - k_s (u_z - Z) is its equilibrium solve at the step's fixed history,
+        started from the last state below the root with the nodes within range carried
+        along by the indenter (the search follows the attached branch while it lasts).
+        Outside a bracket: secant steps on f, or Newton steps with f' = S - k_s (S:
+        :attr:`slope`), at most SPRING_TRUST dmax per solve; where no slope is negative (past
+        the spring's jump, or across a jump of the discrete L(u_z) where the grid's contact
+        edge passes a node) the spring alone, f' = -k_s, which marches u_z to the next
+        balance. Inside a bracket (f > 0 below, f < 0 above): regula falsi alternating with
+        bisection; detached (no node within range): the drive's position. Converged when |f|
+        is below SPRING_TOLERANCE load allowances; or when the next Newton step would move the
+        load by less than that and u_z by less than SPRING_TRAVEL dmax (a stiff spring: its
+        imbalance is k_s times the solves' own position error); or when the bracket is
+        narrower than that load's travel (the balance falls in a jump of the discrete L).
+        Every decision uses reduced values (loads, widths), so all ranks take the same.
+
+        Returns
+        -------
+        StepRecord or None
+            The balanced step (its iterations those of all the solves); None when a solve
+            was abandoned (its edges strayed beyond what the step control accepts) or no
+            balance was found within MAX_SPRING_SOLVES solves of a step the step control can
+            still shorten (at dt_min that is a NonConvergenceError).
+        """
+        stiffness, tolerance = self.stiffness, self.tolerance
+        watch = sim.edge_watch(dt)
+        edges_before = sim.edges
+        slope = self.slope if math.isfinite(self.slope) else -1.0
+        iterations = 0
+        previous = below = above = None  # (u_z, f); f > 0 below the root, < 0 above
+        anchor = None  # (u_z, u, nodes within range) of the last solve below the root
+        bisect = False
+        for solves in range(MAX_SPRING_SOLVES):
+            record = sim.equilibrate(ops, dt, watch)
+            if record is None:
+                return None
+            iterations += record.iterations
+            self.solves += solves > 0
+            imbalance = record.load - stiffness * (sim.indenter - sim.drive)
+            point = (sim.indenter, imbalance)
+            if imbalance > 0.0:
+                below = point
+                anchor = (sim.indenter, sim.u.copy(), sim.gap() <= self.dmax)
+            else:
+                above = point
+            bracket = below is not None and above is not None and below[0] < above[0]
+            if (abs(imbalance) <= tolerance
+                    or (abs(imbalance) <= (stiffness - slope) * self.travel
+                        and abs(imbalance * slope) <= tolerance * (stiffness - slope))
+                    or (bracket and (above[0] - below[0]) * max(stiffness, abs(slope))
+                        <= tolerance)):
+                sim.edges_previous = edges_before  # (each solve's record moved them)
+                record.iterations = iterations
+                return record
+            target = self._next(sim, record, point, previous, below, above, bracket, bisect,
+                                slope)
+            bisect = bracket and not bisect
+            previous = point
+            if anchor is not None:
+                np.add(anchor[1], (target - anchor[0]) * anchor[2], out=sim.u)
+            sim.indenter = target
+        if watch is not None:  # the step control may shorten the step: an abandoned solve
+            return None
+        raise NonConvergenceError(
+            f"step {sim.step_index} (t = {sim.time:.6g}): no position of the indenter"
+            f" balances the drive's spring (drive_stiffness = {stiffness:g}) within"
+            f" {MAX_SPRING_SOLVES} solves; reduce dt or raise [numerics] tolerance")
+
+    def _next(self, sim, record, point, previous, below, above, bracket, bisect, slope):
+        """The search's next indenter position (:meth:`balance`)."""
+        if record.load == 0.0 and record.cohesive_half_width == 0.0:
+            return sim.drive  # detached: the spring alone, balanced at the drive
+        if bracket:
+            if bisect:
+                return 0.5 * (below[0] + above[0])
+            return below[0] - below[1] * (above[0] - below[0]) / (above[1] - below[1])
+        derivative = slope - self.stiffness
+        if previous is not None and point[0] != previous[0]:
+            secant = (point[1] - previous[1]) / (point[0] - previous[0])
+            if secant < 0.0:  # (not across a jump of the discrete L)
+                derivative = secant
+        if derivative < 0.0:  # Newton, within reach of the last solve
+            step = -point[1] / derivative
+            return point[0] + max(-self.reach, min(self.reach, step))
+        return point[0] + point[1] / self.stiffness  # no stable slope: the spring alone
+
+    def state(self) -> dict:
+        """The drive's scalars for a checkpoint (rank-independent)."""
+        return {"drive_start": self.start, "indenter_rate": self.rate,
+                "indenter_slope": self.slope, "spring_solves": self.solves,
+                "accepted_load": self.accepted_load}
+
+    def restore(self, attrs, statistics=True):
+        """Continue from :meth:`state`; ``statistics=False`` keeps the solve count (undoing a
+        rejected step: its work was done)."""
+        self.start = float(attrs["drive_start"])
+        self.rate = float(attrs["indenter_rate"])
+        self.slope = float(attrs["indenter_slope"])
+        self.accepted_load = float(attrs["accepted_load"])
+        if statistics:
+            self.solves = int(attrs["spring_solves"])
