@@ -1,6 +1,6 @@
 """Figures of the model beyond the paper: a Prony series, and the compliant drive.
 
-    python scripts/beyond_paper.py --out docs/figures   # about 15 minutes on one core
+    python scripts/beyond_paper.py --out docs/figures   # about 30 minutes on one core
 
 <out>/prony.png: a two-branch Prony series against the standard linear solid of the same k
 and reference time tau_r (docs/model.md (M41)): the paper's geometry (lambda0 = 7, h0/R =
@@ -14,7 +14,7 @@ hanging on springs of three stiffnesses against the displacement-controlled curv
 spring's line at its jump (tangent to the curve where dL/du_z = k_s; (M43)).
 
 <out>/prony-accuracy.txt: the two-branch solid's pull-off at accuracies 1e-2 and 5e-3
-against 1e-3 at V_z = 0.45 and 0.045 (about 10 more minutes).
+against 1e-3 at V_z = 0.45 and 0.045 (about 20 of the 30 minutes).
 
 <out>/prony.txt and <out>/drive.txt get the figures' numbers. The runs are kept in
 <out>/beyond-runs/ and reused when their case file is unchanged.
