@@ -224,11 +224,7 @@ class Case:
         """Check a Prony series (two lists of numbers > 0, one length; [case] times with a
         weighted mean of 1) and derive k = E0 / Einf = 1 / (1 + sum E_i / E0) from it."""
         section = "case" if self.form == "case" else "physical"
-        moduli = _positive_list(self.relaxation_moduli, section, "relaxation_moduli")
-        times = _positive_list(self.relaxation_times, section, "relaxation_times")
-        if len(moduli) != len(times):
-            raise CaseError(f"[{section}] relaxation_times = {_fmt(list(times))}: expected as"
-                            f" many times as relaxation_moduli ({len(moduli)})")
+        moduli, times = _prony_series(self.relaxation_moduli, self.relaxation_times, section)
         mean = math.fsum(m * t for m, t in zip(moduli, times)) / math.fsum(moduli)
         if self.form == "case" and not abs(mean - 1.0) <= MEAN_TIME_TOLERANCE:
             scaled = ", ".join(f"{t / mean:.10g}" for t in times)
@@ -557,6 +553,16 @@ def _positive_list(value, section, key):
     return tuple(float(v) for v in value)
 
 
+def _prony_series(moduli, times, section):
+    """(moduli, times) of a Prony series: two lists of numbers > 0 of one length."""
+    moduli = _positive_list(moduli, section, "relaxation_moduli")
+    times = _positive_list(times, section, "relaxation_times")
+    if len(moduli) != len(times):
+        raise CaseError(f"[{section}] relaxation_times = {_fmt(list(times))}: expected as"
+                        f" many times as relaxation_moduli ({len(moduli)})")
+    return moduli, times
+
+
 def _plain(value):
     """A value as TOML writes it (tuples as lists)."""
     return list(value) if isinstance(value, tuple) else value
@@ -626,11 +632,8 @@ def _groups_from_physical(t):
                 raise CaseError(f"[physical] {key}: a Prony series (relaxation_moduli,"
                                 " relaxation_times) sets the moduli and the times; leave"
                                 f" {key} out")
-        moduli = _positive_list(t.get("relaxation_moduli"), "physical", "relaxation_moduli")
-        times = _positive_list(t.get("relaxation_times"), "physical", "relaxation_times")
-        if len(moduli) != len(times):
-            raise CaseError(f"[physical] relaxation_times = {_fmt(list(times))}: expected as"
-                            f" many times as relaxation_moduli ({len(moduli)})")
+        moduli, times = _prony_series(t.get("relaxation_moduli"), t.get("relaxation_times"),
+                                      "physical")
         t = dict(t)
         t["modulus_instantaneous"] = _number(t, "physical", "modulus_relaxed") + math.fsum(moduli)
         t["relaxation_time"] = math.fsum(m * x for m, x in zip(moduli, times)) / math.fsum(moduli)

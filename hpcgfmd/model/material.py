@@ -218,14 +218,6 @@ class ViscoelasticHalfSpace:
         """Add the traction the step of length dt missed to p (the whole history)."""
         substrate_traction += missed
 
-    def history_error(self, fft, curvature, dt, out):
-        """Collective (one FFT pair): the traction the exact-for-linear step of length dt misses
-        when u has the curvature ``curvature`` (u_tt / 2) in time (stress units; see
-        :meth:`StandardLinearSolid.curvature_response`)."""
-        response = self.material.curvature_response(dt)
-        fft.apply_diagonal(curvature, self.half_q * (response / self.n), out)
-        return out
-
     def _prepare(self, dt):
         if dt != self._dt:
             f = self.material.step_factors(dt)

@@ -120,8 +120,7 @@ class GeneralizedMaxwell:
     def curvature_response(self, dt: float) -> float:
         """sum_i E_i F_i(dt): the step's traction error per unit curvature of u, the branch
         sum of :func:`~hpcgfmd.model.material.curvature_integral` (stress time^2)."""
-        return math.fsum(e * curvature_integral(dt, t)
-                         for e, t in zip(self.branch_moduli, self.branch_times))
+        return math.fsum(self.branch_curvature_responses(dt))
 
     def branch_curvature_responses(self, dt: float) -> np.ndarray:
         """E_i F_i(dt) of each branch (stress time^2; their sum is :meth:`curvature_response`)."""
@@ -223,13 +222,6 @@ class MaxwellHalfSpace:
                                                 self.branch_tractions, self._branches_start):
             np.multiply(start, decay, out=branch)
             branch += weight * self._next
-
-    def history_error(self, fft, curvature, dt, out):
-        """Collective (one FFT pair): the traction the exact-for-linear step of length dt
-        misses when u has the curvature ``curvature`` (u_tt / 2) in time (stress units)."""
-        response = self.material.curvature_response(dt)
-        fft.apply_diagonal(curvature, self.half_q * (response / self.n), out)
-        return out
 
     def correct(self, missed, dt, substrate_traction):
         """Add the missed traction of a step of length dt to p and to each branch in

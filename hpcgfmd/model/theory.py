@@ -134,33 +134,15 @@ def persson_brener(vbar, k):
 def persson_brener_quadrature(vbar, k):
     """dgamma_eff / dgamma0 from a direct quadrature of the paper's Eq. 6 with Eq. 7 (SLS).
 
-    Independent of the closed form: the SLS relaxation modulus E(t) = E0 + (Einf - E0) e^(-t/tau)
-    has the complex modulus E(w) = E0 + (Einf - E0) i w tau / (1 + i w tau); Eq. 6 is integrated
-    numerically with the crack-tip radius c = cbar c0 found by fixed point (Eq. 7). Time is in
-    units of the retardation time tau_r = tau / k (see :func:`persson_brener`).
+    Independent of the closed form: :func:`persson_brener_modulus` with the SLS's complex
+    modulus E(w) / E0 = 1 + (1/k - 1) i w tau / (1 + i w tau), time in units of the
+    retardation time tau_r = tau / k (so tau = k), and 2 pi rhodot / c0 = vbar (see
+    :func:`persson_brener`).
     """
-    tau = k  # relaxation time in units of tau_r = tau / k
+    def modulus(omega):
+        return 1.0 + (1.0 / k - 1.0) * 1j * omega * k / (1.0 + 1j * omega * k)
 
-    def inverse_modulus_im(omega):
-        e = 1.0 + (1.0 / k - 1.0) * 1j * omega * tau / (1.0 + 1j * omega * tau)  # E / E0
-        return (1.0 / e).imag
-
-    def enhancement(cbar):
-        omega_c = vbar / cbar  # 2 pi rhodot / c in units of 1/tau_r (c = cbar c0)
-
-        def integrand(w):
-            return np.sqrt(1.0 - w * w) / w * inverse_modulus_im(omega_c * w)
-
-        val, _ = integrate.quad(integrand, 0.0, 1.0, limit=200, epsabs=1e-13, epsrel=1e-12)
-        return 1.0 / (1.0 + 2.0 / np.pi * val)  # Im(1/E) < 0 here: dissipation raises cbar
-
-    cbar = 1.0
-    for _ in range(500):
-        new = enhancement(cbar)
-        if abs(new - cbar) < 1e-12:
-            break
-        cbar = new
-    return new
+    return persson_brener_modulus(vbar, 2.0 * np.pi, modulus)
 
 
 def persson_brener_modulus(rhodot, c0, modulus):

@@ -427,10 +427,12 @@ class HistoryError:
         reuse = (not self._smooth and self.curvature_age <= CURVATURE_AGE
                  and time_after - self.curvature_time <= self._lifetime)
         self._time = time_after
-        self.substrate.history_error(self.fft, self.smooth_curvature if reuse else c, h1,
-                                     self._traction)
-        self._estimated = True
+        # the missed traction (|q|/2) response c per mode (one FFT pair)
         self._response = self.substrate.material.curvature_response(h1)
+        self.fft.apply_diagonal(self.smooth_curvature if reuse else c,
+                                self.substrate.half_q * (self._response / self.substrate.n),
+                                self._traction)
+        self._estimated = True
         self._step = h1
         contact = state == 2
         comparable = self.has_previous and not reuse and not self.previous_reused
