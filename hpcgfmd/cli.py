@@ -145,7 +145,8 @@ def cmd_info(comm, args):
         print(f"Prony series: E_i/E0 = {a['relaxation_moduli']}, tau_i/tau_r ="
               f" {a['relaxation_times']}")
     if "drive_stiffness" in a:
-        print(f"compliant drive: k_s / E0 = {a['drive_stiffness']:.6g}")
+        print(f"compliant drive: k_s / E0 = {a['drive_stiffness']:.6g}"
+              + (" (load control)" if a["drive_stiffness"] == 0 else ""))
     print(f"numerics: nx = {a['nx']}, dt = {a['dt']:.6g}, tolerance = {a['tolerance']:g}")
     print(f"scales: beta = {a['beta']:.6g}, load scale = {a['load_scale']:.6g}")
     if s.load.size:
@@ -153,6 +154,8 @@ def cmd_info(comm, args):
         print(f"pull-off: load = {p.load:.6g} (Lbar = {p.lbar:.6g}) at contact half-width"
               f" {p.contact_half_width:.6g} (abar = {p.abar:.6g}), indenter {p.indenter:.6g},"
               f" time {p.time:.6g}")
+    if "protocol_kinds" in a and s.load.size:
+        _print_cycles(s, a)
     if result.finished:
         print(f"detachment: indenter {a['detachment_indenter']:.6g},"
               f" time {a['detachment_time']:.6g}")
@@ -164,6 +167,17 @@ def cmd_info(comm, args):
     else:
         print("no step written yet")
     return EXIT_OK
+
+
+def _print_cycles(series, attrs):
+    """info: the protocol's segments, and per cycle its pull-off and the drive's work."""
+    print(f"protocol: {', '.join(attrs['protocol_kinds'])}")
+    for cycle in series.cycles():
+        print(f"cycle {cycle.index} (steps {cycle.first}-{cycle.last}): pull-off load"
+              f" {cycle.pull_off:.6g} (Lbar = {cycle.lbar:.6g}) at indenter"
+              f" {cycle.indenter:.6g}, time {cycle.time:.6g}; work of the drive"
+              f" {cycle.work:.6g} (load x length, per unit length: the energy dissipated"
+              " when the cycle starts and ends detached)")
 
 
 def cmd_plot(comm, args):

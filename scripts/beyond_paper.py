@@ -1,4 +1,4 @@
-"""Figures of the model beyond the paper: a Prony series, and the compliant drive.
+"""Figures of the model beyond the paper: a Prony series, the compliant drive, cycles.
 
     python scripts/beyond_paper.py --out docs/figures   # about 30 minutes on one core
 
@@ -13,10 +13,16 @@ prediction at the measured peeling velocity (Eq. 6 by quadrature, (M42)).
 hanging on springs of three stiffnesses against the displacement-controlled curve, with each
 spring's line at its jump (tangent to the curve where dL/du_z = k_s; (M43)).
 
+<out>/cycle.png: an approach-dwell-retract cycle (approach from out of contact to h0/R =
+0.03, dwell 1 tau, retraction until detached) of the drive test's cylinder, elastic and SLS
+(k = 0.1) at V_z = 1 and 10: (a) the hysteresis loops, load against indenter, (b) the load
+against time (the dwell's relaxation), with each loop's area (the dissipated energy, (M45))
+in cycle.txt, and the elastic loop's against the energy its two jumps release.
+
 <out>/prony-accuracy.txt: the two-branch solid's pull-off at accuracies 1e-2 and 5e-3
 against 1e-3 at V_z = 0.45 and 0.045 (about 20 of the 30 minutes).
 
-<out>/prony.txt and <out>/drive.txt get the figures' numbers. The runs are kept in
+<out>/prony.txt, drive.txt and cycle.txt get the figures' numbers. The runs are kept in
 <out>/beyond-runs/ and reused when their case file is unchanged.
 """
 from __future__ import annotations
@@ -195,12 +201,49 @@ def drive_figure(out: Path, runs: Path, plt):
     return lines
 
 
+CYCLE = "\n[[protocol]]\napproach = 0.03\n[[protocol]]\ndwell = 1.0\n[[protocol]]\nretract = inf\n"
+CYCLE_RUNS = (("elastic", 1.0, 1.0), ("SLS, V_z = 1", 0.1, 1.0), ("SLS, V_z = 10", 0.1, 10.0))
+
+
+def cycle_figure(out: Path, runs: Path, plt):
+    """<out>/cycle.png and cycle.txt (module docstring)."""
+    fig, (ax_l, ax_t) = plt.subplots(1, 2, figsize=(11, 4.6))
+    lines = ["# scripts/beyond_paper.py: approach 0.03 R, dwell 1 tau, retract until detached;"
+             " lambda0 = 3.5, alpha = 1e-4, L/R = 2, nx = 4096, accuracy 1e-3",
+             "# run: steps, pull-off Lbar (retraction), Lbar at the jump into contact,"
+             " loop area (E0 R^2 per unit length) and in dgamma0 beta"]
+    for (label, k, velocity), color in zip(CYCLE_RUNS, ("k", "C0", "C3")):
+        groups = {**DRIVE_CASE, "modulus_ratio": k, "velocity": velocity}
+        text = ("[case]\n" + "\n".join(f"{key} = {value!r}" for key, value in groups.items())
+                + "\n[numerics]\nnx = 4096\naccuracy = 1e-3\n" + CYCLE)
+        case = hpcgfmd.Case.from_toml(text)
+        series = run(text, runs, f"cycle-{label.replace(' ', '').replace(',', '-')}").series
+        scale = case.load_scale
+        (cycle,) = series.cycles()
+        ax_l.plot(series.indenter, series.load / scale, color=color, lw=1,
+                  label=f"{label}: loop {cycle.work / (case.alpha * case.beta):.3g}"
+                        " dgamma0 beta")
+        ax_t.plot(series.time, series.load / scale, color=color, lw=1, label=label)
+        contact = np.flatnonzero(series.contact_half_width > 0)
+        lines.append(f"{label}: {series.time.size - 1}, {cycle.lbar:.5g},"
+                     f" {series.load[contact[0]] / scale:.5g}, {cycle.work:.5g},"
+                     f" {cycle.work / (case.alpha * case.beta):.5g}")
+    ax_l.set(xlabel="indenter u_z / R", ylabel="Lbar", xlim=(-0.032, 0.008),
+             title="(a) approach, dwell, retraction: hysteresis loops")
+    ax_l.legend(fontsize=8)
+    ax_t.set(xlabel="t / tau", ylabel="Lbar", title="(b) load against time")
+    ax_t.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out / "cycle.png", dpi=110)
+    return lines
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default="docs/figures", help="directory of the figures")
     parser.add_argument("--accuracy", type=float, default=5e-3,
                         help="[numerics] accuracy of the Prony figure's runs")
-    parser.add_argument("--only", choices=("prony", "drive", "accuracy"),
+    parser.add_argument("--only", choices=("prony", "drive", "cycle", "accuracy"),
                         help="one figure, or the Prony series' accuracy table only")
     args = parser.parse_args(argv)
     import matplotlib
@@ -213,6 +256,7 @@ def main(argv=None):
     runs.mkdir(parents=True, exist_ok=True)
     parts = {"prony": lambda: prony_figure(out, runs, args.accuracy, plt),
              "drive": lambda: drive_figure(out, runs, plt),
+             "cycle": lambda: cycle_figure(out, runs, plt),
              "accuracy": lambda: accuracy_table(runs)}
     for name, part in parts.items():
         if args.only in (None, name):

@@ -8,6 +8,18 @@ viscoelastic retraction (pull-off, jumps) to compare between runs.
 
 GROUPS = {"maugis": 3.5, "modulus_ratio": 0.1, "velocity": 1.0, "depth": 0.03, "cell": 2.0,
           "adhesion": 1e-4}
+# The [physical] form of an SLS case (lambda0 = 3.5 at these values; tau = 1 s, R = 1 mm)
+PHYSICAL = """[physical]
+radius = 1e-3
+modulus_relaxed = 1e6
+modulus_instantaneous = 1e7
+relaxation_time = 1.0
+work_of_adhesion = 0.05
+interaction_range = 1.94e-7
+velocity = 1e-6
+depth = 1e-4
+cell_length = 1e-2
+"""
 # Numerics lines for runs compared across rank counts or a restart to round-off: adaptive steps
 # follow round-off differences in the loads (another rank count picks other steps now and then),
 # fixed steps do not.
@@ -53,7 +65,7 @@ def whole_run(text):
     sim = Retraction(parse_case(text), MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
     try:
         records = [sim.preload()]
-        while not sim.detached():
+        while not sim.finished():
             records.append(sim.step())
     finally:
         sim.close()

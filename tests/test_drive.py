@@ -12,7 +12,7 @@ elastic curve follows Baney-Hui within 1 %: tests/test_retraction.py).
 import numpy as np
 import pytest
 
-from cases import case_text, whole_run
+from cases import PHYSICAL, case_text, whole_run
 from hpcgfmd.model import theory
 from hpcgfmd.model.case import parse_case
 
@@ -111,15 +111,3 @@ def test_drive_stiffness_keys():
     physical = parse_case(PHYSICAL + "drive_stiffness = 2e5\n")
     assert physical.drive_stiffness == pytest.approx(0.2, rel=1e-15)  # in E0 = 1e6 Pa
 
-
-PHYSICAL = """[physical]
-radius = 1e-3
-modulus_relaxed = 1e6
-modulus_instantaneous = 1e7
-relaxation_time = 1.0
-work_of_adhesion = 0.05
-interaction_range = 1.94e-7
-velocity = 1e-6
-depth = 1e-4
-cell_length = 1e-2
-"""

@@ -320,10 +320,10 @@ def poison(monkeypatch, at_step, velocity=None):
     from hpcgfmd.runs.protocol import Retraction
     advance = Retraction._advance
 
-    def poisoned(self, dt):
+    def poisoned(self, dt, end=None):
         if self.step_index + 1 == at_step and velocity in (None, self.case.Vz):
             self.substrate_traction[5] = np.nan
-        return advance(self, dt)
+        return advance(self, dt, end)
 
     monkeypatch.setattr(Retraction, "_advance", poisoned)
 

@@ -29,14 +29,33 @@ PRONY = case_text("nx = 2048", "snapshot_times = [0.0, 3.0]", modulus_ratio=None
 SPRING = case_text("nx = 2048", "snapshot_times = [0.0, 3.0]", drive_stiffness=0.3)
 PRONY_SPRING = case_text("nx = 1024", "", modulus_ratio=None, relaxation_moduli=[3.0, 6.0],
                          relaxation_times=[0.1, 1.45], drive_stiffness=0.3)
+# A loading protocol stopped on the step that ends its approach: the segment moves on after
+# the restart (the schedule's index, start time and drive value are state)
+CYCLE = case_text("nx = 1024", "", velocity=10.0) + """
+[[protocol]]
+approach = 0.03
+[[protocol]]
+dwell = 0.3
+[[protocol]]
+retract = inf
+"""
+STOP_CYCLE = 279  # the approach's last step (measured: 660 steps, the dwell 280-310)
+# Load control: the applied load is the drive
+LOAD_CONTROL = case_text("nx = 1024", "", modulus_ratio=1.0, drive_stiffness=0) + """
+[[protocol]]
+retract = -inf
+load_rate = 1e-3
+"""
 
 
 # (the coarse case stops after step 41, a window without crossings: steps 42-45 are windows
 # with crossings that use its curvature, and step 42's kept history error compares with its
 # correction, so the resumed run needs both from the checkpoint)
 @pytest.mark.parametrize("text, stop", [(CASE, 38), (COARSE_FAST, 41), (PRONY, 57),
-                                        (SPRING, 60), (PRONY_SPRING, 45)],
-                         ids=["default", "coarse-fast", "prony", "spring", "prony-spring"])
+                                        (SPRING, 60), (PRONY_SPRING, 45), (CYCLE, STOP_CYCLE),
+                                        (LOAD_CONTROL, 60)],
+                         ids=["default", "coarse-fast", "prony", "spring", "prony-spring",
+                              "cycle", "load-control"])
 def test_interrupted_and_resumed_equals_uninterrupted_bitwise(tmp_path, text, stop):
     case = parse_case(text)
     quiet = {"planner_effort": "FFTW_ESTIMATE"}
@@ -49,8 +68,8 @@ def test_interrupted_and_resumed_equals_uninterrupted_bitwise(tmp_path, text, st
     run_case(case, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, resume=True,
              stop=StopAtStep(10**9))
     whole, parts = read_series(tmp_path / "whole.h5"), read_series(tmp_path / "parts.h5")
-    for name in ("time", "indenter", "drive", "load", "contact_half_width",
-                 "cohesive_half_width", "iterations", "residual"):
+    for name in ("time", "indenter", "drive", "applied_load", "segment", "load",
+                 "contact_half_width", "cohesive_half_width", "iterations", "residual"):
         np.testing.assert_array_equal(getattr(parts, name), getattr(whole, name), err_msg=name)
     for key in ("steps", "iterations", "fft_pairs", "projections", "cut_steps",
                 "moving_edge_predictions", "rejected_predictions", "spring_solves"):

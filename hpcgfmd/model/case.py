@@ -14,6 +14,8 @@ groups"; docs/case-file.md lists every key with its default):
     relaxation_moduli (Pa) and relaxation_times (s) in place of modulus_instantaneous and
     relaxation_time.
 
+``[[protocol]]`` (optional) lists the loading segments the drive follows
+(:mod:`hpcgfmd.model.loading`); without it the paper's preload and retraction.
 ``[numerics]`` and ``[output]`` are optional; times and lengths there are in the case's units
 (tau and R with ``[case]``, seconds and metres with ``[physical]``).
 
@@ -39,6 +41,7 @@ from ..errors import CaseError
 from . import accuracy as knob
 from . import theory
 from .grid import smallest_grid
+from .loading import Segment, paper_protocol, parse_protocol
 from .material import StandardLinearSolid
 from .prony import GeneralizedMaxwell
 
@@ -158,9 +161,13 @@ class Case:
         tau_i / tau_r of each branch, tau_r = sum E_i tau_i / sum E_i the reference time (so
         the times' weighted mean is 1). Left out: the standard linear solid of k.
     drive_stiffness : float, optional
-        k_s / E0 > 0 of the spring between the drive and the indenter, per unit length of the
-        cylinder (docs/model.md, "Protocol"): the drive follows -h0 + v_z t and the indenter
-        is where the spring balances the load. inf (the default): displacement control.
+        k_s / E0 >= 0 of the spring between the drive and the indenter, per unit length of
+        the cylinder (docs/model.md, "Protocol"): the drive follows the protocol and the
+        indenter is where the spring balances the load. inf (the default): displacement
+        control; 0: load control (the protocol moves the applied load).
+    protocol : list of dict or tuple of Segment, optional
+        The ``[[protocol]]`` tables (case units) or resolved segments
+        (:mod:`hpcgfmd.model.loading`); empty: the paper's preload and retraction.
 
     Raises
     ------
@@ -182,17 +189,21 @@ class Case:
     relaxation_moduli: tuple = ()
     relaxation_times: tuple = ()
     drive_stiffness: float = math.inf
+    protocol: tuple = ()
 
     def __post_init__(self):
         given = {"numerics": self.numerics, "output": self.output}
+        given_protocol = self.protocol
         if any(value is not None and not (hasattr(value, "__len__") and len(value) == 0)
                for value in (self.relaxation_moduli, self.relaxation_times)):
             self._resolve_prony()
         if self.drive_stiffness != math.inf:
             section = "case" if self.form == "case" else "physical"
-            stiffness = _number({"drive_stiffness": self.drive_stiffness}, section,
-                                "drive_stiffness")
-            object.__setattr__(self, "drive_stiffness", stiffness)
+            stiffness = self.drive_stiffness
+            if not (isinstance(stiffness, (int, float)) and not isinstance(stiffness, bool)
+                    and stiffness == 0.0):  # 0 is load control
+                stiffness = _number({"drive_stiffness": stiffness}, section, "drive_stiffness")
+            object.__setattr__(self, "drive_stiffness", float(stiffness))
         if self.form == "case":
             groups = {key: getattr(self, key) for key in CASE_KEYS}
             for key in CASE_KEYS:
@@ -201,6 +212,7 @@ class Case:
                 raise CaseError(f"[case] modulus_ratio = {self.modulus_ratio}: expected"
                                 " k = E0/Einf in (0, 1] (1 is the elastic solid)")
         self._check_scales()
+        self._resolve_protocol()
         min_cell = MIN_CELL_PER_CONTACT * math.sqrt(2.0 * self.depth)
         if self.cell < min_cell:
             raise CaseError(f"{self.cell_key()} = {self.cell * self.units.length:.6g}: too"
@@ -216,6 +228,8 @@ class Case:
             if self.compliant:
                 keys += DRIVE_KEYS
             doc = {"case": {key: _plain(getattr(self, key)) for key in keys}}
+            if isinstance(given_protocol, list):
+                doc["protocol"] = given_protocol
             doc.update({name: value for name, value in given.items()
                         if isinstance(value, dict) and value})
             object.__setattr__(self, "text", tomli_w.dumps(doc))
@@ -244,10 +258,43 @@ class Case:
         object.__setattr__(self, "relaxation_times", times)
         object.__setattr__(self, "modulus_ratio", k)
 
+    def _resolve_protocol(self):
+        """``[[protocol]]`` tables (case units) -> segments (internal units), checked."""
+        if self.load_control and not self.protocol:
+            raise CaseError(f"[{self.form}] drive_stiffness = 0: load control needs a"
+                            " [[protocol]] whose segments give a load_rate")
+        if not self.protocol or all(isinstance(s, Segment) for s in self.protocol):
+            return
+        units = self.units
+        scale = (self.alpha ** (2.0 / 3.0) if self.form == "case"  # V_z units: beta^2
+                 else units.time / units.length)  # m/s
+        segments = parse_protocol(
+            self.protocol if isinstance(self.protocol, list) else list(self.protocol),
+            length=units.length, time=units.time, load=units.load, speed=self.indenter_speed,
+            speed_scale=scale, load_control=self.load_control)
+        object.__setattr__(self, "protocol", segments)
+
     @property
     def compliant(self) -> bool:
-        """True when the indenter hangs on a spring (finite drive_stiffness)."""
+        """True when the indenter hangs on a spring (finite drive_stiffness) or the load is
+        controlled (drive_stiffness = 0)."""
         return self.drive_stiffness != math.inf
+
+    @property
+    def load_control(self) -> bool:
+        """True under load control (drive_stiffness = 0): the protocol moves the load."""
+        return self.drive_stiffness == 0.0
+
+    @property
+    def segments(self) -> tuple:
+        """The protocol's segments after the start (:mod:`~hpcgfmd.model.loading`): the
+        case's own, or the paper's single retraction at the case's speed."""
+        return self.protocol or paper_protocol(self.indenter_speed)
+
+    @property
+    def starts_out_of_contact(self) -> bool:
+        """True when the protocol starts with an approach (no preload; u_z = dmax)."""
+        return bool(self.protocol) and self.protocol[0].kind == "approach"
 
     @property
     def prony(self) -> bool:
@@ -457,6 +504,8 @@ class Case:
             content["prony"] = [list(self.relaxation_moduli), list(self.relaxation_times)]
         if self.compliant:  # (likewise absent under displacement control)
             content["drive_stiffness"] = self.drive_stiffness
+        if self.protocol:  # (and without a protocol)
+            content["protocol"] = [[s.kind, s.target, s.rate] for s in self.protocol]
         return hashlib.sha256(json.dumps(content).encode()).hexdigest()[:16]
 
     def groups(self) -> dict:
@@ -563,6 +612,18 @@ def _prony_series(moduli, times, section):
     return moduli, times
 
 
+def _stiffness(table, section):
+    """drive_stiffness: a finite number > 0, or 0 (load control)."""
+    value = table["drive_stiffness"]
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and value == 0:
+        return 0.0
+    try:
+        return _number(table, section, "drive_stiffness")
+    except CaseError:
+        raise CaseError(f"[{section}] drive_stiffness = {_fmt(value)}: expected a finite"
+                        " number > 0 (a spring) or 0 (load control)") from None
+
+
 def _plain(value):
     """A value as TOML writes it (tuples as lists)."""
     return list(value) if isinstance(value, tuple) else value
@@ -659,7 +720,7 @@ def _groups_from_physical(t):
     if prony:  # k from the series itself
         groups.update(prony, modulus_ratio=None)
     if "drive_stiffness" in t:  # Pa (N/m per m of cylinder and m of travel) -> E0
-        groups["drive_stiffness"] = _number(t, "physical", "drive_stiffness") / e0
+        groups["drive_stiffness"] = _stiffness(t, "physical") / e0
     return groups, Units(length=radius, stress=e0, time=tau)
 
 
@@ -672,9 +733,11 @@ def parse_case(text: str) -> Case:
     except ValueError as err:  # TOMLDecodeError, or int()'s limit of 4300 digits
         raise CaseError(f"not valid TOML: {err}") from None
     for name, value in doc.items():
+        if name == "protocol":  # [[protocol]]: checked with the case (model/loading.py)
+            continue
         if name not in SECTIONS:
             raise CaseError(f"[{quoted_key(name)}]: unknown section; accepted: [case] or"
-                            " [physical], [numerics], [output]")
+                            " [physical], [numerics], [output], [[protocol]]")
         if not isinstance(value, dict):
             raise CaseError(f"{name} = {_fmt(value)}: expected a section [{name}]")
     if ("case" in doc) == ("physical" in doc):
@@ -692,12 +755,17 @@ def parse_case(text: str) -> Case:
                           relaxation_moduli=table.get("relaxation_moduli"),
                           relaxation_times=table.get("relaxation_times"))
         if "drive_stiffness" in table:
-            groups["drive_stiffness"] = _number(table, "case", "drive_stiffness")
+            groups["drive_stiffness"] = _stiffness(table, "case")
         units = Units()
     else:
         groups, units = _groups_from_physical(doc["physical"])
+    protocol = doc.get("protocol", ())
+    if not isinstance(protocol, list) or not protocol:
+        if "protocol" in doc:
+            raise CaseError(f"protocol = {_fmt(protocol)}: expected [[protocol]] tables"
+                            " (approach, dwell or retract)")
     return Case(**groups, numerics=doc.get("numerics", {}), output=doc.get("output", {}),
-                units=units, text=text, form=form)
+                units=units, text=text, form=form, protocol=protocol)
 
 
 def load_case(path) -> Case:

@@ -1,10 +1,11 @@
-"""The compliant drive: the indenter on a spring whose far end follows the retraction.
+"""The compliant drive: the indenter on a spring whose far end follows the protocol.
 
-docs/model.md, "Protocol", (M43): the drive Z(t) = Z0 + v_z t with Z0 = -h0 - L_0 / k_s (the
-preload's spring holds its load L_0), and each step's indenter position u_z balances the
-spring, f(u_z) = L(u_z) - k_s (u_z - Z) = 0, L the load (compressive positive) of the
-equilibrium at u_z. :meth:`CompliantDrive.balance` searches u_z around the retraction's
-equilibrium solve (docs/numerics.md, "The compliant drive").
+docs/model.md, "Protocol", (M43): the drive Z(t) follows the protocol (:mod:`.schedule`)
+from Z0 = u_z0 - L_0 / k_s (the spring holds the start's load L_0), and each step's indenter
+position u_z balances the spring, f(u_z) = L(u_z) - k_s (u_z - Z) = 0, L the load
+(compressive positive) of the equilibrium at u_z. Under load control (k_s = 0) the drive is
+the applied load F(t) itself, from F0 = L_0, and f(u_z) = L(u_z) - F. :meth:`CompliantDrive.balance`
+searches u_z around the step's equilibrium solve (docs/numerics.md, "The compliant drive").
 """
 from __future__ import annotations
 
@@ -30,8 +31,6 @@ class CompliantDrive:
 
     Attributes
     ----------
-    start : float
-        Z0, the drive's position at t = 0 (length).
     rate : float
         du_z/dt of the last accepted step, for the next step's first guess (length/time).
     slope : float
@@ -46,25 +45,26 @@ class CompliantDrive:
 
     def __init__(self, case):
         self.stiffness = case.drive_stiffness
-        self.speed = case.indenter_speed
+        self.load_control = case.load_control
         self.tolerance = SPRING_TOLERANCE * case.numerics.load_tolerance * case.load_scale
         self.reach = SPRING_TRUST * case.dmax
         self.travel = SPRING_TRAVEL * case.dmax
         self.dmax = case.dmax
-        self.start = -case.depth
         self.rate = case.indenter_speed
         self.slope = math.nan
         self.solves = 0
         self.accepted_load = math.nan
 
-    def position(self, time: float) -> float:
-        """Z(t) = Z0 + v_z t (length)."""
-        return self.start + self.speed * time
-
-    def hold(self, indenter: float, load: float):
-        """After the preload: the drive's start that makes the spring hold ``load``."""
-        self.start = indenter - load / self.stiffness
+    def hold(self, indenter: float, load: float) -> float:
+        """After the start: the drive's value that holds ``load`` at ``indenter``, Z0 =
+        u_z0 - L_0 / k_s (length), or under load control F0 = L_0 (load per length)."""
         self.accepted_load = load
+        return load if self.load_control else indenter - load / self.stiffness
+
+    def force(self, indenter: float, drive: float) -> float:
+        """The drive's push on the indenter, k_s (u_z - Z), or the applied load F = ``drive``
+        under load control (load per length, compressive positive)."""
+        return drive if self.load_control else self.stiffness * (indenter - drive)
 
     def guess(self, indenter: float, dt: float) -> float:
         """The indenter's first position for a step of length dt: its last rate."""
@@ -123,8 +123,12 @@ class CompliantDrive:
                 return None
             iterations += record.iterations
             self.solves += solves > 0
-            imbalance = record.load - stiffness * (sim.indenter - sim.drive)
+            imbalance = record.load - self.force(sim.indenter, sim.drive)
             point = (sim.indenter, imbalance)
+            if self.load_control and record.load == 0.0 and record.cohesive_half_width == 0.0:
+                sim.edges_previous = edges_before  # the load let go: the indenter flew off
+                record.iterations = iterations
+                return record
             if imbalance > 0.0:
                 below = point
                 anchor = (sim.indenter, sim.u.copy(), sim.gap() <= self.dmax)
@@ -156,7 +160,7 @@ class CompliantDrive:
     def _next(self, sim, record, point, previous, below, above, bracket, bisect, slope):
         """The search's next indenter position (:meth:`balance`)."""
         if record.load == 0.0 and record.cohesive_half_width == 0.0:
-            return sim.drive  # detached: the spring alone, balanced at the drive
+            return sim.drive  # detached: the spring alone, balanced at the drive (k_s > 0)
         if bracket:
             if bisect:
                 return 0.5 * (below[0] + above[0])
@@ -169,18 +173,19 @@ class CompliantDrive:
         if derivative < 0.0:  # Newton, within reach of the last solve
             step = -point[1] / derivative
             return point[0] + max(-self.reach, min(self.reach, step))
+        if self.load_control:  # no stable slope: away from the imbalance by the reach
+            return point[0] + math.copysign(self.reach, point[1])
         return point[0] + point[1] / self.stiffness  # no stable slope: the spring alone
 
     def state(self) -> dict:
         """The drive's scalars for a checkpoint (rank-independent)."""
-        return {"drive_start": self.start, "indenter_rate": self.rate,
+        return {"indenter_rate": self.rate,
                 "indenter_slope": self.slope, "spring_solves": self.solves,
                 "accepted_load": self.accepted_load}
 
     def restore(self, attrs, statistics=True):
         """Continue from :meth:`state`; ``statistics=False`` keeps the solve count (undoing a
         rejected step: its work was done)."""
-        self.start = float(attrs["drive_start"])
         self.rate = float(attrs["indenter_rate"])
         self.slope = float(attrs["indenter_slope"])
         self.accepted_load = float(attrs["accepted_load"])

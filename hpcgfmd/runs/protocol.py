@@ -1,17 +1,22 @@
-"""The retraction protocol of one case (docs/model.md, "Protocol"; paper Eq. 16).
+"""The loading protocol of one case (docs/model.md, "Protocol"; paper Eq. 16).
 
-1. Preload (t = 0): adhesive indentation of the RELAXED substrate (elastic, E0) from a flat
-   surface to u_z = -h0, solved as one elastic problem (the loading-branch equilibrium); the
-   material history starts fully relaxed, p_n = (|q| E0 / 2) u_n.
-2. Retraction: u_z(t) = -h0 + v_z t, one exact step of length dt per time step, each an
-   elastic problem of stiffness (|q|/2) Eeff with a history traction H: the SLS's
+1. Start (t = 0): the preload, adhesive indentation of the RELAXED substrate (elastic, E0)
+   from a flat surface to u_z = -h0, solved as one elastic problem (the loading-branch
+   equilibrium); the material history starts fully relaxed, p_n = (|q| E0 / 2) u_n. A
+   protocol that starts with an approach starts instead out of contact, flat and relaxed,
+   the apex at u_z = 2 dmax (:data:`~hpcgfmd.model.loading.START_HEIGHT`).
+2. Segments (:mod:`.schedule`): the drive follows the protocol's approaches, dwells and
+   retractions, by default the paper's u_z(t) = -h0 + v_z t until no node has g <= dmax
+   (complete detachment). One exact step of length dt per time step, each an elastic problem
+   of stiffness (|q|/2) Eeff with a history traction H: the SLS's
    H = a p_n + (|q|/2)(E0 (1 - a) - Eeff) u_n (M8), or a Prony series' from its branch
-   tractions (M40), until no node has g <= dmax (complete detachment). Displacement
-   control: jumps of the contact are recorded, never a stop.
+   tractions (M40). Steps end exactly where segments do. Displacement control: jumps of the
+   contact (into contact on an approach, off it on a retraction) are recorded, never a stop.
 
 A compliant drive (``drive_stiffness`` k_s, :mod:`.drive`): the indenter hangs on a spring
 whose far end, the drive, moves as u_z did; each step the indenter position is the unknown
-that balances the spring (docs/model.md, "Protocol", (M43)). Where the attached branch has
+that balances the spring (docs/model.md, "Protocol", (M43)); k_s = 0 is load control, the
+protocol moving the applied load. Where the attached branch has
 no balance left the indenter jumps: the step control shrinks the steps towards the jump and
 takes it at dt_min, as it does a snap-off.
 
@@ -29,6 +34,7 @@ import numpy as np
 from ..errors import NonConvergenceError
 from ..model.case import Case
 from ..model.interface import DugdaleMaugis, edge_positions
+from ..model.loading import START_HEIGHT
 from ..model.material import ViscoelasticHalfSpace
 from ..model.prony import MaxwellHalfSpace
 from ..parallel.domain import Domain
@@ -38,6 +44,7 @@ from ..solvers.predictor import Predictor
 from ..solvers.stepping import HistoryError, make_step_control
 from .coarse_start import coarse_start
 from .drive import CompliantDrive
+from .schedule import Schedule
 
 
 @dataclass
@@ -53,9 +60,11 @@ class StepRecord:
     residual: float
     dt: float
     drive: float = math.nan  # the spring's far end (compliant drive; else the indenter)
+    segment: int = 0  # the protocol's segment the step belongs to
 
     def as_dict(self):
-        return dict(self.__dict__)
+        """The series entries (under load control the drive is the applied load)."""
+        return {**self.__dict__, "applied_load": self.drive}
 
 
 class Retraction:
@@ -110,6 +119,7 @@ class Retraction:
         self.indenter = -case.depth
         self.drive = -case.depth  # Z(t) (the indenter itself without a spring)
         self.spring = CompliantDrive(case) if case.compliant else None
+        self.schedule = Schedule(case.segments, case.load_control)
         self.step_index = 0
         self.total_iterations = 0
         self.rejected_steps = 0  # adaptive steps repeated with a shorter dt
@@ -166,6 +176,7 @@ class Retraction:
         self.edges_previous, self.edges = self.edges, (left, right)
         zl, zr = edge_positions(self.domain, gap, self.case.dmax, 1.0)
         return StepRecord(time=self.time, indenter=self.indenter, drive=self.drive,
+                          segment=self.schedule.index,
                           load=-self.domain.sum(self.traction.sum()) * self.dx,
                           contact_half_width=0.5 * (right - left) if left == left else 0.0,
                           cohesive_half_width=0.5 * (zr - zl) if zl == zl else 0.0,
@@ -173,17 +184,23 @@ class Retraction:
 
     # --- protocol ----------------------------------------------------------------------
     def preload(self) -> StepRecord:
-        """Relaxed adhesive indentation to u_z = -h0 (the t = 0 state), started from its
-        solution on coarser grids when there are any (:mod:`.coarse_start`), else flat."""
+        """The t = 0 state: the relaxed adhesive indentation to u_z = -h0, started from its
+        solution on coarser grids when there are any (:mod:`.coarse_start`), else flat; or,
+        when the protocol starts with an approach, the flat relaxed surface out of reach."""
         self.history[:] = 0.0
-        start, self.preload_levels = coarse_start(self.case, self.domain, self.planner_effort)
-        if start is not None:
-            self.u[:] = start
+        if self.case.starts_out_of_contact:
+            self.indenter = self.drive = START_HEIGHT * self.case.dmax
+            self.u[:] = 0.0
+        else:
+            start, self.preload_levels = coarse_start(self.case, self.domain,
+                                                      self.planner_effort)
+            if start is not None:
+                self.u[:] = start
         record = self._equilibrate(self.substrate.operators(math.inf), 0.0,
                                    self.solver.preload_solver(), substrate_dt=math.inf)
-        if self.spring is not None:  # the spring holds the preload's load
-            self.spring.hold(self.indenter, record.load)
-            self.drive = record.drive = self.spring.start
+        if self.spring is not None:  # the spring holds the start's load
+            self.drive = record.drive = self.spring.hold(self.indenter, record.load)
+        self.schedule.begin(self.drive)
         self.preload_iterations = record.iterations
         self.steps.accept(record.time, record.load)
         return record
@@ -195,10 +212,11 @@ class Retraction:
         is undone and repeated with the shorter step the controller proposes; the iterations
         of the rejected attempts count in ``total_iterations``.
         """
-        dt = self.steps.dt
+        proposed = self.steps.dt
+        dt, end = self.schedule.cut(self.time, proposed)
         while True:
             self._save()
-            record = self._advance(dt)
+            record = self._advance(dt, end)
             if record is None:  # abandoned: its edges moved too far, the verdict is known
                 decision = self.steps.judge(dt, self.time, None, math.inf)
             else:
@@ -210,7 +228,11 @@ class Retraction:
                 break
             self.rejected_steps += 1
             self._revert()
-            dt = decision.next_dt
+            proposed = decision.next_dt
+            dt, end = self.schedule.cut(self.time, proposed)
+        if end is not None and self.steps.dt >= dt:
+            # a step cut short by the segment's end: the next one as proposed before the cut
+            self.steps.dt = max(self.steps.dt, proposed)
         self.steps.accept(record.time, record.load)
         if self.history_error is not None:
             # the substrate traction the exact-for-quadratic history gives (HistoryError)
@@ -253,8 +275,9 @@ class Retraction:
         state += (gap > 0.0) & (gap < self.case.dmax)
         return state
 
-    def _advance(self, dt) -> StepRecord | None:
-        """One step of length dt from the current state (paper Eq. 14; docs/model.md (M8), (M40)).
+    def _advance(self, dt, end=None) -> StepRecord | None:
+        """One step of length dt from the current state (paper Eq. 14; docs/model.md (M8), (M40)),
+        ending at the segment's end time ``end`` when it is given.
 
         None when the solve was abandoned because its contact edges strayed beyond what the
         step control accepts (:meth:`~hpcgfmd.solvers.stepping.AdaptiveSteps.edge_limit`).
@@ -263,23 +286,24 @@ class Retraction:
         gap_before = self.wall - self.u
         contact = gap_before <= 0.0
         self.step_index += 1
-        if self.steps.adaptive:
+        if end is not None:  # the segment's end, exactly
+            self.time = end
+        elif self.steps.adaptive:
             self.time += dt
         else:  # no accumulated round-off over many equal steps
-            self.time = self.step_index * dt
+            self.time = self.schedule.fixed_time(self.step_index, dt)
         indenter_before = self.indenter
-        if self.spring is not None:  # the drive moves; the indenter's guess: its last rate
-            self.drive = self.spring.position(self.time)
+        self.drive = self.schedule.value(self.time)
+        if self.spring is not None:  # the indenter's guess: its last rate
             self.indenter = self.spring.guess(indenter_before, dt)
         else:
-            self.indenter = -self.case.depth + self.case.indenter_speed * self.time
-            self.drive = self.indenter
+            self.indenter = self.drive
         ops = self.substrate.operators(dt)
         np.add(self.profile, self.indenter, out=self.wall)
         if self.solver.starts_from_prediction:
             ratio = 1.0 if self.dt_previous is None else dt / self.dt_previous
             rise = (self.indenter - indenter_before if self.case.compliant
-                    else self.case.indenter_speed * dt)
+                    else self.schedule.rate() * dt)
             self.predictor.start(
                 self.u, self.wall, gap_before, contact, rise, ratio,
                 self.edges, self.edges_previous,
@@ -326,6 +350,15 @@ class Retraction:
     def detached(self) -> bool:
         """Collective: True when no node is within the interaction range (complete detachment)."""
         return self.domain.all(self.wall - self.u > self.case.dmax)
+
+    def finished(self) -> bool:
+        """Collective: True when the protocol is over (after the last step's segment ended;
+        the paper's protocol: at complete detachment)."""
+        segment = self.schedule.index
+        over = self.schedule.after_step(self.time, self.step_index, self.detached())
+        if self.schedule.index != segment:
+            self.steps.new_segment()
+        return over
 
     def close(self):
         """Collective: release the transform's resources (its shared-memory window)."""
@@ -376,6 +409,7 @@ class Retraction:
         attrs.update(self.steps.state())
         if self.spring is not None:
             attrs.update(self.spring.state())
+        attrs.update(self.schedule.state())
         return fields, attrs
 
     def restore(self, fields, attrs, statistics=True):
@@ -394,6 +428,8 @@ class Retraction:
         self.drive = float(attrs.get("drive", self.indenter))
         if self.spring is not None:
             self.spring.restore(attrs, statistics)
+        # (checkpoints before protocols: the paper's retraction from the drive's start)
+        self.schedule.restore(attrs, float(attrs.get("drive_start", -self.case.depth)))
         self.step_index = int(attrs["step_index"])
         self.edges = tuple(float(v) for v in attrs["edges"])
         self.edges_previous = (tuple(float(v) for v in attrs["edges_previous"])

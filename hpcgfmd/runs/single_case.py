@@ -247,7 +247,7 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
         progress = Progress(case.output.progress_interval, case.units)
         if comm.bcast(short_of_space(), root=0):
             stop_for_space()
-        while not sim.detached():
+        while not sim.finished():
             record = sim.step()
             out.append_step(record.as_dict())
             if schedule.due(record):

@@ -17,7 +17,9 @@ A sweep file is TOML::
     output = "study"          # directory of the case files and the summary
 
 A key is a key of any section of the base (``velocity``, ``nx``, ``checkpoint_steps``) or
-``section.key`` (``numerics.nx``, a TOML dotted key). Each combination becomes a complete case
+``section.key`` (``numerics.nx``, a TOML dotted key), or ``protocol``: a whole loading
+protocol, a list of segment tables (``protocol = [{approach = 0.1}, {dwell = 1.0},
+{retract = inf}]`` in a ``[[cases]]`` entry, a list of such lists in ``[grid]``). Each combination becomes a complete case
 file, validated like any other; a case that does not validate is kept and reported as failed
 with its error, so one bad value does not stop the study. Each case's output file is named
 from the swept values (``velocity_0.45-depth_0.1.h5``).
@@ -116,7 +118,10 @@ def _dotted(key) -> str:
 
 
 def _resolve(key, base):
-    """'section.key' of a swept key, looked up in the base's sections."""
+    """('section', 'key') of a swept key, looked up in the base's sections (('protocol',)
+    for the loading protocol, an array of tables)."""
+    if key == "protocol":
+        return ("protocol",)
     if "." in key:
         section, name = key.split(".", 1)
         present = section in base or section in ("numerics", "output")  # optional sections
@@ -149,6 +154,8 @@ def _label(value) -> str:
     entries of a list joined by "_" (so that [1, 2] and [12] differ)."""
     if isinstance(value, list):
         return "_".join(_label(entry) for entry in value)
+    if isinstance(value, dict):  # a protocol's segment
+        return "_".join(f"{key}_{_label(entry)}" for key, entry in value.items())
     text = tomli_w.dumps({"v": value})[len("v = "):].strip()
     return re.sub(r"[^A-Za-z0-9.+_-]", "", text)
 
@@ -223,19 +230,25 @@ def parse_sweep(text: str, directory: str = ".", path: str = "") -> Sweep:
         values = {}
         for key, value in entry.items():
             values[".".join(_resolve(key, base))] = value
-        for ((section, name), _), value in zip(axes, point):
-            if f"{section}.{name}" in values:
-                raise SweepError(f"{name}: in both [grid] and [[cases]]; give it in one of them")
-            values[f"{section}.{name}"] = value
+        for (parts, _), value in zip(axes, point):
+            if ".".join(parts) in values:
+                raise SweepError(f"{parts[-1]}: in both [grid] and [[cases]]; give it in one of"
+                                 " them")
+            values[".".join(parts)] = value
         for key in values:
             if key not in swept:
                 swept.append(key)
         case_doc = {s: dict(t) for s, t in base.items() if isinstance(t, dict)}
+        if "protocol" in base:
+            case_doc["protocol"] = base["protocol"]
         for key, value in values.items():
+            if key == "protocol":  # the whole array of tables
+                case_doc["protocol"] = value
+                continue
             section, name = key.split(".", 1)
             case_doc.setdefault(section, {})[name] = value
         text_case = to_toml(case_doc)
-        name = "-".join(f"{k.split('.', 1)[1]}_{_label(v)}" for k, v in values.items()) or "base"
+        name = "-".join(f"{k.split('.')[-1]}_{_label(v)}" for k, v in values.items()) or "base"
         if name in names:
             raise SweepError(f"cases {names[name]} and {len(cases)} are the same case ({name})")
         names[name] = len(cases)

@@ -172,6 +172,9 @@ class FixedSteps:
     def accept(self, time, load):
         pass
 
+    def new_segment(self):
+        pass
+
     def state(self) -> dict:
         return {}
 
@@ -298,6 +301,11 @@ class AdaptiveSteps:
         at t = 0 replaces the point before)."""
         points = [p for p in self.points if p[0] < time]
         self.points = (points + [(time, load)])[-2:]
+
+    def new_segment(self):
+        """The drive's rate changed (a protocol's segment began): the load's extrapolation
+        restarts from the last point, not across the kink."""
+        self.points = self.points[-1:]
 
     def state(self) -> dict:
         flat = [v for point in self.points for v in point]

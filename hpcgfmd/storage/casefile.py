@@ -6,12 +6,14 @@ Layout (all values in the case's units: R, E0, tau with ``[case]`` input; SI wit
 /                 attrs: hpcgfmd_version, config (case file text), lambda0, lambda_inf, k, Vz,
                   chi_ve, alpha, depth, cell, zone_points, nx, dt, tolerance, beta, load_scale,
                   length_unit/stress_unit/time_unit, vbar_convention, finished (bool),
-                  steps_complete, and when finished the run summary (steps, iterations,
+                  steps_complete, with a [[protocol]] protocol_kinds (approach, dwell,
+                  retract per segment), and when finished the run summary (steps, iterations,
                   wall_time, detachment_indenter, ...)
 /series/          one entry per time step, preload end (t = 0) included:
                   time, indenter (u_z), load (per unit length, compressive positive),
                   contact_half_width, cohesive_half_width, iterations, residual, dt;
-                  with a compliant drive also drive (the spring's far end);
+                  with a compliant drive also drive (the spring's far end), under load
+                  control applied_load; with a [[protocol]] also segment (its index);
                   ``time`` is an HDF5 dimension scale attached to every other series
 /snapshots/       time (s,), surface u, pressure p (traction on the substrate, attractive
                   positive), gap (each (s, nx)); x (nx,); attr complete; ``time`` and ``x``
@@ -52,14 +54,17 @@ SERIES = ("time", "indenter", "load", "contact_half_width", "cohesive_half_width
           "iterations", "residual", "dt")
 SERIES_UNITS = {"time": "time", "indenter": "length", "load": "load",
                 "contact_half_width": "length", "cohesive_half_width": "length",
-                "iterations": None, "residual": None, "dt": "time", "drive": "length"}
-_INT_SERIES = ("iterations",)
+                "iterations": None, "residual": None, "dt": "time", "drive": "length",
+                "applied_load": "load", "segment": None}
+_INT_SERIES = ("iterations", "segment")
 FIELDS = ("surface", "pressure", "gap")
 
 
 def series_names(case):
-    """The /series datasets of ``case``: :data:`SERIES`, and ``drive`` with a compliant drive."""
-    return SERIES + (("drive",) if case.compliant else ())
+    """The /series datasets of ``case``: :data:`SERIES`; ``drive`` with a compliant drive,
+    ``applied_load`` under load control; ``segment`` with a protocol."""
+    drive = ("applied_load",) if case.load_control else ("drive",) if case.compliant else ()
+    return SERIES + drive + (("segment",) if case.protocol else ())
 
 
 FIELD_UNITS = {"surface": "length", "pressure": "stress", "gap": "length"}
@@ -122,6 +127,8 @@ class CaseFile:
         attrs["time_unit"] = case.units.time
         attrs["vbar_convention"] = ("vbar = 2 pi rhodot tau / (k c0): retardation time tau/k,"
                                     " see hpcgfmd.model.theory.persson_brener")
+        if case.protocol:
+            attrs["protocol_kinds"] = [segment.kind for segment in case.protocol]
         attrs["finished"] = False
         attrs["steps_complete"] = 0  # entries of /series fully written (readers truncate to it)
         names = UNIT_NAMES[case.form]

@@ -14,6 +14,7 @@ between two appends leaves some series one entry *longer* than ``steps_complete`
 """
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
 
@@ -22,9 +23,11 @@ import numpy as np
 
 from ..errors import ResultFileError
 from ..model import theory
+from ..model.loading import cycle_of
 
 SERIES = ("time", "indenter", "load", "contact_half_width", "cohesive_half_width",
           "iterations", "residual", "dt")
+OPTIONAL_SERIES = ("drive", "applied_load", "segment")
 
 
 @dataclass
@@ -45,6 +48,8 @@ class Series:
     residual: np.ndarray
     dt: np.ndarray
     drive: np.ndarray | None = None  # the compliant drive's end; None: displacement control
+    applied_load: np.ndarray | None = None  # under load control; else None
+    segment: np.ndarray | None = None  # the protocol's segment of each step; None: the paper's
 
     @property
     def abar(self):
@@ -69,6 +74,46 @@ class Series:
         """dgamma_eff/dgamma0 of each step with contact (docs/model.md, "Observables")."""
         x, y = self.scaled_curve()
         return theory.effective_work_ratio(x, y)
+
+    def cycles(self) -> list:
+        """Per cycle of the protocol (a cycle ends with its retraction; the paper's protocol
+        is one): its steps, pull-off and the work the drive did, -sum (L_i + L_i-1)/2 (Z_i -
+        Z_i-1) over the cycle's steps (docs/model.md, (M45)): the energy dissipated per unit
+        length when the cycle starts and ends detached (the hysteresis loop's area). Under
+        load control the work is NaN (a load lets the indenter fly off)."""
+        kinds = self.attrs.get("protocol_kinds", ["retract"])
+        segment = (self.segment if self.segment is not None
+                   else np.zeros(self.time.size, dtype=int))
+        cycle = np.array([cycle_of(kinds, int(i)) for i in segment], dtype=int)
+        position = self.drive if self.drive is not None else self.indenter
+        work = -0.5 * (self.load[1:] + self.load[:-1]) * np.diff(position)
+        summaries = []
+        for c in np.unique(cycle):
+            steps = np.flatnonzero(cycle == c)
+            i = steps[np.argmin(self.load[steps])]
+            area = (math.nan if self.applied_load is not None
+                    else float(math.fsum(work[steps[steps > 0] - 1])))
+            summaries.append(Cycle(index=int(c), first=int(steps[0]), last=int(steps[-1]),
+                                   pull_off=float(self.load[i]), lbar=float(self.lbar[i]),
+                                   indenter=float(self.indenter[i]), time=float(self.time[i]),
+                                   work=area))
+        return summaries
+
+
+@dataclass
+class Cycle:
+    """One cycle of a protocol (file units): its first and last step, its most tensile load
+    (``lbar`` in load scales) with the indenter and time there, and the drive's ``work`` over
+    it (load x length per unit length; the dissipated energy of a closed cycle)."""
+
+    index: int
+    first: int
+    last: int
+    pull_off: float
+    lbar: float
+    indenter: float
+    time: float
+    work: float
 
 
 @dataclass
@@ -198,7 +243,8 @@ def _read(path, snapshots: bool):
                    "expected a complete hpcgfmd output file") from None
 
 
-LIST_ATTRS = ("relaxation_moduli", "relaxation_times")  # a Prony series: lists, any length
+# a Prony series' and a protocol's lists, any length
+LIST_ATTRS = ("relaxation_moduli", "relaxation_times", "protocol_kinds")
 
 
 def _attrs(f):
@@ -256,7 +302,7 @@ def _series(f, path) -> Series:
     for key in REQUIRED_ATTRS:
         if key not in attrs:
             raise _bad(path, f"hpcgfmd output without root attribute {key} (damaged?)")
-    names = SERIES + (("drive",) if "drive" in f["series"] else ())
+    names = SERIES + tuple(name for name in OPTIONAL_SERIES if name in f["series"])
     datasets = {f"/series/{name}": _dataset(f, path, f"series/{name}", 1) for name in names}
     n = _count(path, attrs, "steps_complete", datasets, "/")
     return Series(attrs=attrs, **{name: _values(path, ds, slice(0, n))

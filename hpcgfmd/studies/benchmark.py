@@ -96,7 +96,7 @@ def run(text, comm, max_steps=None, progress=None):
     records = [sim.preload()]
     preloaded = last = time.perf_counter()
     preloaded_cpu = time.process_time()
-    while not sim.detached() and (max_steps is None or sim.step_index < max_steps):
+    while not sim.finished() and (max_steps is None or sim.step_index < max_steps):
         records.append(sim.step())
         if progress and time.perf_counter() - last > progress and comm.Get_rank() == 0:
             last = time.perf_counter()
