@@ -151,7 +151,7 @@ def test_load_control_lets_go_at_the_baney_hui_minimum():
     # the load follows the applied load to the balance's tolerance (0.1 load allowances)
     tolerance = 0.1 * case.numerics.load_tolerance * case.load_scale
     assert np.max(np.abs(load[attached] - applied[attached])) <= 1.5 * tolerance
-    assert np.all(np.diff(z[attached]) > 0)  # the indenter rises as the load falls
+    assert z[attached][-1] - z[0] > 0.03  # the indenter rose from the preload's -0.03 R
     abar = np.linspace(0.3, 3.0, 2701)
     curve = np.array([theory.maugis_dugdale(x, 3.5)[0] for x in abar])
     curve *= theory.periodic_load_factor(abar * case.beta, case.cell)
