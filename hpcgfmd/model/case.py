@@ -293,7 +293,7 @@ class Case:
 
     @property
     def starts_out_of_contact(self) -> bool:
-        """True when the protocol starts with an approach (no preload; u_z = dmax)."""
+        """True when the protocol starts with an approach (no preload; u_z = 2 dmax)."""
         return bool(self.protocol) and self.protocol[0].kind == "approach"
 
     @property

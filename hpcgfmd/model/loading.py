@@ -35,7 +35,6 @@ from ..errors import CaseError
 
 KINDS = ("approach", "dwell", "retract")
 START_HEIGHT = 2.0  # an approach from out of contact starts at u_z = 2 dmax (in dmax)
-RATE_KEYS = ("velocity", "load_rate")
 
 
 @dataclass(frozen=True)
@@ -59,23 +58,14 @@ class Segment:
 
     @property
     def direction(self) -> int:
-        """+1 when the drive's position (or the applied load) rises, -1 when it falls, 0 held.
-
-        Under load control an approach raises the compressive load; this is the sign of the
-        position's motion, :meth:`signed_rate` gives the drive's.
-        """
+        """The sign of the indenter's motion: -1 down (approach), +1 up (retract), 0 held.
+        Under load control the load moves the other way (:meth:`signed_rate`)."""
         return {"approach": -1, "dwell": 0, "retract": 1}[self.kind]
 
     def signed_rate(self, load_control: bool) -> float:
         """dZ/dt (R / tau) or, under load control, dF/dt (E0 R / tau) during the segment."""
         sign = -self.direction if load_control else self.direction
         return sign * self.rate
-
-    def as_table(self, load_control: bool) -> dict:
-        """The segment as it is stored in the output's attributes (internal units)."""
-        return {self.kind: self.target,
-                **({} if self.kind == "dwell"
-                   else {("load_rate" if load_control else "velocity"): self.rate})}
 
 
 def cycle_of(segments, index: int) -> int:

@@ -14,8 +14,6 @@ from __future__ import annotations
 
 import math
 
-from ..model.loading import cycle_of
-
 
 class Schedule:
     """The protocol's state: segment index, its start time, step and drive value.
@@ -48,11 +46,6 @@ class Schedule:
     @property
     def segment(self):
         return self.segments[min(self.index, len(self.segments) - 1)]
-
-    @property
-    def cycle(self) -> int:
-        """The current segment's cycle (:func:`hpcgfmd.model.loading.cycle_of`)."""
-        return cycle_of(self.segments, self.index)
 
     def rate(self) -> float:
         """dD/dt of the current segment (R / tau, or E0 R / tau under load control)."""
