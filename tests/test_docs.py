@@ -93,7 +93,7 @@ def namespace(case):
             "h0": case.depth * u.length, "tau": u.time, "L": case.cell * u.length,
             "w": case.zone_width * u.length, "nx": num.nx, "dt": num.dt * u.time,
             "fixed": num.step_control == "fixed", "accuracy": num.accuracy, "k": case.k,
-            "chi_ve": case.chi_ve, "ceil": math.ceil,
+            "chi_ve": case.chi_ve, "compliant": case.compliant, "ceil": math.ceil,
             "log2": math.log2, "sqrt": math.sqrt, "min": min, "max": max, "round": round}
 
 
@@ -113,7 +113,8 @@ def parsed(case, key):
 
 CASES = {"default_case.toml": DEFAULT_CASE, "physical": PHYSICAL,
          "fixed steps": case_text('step_control = "fixed"'),
-         "creeping": case_text("", maugis=1.0, velocity=0.1, depth=0.1, cell=3.578)}
+         "creeping": case_text("", maugis=1.0, velocity=0.1, depth=0.1, cell=3.578),
+         "compliant": case_text("", drive_stiffness=0.3)}
 
 
 @pytest.mark.parametrize("section, keys", [("numerics", NUMERICS_KEYS),

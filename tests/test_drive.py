@@ -28,8 +28,10 @@ def retraction(text):
 
 @pytest.fixture(scope="module")
 def displacement_curve():
-    # accuracy 1e-3: the curve sampled finely (1590 steps) for the spring's tangency
-    series, _ = retraction(case_text(NUMERICS + "\naccuracy = 1e-3", modulus_ratio=1.0))
+    # accuracy 1e-3: the curve sampled finely (1590 steps) for the spring's tangency, solved
+    # as tightly as the compliant runs it is the reference of (tolerance 0.02 accuracy)
+    series, _ = retraction(case_text(NUMERICS + "\naccuracy = 1e-3\ntolerance = 2e-5",
+                                     modulus_ratio=1.0))
     return series
 
 
@@ -37,9 +39,11 @@ def displacement_curve():
                          ids=["elastic", "viscoelastic"])
 def test_a_stiff_spring_is_displacement_control(groups):
     # k_s = 1e6 E0: the indenter lags the drive by L / k_s ~ 4e-9 R; the pull-off moves by
-    # the solves' own load error (measured 8e-6 elastic)
-    fixed, _ = retraction(case_text("nx = 2048", **groups))
-    stiff, sim = retraction(case_text("nx = 2048", drive_stiffness=1e6, **groups))
+    # the solves' own load error (measured 8e-6 elastic), both solved to the compliant
+    # drive's default tolerance
+    numerics = "nx = 2048\ntolerance = 1e-4"
+    fixed, _ = retraction(case_text(numerics, **groups))
+    stiff, sim = retraction(case_text(numerics, drive_stiffness=1e6, **groups))
     assert abs(stiff[:, 3].min() / fixed[:, 3].min() - 1.0) < 1e-4
     # the indenter within SPRING_TRAVEL dmax of the balance (measured 3e-8 R: 5e-5 dmax)
     dmax = parse_case(case_text("nx = 2048", **groups)).dmax
@@ -57,7 +61,7 @@ def test_a_soft_spring_jumps_where_its_line_touches_the_curve(displacement_curve
     run, _ = retraction(case_text(NUMERICS, modulus_ratio=1.0, drive_stiffness=stiffness))
     last = np.flatnonzero(run[:, 4] > 0)[-1]
     assert last < run.shape[0] - 1 and run[last + 1, 4] == 0  # it jumped off, not peeled
-    # the spring's force at the jump: measured within 7e-4, 4e-4, 1e-3 of the pull-off load
+    # the spring's force at the jump: measured within 3.0e-3, 2.8e-3, 1.3e-3 of the pull-off load
     # (the discrete curve jumps where the contact edge passes a node)
     assert abs(run[last, 2] - predicted) * stiffness < 3e-3 * abs(load.min())
     # the spring holds past the curve's minimum load: its pull-off is the minimum's

@@ -284,7 +284,8 @@ def test_retraction_with_few_pseudo_steps_lags_cg_only_slightly():
         return np.array([r.load for r in records]) / case.load_scale, records
 
     reference, _ = run("tolerance = 1e-12")
-    loads, records = run("solver = \"paper\"\nequilibration_steps = 500")
+    # (its preload is CG's, to the tolerance the default accuracy gave when this was measured)
+    loads, records = run("solver = \"paper\"\nequilibration_steps = 500\ntolerance = 1e-4")
     assert np.all(reference > 10.0)
     np.testing.assert_allclose(loads, reference, rtol=1e-6)
     assert max(r.residual for r in records[1:]) < 1e-6

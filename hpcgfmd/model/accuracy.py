@@ -25,7 +25,8 @@ EDGE_FRACTION_RANGE = (0.25, 4.0)
 # The most tensile sample of a load curve sampled with deviations e from the line through the
 # two loads before misses the curve's minimum by about e / 8.
 SAMPLING = 8.0
-SOLVER_RANGE = (1e-8, 1e-4)
+SOLVER_SHARE, SOLVER_RANGE = 0.2, (1e-8, 1e-3)
+SOLVER_SHARE_COMPLIANT, SOLVER_RANGE_COMPLIANT = 0.02, (1e-8, 1e-4)
 
 
 # Creeping retractions: below chi_ve / k = CREEP_RATE the grid needs (CREEP_RATE k /
@@ -93,8 +94,19 @@ def time_tolerance(accuracy):
     return accuracy * PULL_OFF_SCALE
 
 
-def solver_tolerance(accuracy):
-    """Residual traction / sigma_a at which a solve has converged: 0.02 accuracy within
-    [1e-8, 1e-4] (1e-4 changes a pull-off by about 4e-7 against 1e-5)."""
-    low, high = SOLVER_RANGE
-    return min(high, max(low, 0.02 * accuracy))
+def solver_tolerance(accuracy, compliant=False):
+    """Residual traction / sigma_a at which a solve has converged: 0.2 accuracy within
+    [1e-8, 1e-3] under displacement control, 0.02 accuracy within [1e-8, 1e-4] with a
+    compliant drive or under load control.
+
+    The residual is a nodal maximum, and the load (its mean) errs far less: at accuracy 5e-3
+    the tolerance 1e-3 moved the paper's pull-offs by at most 5e-4 of themselves against
+    1e-4, with a fifth to a third fewer iterations (docs/results.md, "The paper's four
+    cases"). A drive that lets go where its spring line touches the load curve is decided
+    at a fold of the curve, where a load error moves the let-go point by its square root:
+    with a soft spring (k_s = 0.01 E0, elastic, nx 4096) 1e-3 put the pull-off 1.5e-3 off
+    the curve's minimum, 3e-4 and 1e-4 5e-5 off; the compliant drive keeps the tighter share.
+    """
+    low, high = SOLVER_RANGE_COMPLIANT if compliant else SOLVER_RANGE
+    return min(high, max(low, (SOLVER_SHARE_COMPLIANT if compliant else SOLVER_SHARE)
+                          * accuracy))

@@ -368,7 +368,7 @@ class Case:
         else:
             equilibration = round(PAPER_EQUILIBRATION_PER_ROOT_N * math.sqrt(nx))
         tolerance = (_number(num, "numerics", "tolerance") if "tolerance" in num
-                     else knob.solver_tolerance(accuracy))
+                     else knob.solver_tolerance(accuracy, self.compliant))
         if not MIN_TOLERANCE <= tolerance < 1e-2:
             raise CaseError(f"[numerics] tolerance = {tolerance}: expected a number in"
                             f" [{MIN_TOLERANCE:g}, 0.01)")

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+KEPT_LENGTHS = 4  # step lengths whose operators a substrate keeps (3 spectra each)
+
 
 @dataclass(frozen=True)
 class StepFactors:
@@ -182,6 +184,7 @@ class ViscoelasticHalfSpace:
         self.half_q = half_q
         self.n = n
         self._dt = None
+        self._kept = {}  # dt -> (operators, decay, history diagonal), least recent first
 
     def operators(self, dt: float) -> StepOperators:
         """Stiffness (|q|/2) Eeff(dt) and its preconditioner; dt = inf is the relaxed solid."""
@@ -219,9 +222,17 @@ class ViscoelasticHalfSpace:
         substrate_traction += missed
 
     def _prepare(self, dt):
-        if dt != self._dt:
+        if dt == self._dt:
+            return
+        # Adaptive steps recur on a grid of lengths (dt_min 2^(j/4)): the last few lengths'
+        # operators are kept rather than remade at every change.
+        kept = self._kept.pop(dt, None)
+        if kept is None:
             f = self.material.step_factors(dt)
-            self._ops = StepOperators.from_modulus(self.half_q, f.e_eff, self.n)
-            self._decay = f.decay
-            self._history_diag = self.half_q * (f.e_history / self.n)
-            self._dt = dt
+            kept = (StepOperators.from_modulus(self.half_q, f.e_eff, self.n), f.decay,
+                    self.half_q * (f.e_history / self.n))
+        self._kept[dt] = kept
+        if len(self._kept) > KEPT_LENGTHS:
+            del self._kept[next(iter(self._kept))]  # the least recently used
+        self._ops, self._decay, self._history_diag = kept
+        self._dt = dt

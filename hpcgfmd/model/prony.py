@@ -26,7 +26,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize
 
 from .material import StepOperators, curvature_integral
 
@@ -98,6 +97,8 @@ class GeneralizedMaxwell:
         low = -1.0 / slowest * (1.0 - 1e-15)
         if modulus(high) <= 0.0:  # one branch (or branches of one time): the bound is exact
             return -1.0 / high
+        from scipy import optimize  # only a Prony case needs it: not every process's import
+
         return -1.0 / optimize.brentq(modulus, low, high, xtol=1e-300, rtol=1e-15)
 
     def step_factors(self, dt: float):

@@ -129,6 +129,10 @@ class Retraction:
         self.edges = (np.nan, np.nan)  # contact edges of the last step
         self.edges_previous = None
         self._older = None  # (u, time, indenter) of the accepted step before the last
+        # interaction states (_state_at) of u_older and u_n when known, and of the last
+        # attempt's two latest states, which become them when it is accepted
+        self._states = (None, None)
+        self._attempt_states = None
         self._saved = {name: np.empty(n) for name in self.field_names}
         self._absent = np.zeros(n)  # a field the state does not have yet (read only)
 
@@ -216,6 +220,7 @@ class Retraction:
         dt, end = self.schedule.cut(self.time, proposed)
         while True:
             self._save()
+            self._attempt_states = None
             record = self._advance(dt, end)
             if record is None:  # abandoned: its edges moved too far, the verdict is known
                 decision = self.steps.judge(dt, self.time, None, math.inf)
@@ -243,6 +248,7 @@ class Retraction:
             self._older[0][:] = self._saved["u"]
             self._older = (self._older[0], float(self._saved_attrs["time"]),
                            float(self._saved_attrs["indenter"]))
+            self._states = self._attempt_states or (None, None)
         if self.spring is not None:
             self.spring.accept(float(self._saved_attrs["indenter"]), self.indenter,
                                record.load, dt)
@@ -260,10 +266,16 @@ class Retraction:
         older, time_older, indenter_older = self._older
         time_before = float(self._saved_attrs["time"])
         indenter_before = float(self._saved_attrs["indenter"])
+        state_older, state_before = self._states
+        if state_older is None:
+            state_older = self._state_at(older, indenter_older)
+        if state_before is None:
+            state_before = self._state_at(self._saved["u"], indenter_before)
+        state = self._state_at(self.u, self.indenter)
+        self._attempt_states = (state_before, state)
         return self.history_error.estimate(
-            older, time_older, self._state_at(older, indenter_older), self._saved["u"],
-            time_before, self._state_at(self._saved["u"], indenter_before), self.u, self.time,
-            self._state_at(self.u, self.indenter))
+            older, time_older, state_older, self._saved["u"], time_before, state_before,
+            self.u, self.time, state)
 
     def _state_at(self, u, indenter):
         """Each node's interaction state for displacement u under the indenter at
@@ -435,6 +447,7 @@ class Retraction:
         self.edges_previous = (tuple(float(v) for v in attrs["edges_previous"])
                                 if attrs["has_edges_previous"] else None)
         if statistics:
+            self._states = (None, None)
             time_older = float(attrs.get("time_older", math.nan))
             indenter_older = float(attrs.get(
                 "indenter_older", -self.case.depth + self.case.indenter_speed * time_older))
