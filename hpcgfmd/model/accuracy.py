@@ -105,7 +105,8 @@ def solver_tolerance(accuracy, compliant=False):
     cases"). A drive that lets go where its spring line touches the load curve is decided
     at a fold of the curve, where a load error moves the let-go point by its square root:
     with a soft spring (k_s = 0.01 E0, elastic, nx 4096) 1e-3 put the pull-off 1.5e-3 off
-    the curve's minimum, 3e-4 and 1e-4 5e-5 off; the compliant drive keeps the tighter share.
+    the curve's minimum, 3e-4 and 1e-4 4e-5 and 6e-5 off; the compliant drive keeps the
+    tighter share.
     """
     low, high = SOLVER_RANGE_COMPLIANT if compliant else SOLVER_RANGE
     return min(high, max(low, (SOLVER_SHARE_COMPLIANT if compliant else SOLVER_SHARE)
