@@ -35,6 +35,7 @@ import numpy as np
 import hpcgfmd
 from hpcgfmd.model import theory
 from hpcgfmd.paper.curves import Retraction
+from hpcgfmd.studies.benchmark import code_identity
 
 GEOMETRY = {"maugis": 7.0, "depth": 0.1, "cell": 10.0, "adhesion": 5e-5}
 MATERIALS = {"SLS": {"modulus_ratio": 0.1},
@@ -51,13 +52,17 @@ def case_text(material, velocity, accuracy):
 
 
 def run(text, runs: Path, name: str):
-    """The result of ``text``, from runs/<name>.h5 when that file holds the same case."""
-    path = runs / f"{name}.h5"
-    if path.exists():
+    """The result of ``text``, from runs/<name>.h5 when that file holds the same case made by
+    this code (runs/<name>.code holds the code identity of the run that wrote it)."""
+    path, stamp = runs / f"{name}.h5", runs / f"{name}.code"
+    code = code_identity()
+    if path.exists() and stamp.exists() and stamp.read_text() == code:
         result = hpcgfmd.open(path)
         if result.finished and str(result.attrs.get("config", "")) == text:
             return result
-    return hpcgfmd.run(text, path, overwrite=True)
+    result = hpcgfmd.run(text, path, overwrite=True)
+    stamp.write_text(code)
+    return result
 
 
 def predicted_work(case, rhodot):

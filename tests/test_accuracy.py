@@ -23,6 +23,29 @@ def test_creep_factor_leaves_elastic_and_fast_retractions_alone():
     assert accuracy.creep_factor(0.1, 0.1) == pytest.approx(20 ** (1 / 3))
     assert accuracy.creep_factor(0.01, 0.1) == 3.0
 
+def test_fast_widening_resolves_a_glassy_tip_s_wider_zone():
+    assert accuracy.fast_widening(441.0, 1.0, 7.0) == 1.0  # the elastic solid
+    assert accuracy.fast_widening(1.5, 0.1, 7.0) == 1.0  # creeping: chi_ve / k = 15
+    # the default case, chi_ve / k = 220.5: (220.5 / 20)^(1/3)
+    assert accuracy.fast_widening(22.05, 0.1, 7.0) == pytest.approx(11.025 ** (1 / 3))
+    assert accuracy.fast_widening(441.0, 0.1, 7.0) == 3.0  # V_z = 9: capped
+    assert accuracy.fast_widening(1e4, 0.5, 7.0) == 2.0  # never wider than the glassy w / k
+    # a DMT-like glassy tip (lambda0 k^(2/3) = 0.16 and 0.046): the relaxed zone
+    assert accuracy.fast_widening(122.5, 0.01, 3.5) == 1.0
+    assert accuracy.fast_widening(100.0, 0.01, 1.0) == 1.0
+
+
+def test_fast_grid_resolves_the_zone_over_the_widening():
+    # lambda0 = 7, V_z = 4.5: a third of the elastic law's points across w (9x2^13 before)
+    case = parse_case(case_text("accuracy = 5e-3", maugis=7.0, modulus_ratio=0.1,
+                                velocity=4.5, depth=0.1, cell=10.0, adhesion=5e-5))
+    points = case.zone_width / case.dx
+    want = accuracy.zone_points(5e-3) / 3.0
+    assert want <= points < 2 * want and case.numerics.nx == 24576
+    assert accuracy.zone_points(5e-3, case.chi_ve, case.k, case.lambda0,
+                                widen=False) == accuracy.zone_points(5e-3)
+
+
 def test_creeping_grid_resolves_the_zone_by_the_creep_factor():
     case = parse_case(case_text("accuracy = 5e-3", **CREEPING))
     points = case.zone_width / case.dx

@@ -93,7 +93,8 @@ def namespace(case):
             "h0": case.depth * u.length, "tau": u.time, "L": case.cell * u.length,
             "w": case.zone_width * u.length, "nx": num.nx, "dt": num.dt * u.time,
             "fixed": num.step_control == "fixed", "accuracy": num.accuracy, "k": case.k,
-            "chi_ve": case.chi_ve, "compliant": case.compliant, "ceil": math.ceil,
+            "chi_ve": case.chi_ve, "lambda0": case.lambda0, "compliant": case.compliant,
+            "ceil": math.ceil,
             "log2": math.log2, "sqrt": math.sqrt, "min": min, "max": max, "round": round}
 
 

@@ -221,10 +221,10 @@ def test_shipped_study_merges_shared_runs():
         assert item.case.cell == 10.0 and item.case.alpha == 5e-5
         assert item.case.k == (1.0 if item.name in members["4"] else 0.1)
     assert {c.case.numerics.accuracy for c in sweep.cases} == {study.DEFAULT_ACCURACY}
-    # what docs/paper.md states: 31 runs at accuracy 1e-2, the output directory "paper"
-    assert len(sweep.cases) == 31 and study.DEFAULT_ACCURACY == 1e-2
+    # what docs/paper.md states: 33 runs at accuracy 1e-2, the output directory "paper"
+    assert len(sweep.cases) == 33 and study.DEFAULT_ACCURACY == 1e-2
     text = (Path(__file__).parents[1] / "docs" / "paper.md").read_text()
-    assert "the 31 runs" in text and "at accuracy 1e-2" in text
+    assert "the 33 runs" in text and "at accuracy 1e-2" in text
     coarser, _ = study.paper_study(["5"], accuracy=2e-2)
     assert {c.case.numerics.accuracy for c in coarser.cases} == {2e-2}
 

@@ -393,7 +393,7 @@ class Case:
         width = self.zone_width
         if "nx" not in num:
             try:
-                points = knob.zone_points(accuracy, self.chi_ve, self.k)
+                points = knob.zone_points(accuracy, self.chi_ve, self.k, self.lambda0)
             except ZeroDivisionError:  # a subnormal accuracy underflows to 0
                 points = math.inf
             if not math.isfinite(points):

@@ -60,6 +60,7 @@ ABANDON_EDGE = REJECT_EDGE  # edge ratio at which a solve is abandoned (module d
 CURVATURE_AGE = 8      # steps a smooth curvature stands in for windows with crossings ...
 CURVATURE_LIFETIME = 0.05  # ... and time, in relaxation times tau (u_tt changes over tau)
 REJECT_LAG = 4.0       # ... or the tip's lag error four times its allowance (jumps at crossings)
+KEPT_SHARE = 0.5       # the kept errors' signed sum: held to this share of the allowance
 LAG_PER_LOAD = 4.0     # pull-off error / tip lag bound, measured (tip_lag_error)
 
 
@@ -195,9 +196,10 @@ class AdaptiveSteps:
         Largest deviation of a load from the linear extrapolation of the two before,
         load_tolerance * load scale (load per unit length, units of E0 R).
     history_allowance : float
-        Largest load error of the history integration, a step's own and the one kept in the
-        history accumulated over ``memory_time`` (:class:`HistoryError`), time_tolerance *
-        load scale (load per unit length); inf: not controlled (the elastic solid).
+        Largest load error of the history integration, time_tolerance * load scale (load per
+        unit length): a step's own, and KEPT_SHARE of it for the signed sum of the errors kept
+        in the history over ``memory_time`` (:class:`HistoryError`, :meth:`judge`); inf: not
+        controlled (the elastic solid).
     memory_time : float
         Time over which a history error persists, the retardation time tau/k (internal units;
         for a Prony series the slowest of its retardation times).
@@ -227,6 +229,8 @@ class AdaptiveSteps:
         self.history_allowance = history_allowance
         self.memory_time = memory_time
         self.points = []  # the last two accepted (time, load)
+        self.kept_history = 0.0  # signed sum of the accepted steps' kept errors, decayed
+        self._kept_pending = 0.0  # ... with the step just judged
 
     def first_dt(self) -> float:
         return self.dt
@@ -266,18 +270,34 @@ class AdaptiveSteps:
             (t0, l0), (t1, l1) = self.points
             predicted = l1 + (l1 - l0) * (time - t1) / (t1 - t0)
             load_error = abs(load - predicted) / self.load_allowance
-        # The error kept in the history persists over the memory time: a step may add the
-        # share of the allowance that the accumulated error loses meanwhile, so that it stays
-        # within it; the step's own error is bounded by the allowance.
+        # The errors kept in the history persist over the memory time: they add up with their
+        # signs, each decaying as exp(-dt / memory_time) per step, and the sum E is the
+        # history's load error, bounded by A = KEPT_SHARE times the allowance (E is an
+        # estimate, not a bound as the step's own error is: held to the steps' share of the
+        # accuracy, half the allowance, which is twice it). What is left of A for a step is
+        # A - |E| exp(-dt / memory_time), at least A (1 - exp(-dt / memory_time)) (what
+        # decays meanwhile: a coherent error per step then stays within A). A step is
+        # repeated when it spent, |E_n+1| - |E_n| exp(-dt / memory_time), over four times
+        # what was left; the next one is sized for its kept error, of either sign, to fit in
+        # what is left after this one. Errors of random sign (crossings and solver residuals
+        # read as curvature) mostly cancel in E, which leaves the next steps room; a coherent
+        # error fills E and its steps are held to A (1 - exp(-dt / memory_time)) each.
         kept = history_error if history_kept is None else history_kept
-        history_ratio = max(history_error / self.history_allowance,
-                            kept / (self.history_allowance
-                                    * -math.expm1(-dt / self.memory_time)))
+        allowance = self.history_allowance * KEPT_SHARE
+        share = -math.expm1(-dt / self.memory_time)
+        decayed = self.kept_history * (1.0 - share)
+        self._kept_pending = decayed + kept
+        spent = (abs(self._kept_pending) - abs(decayed)) / max(allowance - abs(decayed),
+                                                               allowance * share)
+        room = max(allowance - abs(self._kept_pending) * (1.0 - share), allowance * share)
+        own = abs(history_error) / self.history_allowance
+        history_ratio = max(own, spent)  # for the verdict
+        sizing_ratio = max(own, abs(kept) / room)  # for the next step
         zone = zone_width if zone_width > 0.0 and math.isfinite(zone_width) else self.zone_width
         lag_error = tip_lag_error(dt, edge_motion, zone, self.modulus_ratio,
                                   self.branches) / self.lag_allowance
         # first order where it binds (dt >> tau)
-        worst = max(edge_error, math.sqrt(load_error), math.sqrt(history_ratio), lag_error)
+        worst = max(edge_error, math.sqrt(load_error), math.sqrt(sizing_ratio), lag_error)
         factor = SAFETY / worst if worst > 0.0 else GROWTH_LIMIT
         factor = min(max(factor, SHRINK_LIMIT), GROWTH_LIMIT)
         next_dt = self._on_grid(dt * factor)
@@ -301,6 +321,7 @@ class AdaptiveSteps:
         at t = 0 replaces the point before)."""
         points = [p for p in self.points if p[0] < time]
         self.points = (points + [(time, load)])[-2:]
+        self.kept_history, self._kept_pending = self._kept_pending, 0.0
 
     def new_segment(self):
         """The drive's rate changed (a protocol's segment began): the load's extrapolation
@@ -309,10 +330,14 @@ class AdaptiveSteps:
 
     def state(self) -> dict:
         flat = [v for point in self.points for v in point]
-        return {"controller_dt": self.dt, "controller_points": flat + [math.nan] * (4 - len(flat))}
+        return {"controller_dt": self.dt, "controller_points": flat + [math.nan] * (4 - len(flat)),
+                "controller_kept_history": self.kept_history}
 
     def restore(self, attrs):
         self.dt = float(attrs["controller_dt"])
+        # (absent from checkpoints written before the kept errors were summed with signs)
+        self.kept_history = float(attrs.get("controller_kept_history", 0.0))
+        self._kept_pending = 0.0
         flat = [float(v) for v in attrs["controller_points"]]
         self.points = [(flat[i], flat[i + 1]) for i in (0, 2) if not math.isnan(flat[i])]
 
@@ -400,7 +425,8 @@ class HistoryError:
     def estimate(self, older, time_older, state_older, before, time_before, state_before,
                  after, time_after, state):
         """Collective (one FFT pair): the step's load error and the error its correction
-        leaves in the history (load per unit length, both >= 0).
+        leaves in the history (load per unit length, signed: the kept errors of successive
+        steps add up with their signs).
 
         The step's error |sum of dp over the contact| dx is that of this step's equilibrium
         only: :meth:`correct` removes it from the history the next steps start from. What
@@ -449,7 +475,7 @@ class HistoryError:
         kept = self.previous_correction[contact].sum() * self._response if comparable else 0.0
         step_error, change = self.domain.sums(step_part, step_part - kept)
         dx = self.domain.dx
-        return abs(step_error) * dx, abs(change if comparable else step_error) * dx
+        return step_error * dx, (change if comparable else step_error) * dx
 
     def correct(self, substrate_traction):
         """Add the last estimate's missed traction to the accepted step's substrate traction

@@ -2,12 +2,13 @@
 
 For each case (lambda0, k, V_z, h0/R; L/R and alpha shared) the knob is run at each
 requested accuracy with everything else left to it (the grid included), and once at a much
-finer accuracy that stands for the converged answer. The error of a run is the relative
+finer accuracy that stands for the converged answer, on the grid of the relaxed zone
+(:func:`reference_text`). The error of a run is the relative
 distance of its pull-off load to the converged one, and the largest distance of its
 load-area points to the converged curve (:func:`hpcgfmd.studies.benchmark.curve_error`);
 both must be at most the requested accuracy. The runs are shared out over the ranks (one
 run per rank at a time, each on its own communicator); a run is saved by its case text and
-reused by a later call.
+the code's identity, and reused by a later call of the same code.
 
     mpirun -n 2 python scripts/accuracy_study.py --out docs/figures/accuracy \\
         --cases 1:0.1:1:0.02 3.5:0.2:0.01:0.1 --accuracies 1e-2 5e-3 1e-3
@@ -24,7 +25,8 @@ import os
 
 from ..errors import CaseError
 from ..model.case import parse_case
-from ..model.grid import grid_label
+from ..model import accuracy as knob
+from ..model.grid import grid_label, smallest_grid
 from . import benchmark
 
 ACCURACIES = (1e-2, 5e-3, 1e-3)
@@ -45,9 +47,22 @@ def case_text(spec, accuracy, cell, alpha):
     return benchmark.case_text(lambda0, vz, {"accuracy": accuracy}, geometry)
 
 
+def reference_text(spec, accuracy, cell, alpha):
+    """:func:`case_text` of the converged reference: the grid of ``accuracy`` without the
+    fast retraction's widening (:func:`~hpcgfmd.model.accuracy.fast_widening`), so that a
+    reference never shares the grid rule it validates."""
+    case = parse_case(case_text(spec, accuracy, cell, alpha))
+    points = knob.zone_points(accuracy, case.chi_ve, case.k, case.lambda0, widen=False)
+    nx = smallest_grid(math.log2(points * case.cell / case.zone_width))
+    lambda0, k, vz, depth = spec
+    geometry = {"modulus_ratio": k, "depth": depth, "cell": case.cell, "adhesion": alpha}
+    return benchmark.case_text(lambda0, vz, {"accuracy": accuracy, "nx": nx}, geometry)
+
+
 def _cached(text, comm, folder):
-    path = os.path.join(folder, hashlib.sha256(text.encode()).hexdigest()[:16] + ".npz")
-    return benchmark.cached_run(text, comm, path)
+    """The run of ``text``, reused from ``folder`` when this code made it before."""
+    key = hashlib.sha256((benchmark.code_identity() + text).encode()).hexdigest()[:16]
+    return benchmark.cached_run(text, comm, os.path.join(folder, key + ".npz"))
 
 
 def _row(spec, accuracy, result, reference):
@@ -134,13 +149,14 @@ def main(comm, argv=None):
     # references first, so that the ranks share them out too; each run on one rank
     mine = runs[comm.Get_rank()::comm.Get_size()]
     for spec, accuracy in mine:
-        _cached(case_text(spec, accuracy, args.cell, args.alpha), MPI.COMM_SELF, folder)
+        text = (reference_text if accuracy == args.reference_accuracy else case_text)
+        _cached(text(spec, accuracy, args.cell, args.alpha), MPI.COMM_SELF, folder)
     comm.Barrier()
     rows = []
     if comm.Get_rank() == 0:
         for spec in specs:
-            reference = _cached(case_text(spec, args.reference_accuracy, args.cell, args.alpha),
-                                MPI.COMM_SELF, folder)
+            reference = _cached(reference_text(spec, args.reference_accuracy, args.cell,
+                                               args.alpha), MPI.COMM_SELF, folder)
             for accuracy in args.accuracies:
                 result = _cached(case_text(spec, accuracy, args.cell, args.alpha),
                                  MPI.COMM_SELF, folder)

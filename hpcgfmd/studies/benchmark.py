@@ -34,11 +34,13 @@ from __future__ import annotations
 
 import argparse
 import csv
+import hashlib
 import logging
 import math
 import os
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -236,6 +238,17 @@ def _row(label, result, reference, solver="cg"):
             / max(result["retraction_iterations"], 1),
             "pulloff_Lbar": po, "pulloff_error": abs(po - ref_po) / abs(ref_po),
             "curve_error": curve_error(reference, result), "extrapolated": False}
+
+
+def code_identity() -> str:
+    """Hash of the package's Python sources (16 hex digits): a study that caches its runs
+    keys them by it too, so that a run made by other code is not reused."""
+    root = Path(__file__).resolve().parents[1]
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        digest.update(str(path.relative_to(root)).encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
 
 
 def cached_run(text, comm, path):
