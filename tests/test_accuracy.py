@@ -71,3 +71,33 @@ def test_automatic_grid_sizes_are_the_smallest_of_their_family():
         assert smallest_grid(math.log2(need)) == want, need
     assert [grid_label(n) for n in (131072, 73728, 98304, 100)] == [
         "2^17", "9x2^13", "3x2^15", "100"]
+
+
+def test_study_references_skip_the_widening_and_runs_are_reused_by_their_code_only(
+        tmp_path, monkeypatch):
+    import numpy as np
+    from mpi4py import MPI
+
+    from hpcgfmd.studies import accuracy_study, benchmark
+
+    spec = (7.0, 0.1, 4.5, 0.1)  # a fast case: its own grid widened 3 times
+    reference = parse_case(accuracy_study.reference_text(spec, 2e-4, None, 5e-5))
+    assert reference.zone_width / reference.dx >= accuracy.zone_points(2e-4)
+    widened = parse_case(accuracy_study.case_text(spec, 2e-4, None, 5e-5))
+    assert reference.numerics.nx > 2 * widened.numerics.nx
+    made = []
+
+    def fake_run(text, comm, progress=None):
+        made.append(text)
+        return {**{key: np.zeros(2) for key in ("time", "lbar", "abar", "dt")},
+                **{key: 0.0 for key in benchmark.SCALARS}}
+
+    monkeypatch.setattr(benchmark, "run", fake_run)
+    text = accuracy_study.case_text(spec, 5e-3, None, 5e-5)
+    monkeypatch.setattr(benchmark, "code_identity", lambda: "one code")
+    accuracy_study._cached(text, MPI.COMM_SELF, str(tmp_path))
+    accuracy_study._cached(text, MPI.COMM_SELF, str(tmp_path))  # saved: reused
+    assert len(made) == 1
+    monkeypatch.setattr(benchmark, "code_identity", lambda: "another code")
+    accuracy_study._cached(text, MPI.COMM_SELF, str(tmp_path))  # other code: run anew
+    assert len(made) == 2
