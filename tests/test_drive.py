@@ -73,12 +73,17 @@ def test_a_soft_spring_jumps_where_its_line_touches_the_curve(displacement_curve
 @pytest.mark.slow
 def test_a_very_soft_spring_lets_go_at_the_baney_hui_minimum(displacement_curve):
     # k_s = 0.01 E0 (a 0.38 R drive travel): load control. Its pull-off: the curve's
-    # minimum (measured 2e-4 apart) and Baney-Hui's, periodic image corrected, within the
-    # 1 % the elastic curve keeps on this grid (measured 0.37 %)
+    # minimum within the accuracy (5e-3), and Baney-Hui's, periodic image corrected, within
+    # the 1 % the elastic curve keeps on this grid (measured 0.37 %). Near the fold the
+    # discrete curve jumps as nodes leave the contact, and the spring lets go at the first
+    # such jump it cannot balance: over six draws of round-off (alpha (1 + j 3e-12),
+    # j = 0..5) the two minima were 1e-4 to 2.8e-3 apart (the code before the per-step
+    # transforms were removed: 6e-5 to 3.5e-3)
     run, _ = retraction(case_text(NUMERICS, modulus_ratio=1.0, drive_stiffness=0.01))
     case = parse_case(case_text(NUMERICS, modulus_ratio=1.0))
     pull_off = run[:, 3].min() / case.load_scale
-    assert abs(pull_off / (displacement_curve[:, 3].min() / case.load_scale) - 1.0) < 1e-3
+    reference = displacement_curve[:, 3].min() / case.load_scale
+    assert abs(pull_off / reference - 1.0) < case.numerics.accuracy
     abar = np.linspace(0.3, 3.0, 2701)
     curve = np.array([theory.maugis_dugdale(a, 3.5)[0] for a in abar])
     curve *= theory.periodic_load_factor(abar * case.beta, case.cell)
@@ -89,7 +94,10 @@ def test_jump_order_and_drive_series():
     # softer springs let go earlier in the indenter's travel; the drive leads the indenter
     # by the spring's stretch -L / k_s, the spring balancing the load to the search's
     # tolerance, SPRING_TOLERANCE load allowances (a balance bracketed inside a jump of the
-    # discrete L is accepted beyond it: measured 1.1 tolerances)
+    # discrete L is accepted beyond it: over five draws of round-off, alpha (1 + j 3e-12),
+    # j = 0..4, the largest imbalance at k_s = 0.1 E0 was 1.00 or 3.16-3.29 tolerances, with
+    # the code before the per-step transforms were removed 1.00-1.09 or 3.27-3.29; at
+    # k_s = E0 0.97-0.99)
     case = parse_case(case_text(NUMERICS))
     tolerance = 0.1 * case.numerics.load_tolerance * case.load_scale
     jumps = []
@@ -99,7 +107,7 @@ def test_jump_order_and_drive_series():
         jumps.append(run[last, 1])
         attached = run[:last + 1]
         imbalance = attached[:, 3] - stiffness * (attached[:, 1] - attached[:, 2])
-        assert np.abs(imbalance).max() <= 3.0 * tolerance
+        assert np.abs(imbalance).max() <= 4.0 * tolerance
     assert jumps[1] < jumps[0]
 
 

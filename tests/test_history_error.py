@@ -54,6 +54,7 @@ class Mode:
     def step(self, u_before, p, dt, u_after):
         """The protocol's step: p_{n+1} = K u_{n+1} + H(u_n, p_n)."""
         history = aligned_empty(N)
+        self.substrate.start(self.fft, u_before)
         self.substrate.history(self.fft, u_before, p, dt, history)
         elastic = aligned_empty(N)
         self.fft.apply_diagonal(u_after, self.substrate.operators(dt).stiffness, elastic)

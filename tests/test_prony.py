@@ -13,11 +13,13 @@ from mpi4py import MPI
 from cases import case_text, whole_run
 from hpcgfmd.errors import CaseError
 from hpcgfmd.model import theory
+from hpcgfmd.model.accuracy import STEP_SHARE
 from hpcgfmd.model.case import Case, parse_case
 from hpcgfmd.model.material import StandardLinearSolid
 from hpcgfmd.model.prony import GeneralizedMaxwell, MaxwellHalfSpace
 from hpcgfmd.parallel.fft import plan_real_fft
 from hpcgfmd.runs.protocol import Retraction
+from hpcgfmd.solvers.stepping import KEPT_SHARE
 
 # A genuine two-branch solid of k = 0.1: E_i / E0 = 3, 6 and tau_i = 0.1, 1.45 tau_r
 # (weighted mean (3 x 0.1 + 6 x 1.45) / 9 = 1).
@@ -120,7 +122,7 @@ def retraction(text):
 @pytest.mark.parametrize("steps", ['step_control = "fixed"', 'step_control = "adaptive"'])
 def test_one_branch_and_equal_times_retract_as_the_sls(steps):
     # Solved to tolerance 1e-10: the histories differ by round-off only (the SLS's comes
-    # through an FFT pair, the Prony series' from its branch tractions), and the solutions
+    # from p and (|q|/2) u, the Prony series' from its branch tractions), and the solutions
     # by what the solves leave, at most about the tolerance (measured up to 3.6e-13 of the
     # largest load, next to the snap-off); at the default tolerance the solves stop on
     # iterates that differ by about it (measured 3e-8 in the load of the fixed-step run).
@@ -139,17 +141,22 @@ def test_one_branch_and_equal_times_retract_as_the_sls(steps):
 def test_two_branch_adaptive_steps_reach_the_accuracy():
     # the step control (the history estimate split over the branches, the tip's lag bounded
     # for each time) at the default accuracy 5e-3 against fixed steps of dt_max / 100 on the
-    # same grid (the time error only; dt_max / 400 moves that reference by 1e-6): measured
-    # 2.1e-5 in 715 steps, against 5301 fixed steps (4.5e-5 in 953 with the kept history
-    # errors bounded by size; 2.2e-3 in 243 with their signed sum held to the whole
-    # allowance instead of half: docs/results.md, "Fast retractions")
+    # same grid (the time error only; dt_max / 400 moves that reference by 1e-6), within
+    # half the steps' share of the accuracy (1.25e-3): the kept errors this two-branch case
+    # accumulates are held to half their allowance (KEPT_SHARE), and holding them to the
+    # whole of it is 2.2e-3 off on every draw (below). Measured over 21 draws of round-off (alpha (1 + j
+    # 3e-12) and (1 + j 7e-12)): 4.7e-5 to 1.0e-3 in 656-801 steps, against 5301 fixed
+    # steps. The errors fall in two groups, 5e-5 to 2e-4 and 5e-4 to 1e-3: near the pull-off
+    # the load jitters as nodes leave the contact one by one (2048 nodes), and the sampled
+    # minimum does or does not catch a dip. With the kept history errors' signed sum held to
+    # the whole allowance instead of half, 2.2e-3 in 241-270 steps on all 18 draws
+    # measured (docs/results.md, "Fast retractions").
     adaptive = retraction(case_text("nx = 2048", **TWO_BRANCHES))
     case = parse_case(case_text("nx = 2048", **TWO_BRANCHES))
     fine = retraction(case_text(f'nx = 2048\nstep_control = "fixed"\n'
                                 f"dt = {case.numerics.dt_max / 100!r}", **TWO_BRANCHES))
     pull_off, reference = adaptive[:, 1].min(), fine[:, 1].min()
-    # a tenth of the accuracy (the grid's share is the larger; measured 2.1e-5)
-    assert abs(pull_off / reference - 1.0) <= case.numerics.accuracy / 10
+    assert abs(pull_off / reference - 1.0) <= STEP_SHARE * KEPT_SHARE * case.numerics.accuracy
     assert adaptive.shape[0] < fine.shape[0] / 4
 
 

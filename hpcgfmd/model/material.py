@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-KEPT_LENGTHS = 4  # step lengths whose operators a substrate keeps (3 spectra each)
+KEPT_LENGTHS = 4  # step lengths whose operators a substrate keeps (2 spectra each)
 
 
 @dataclass(frozen=True)
@@ -170,6 +170,11 @@ class ViscoelasticHalfSpace:
     history traction H = a p_n + (|q|/2)(E0 (1 - a) - Eeff) u_n from the previous state.
     After the step's equilibrium u_{n+1}, the substrate traction is p_{n+1} = K u_{n+1} + H.
 
+    The state is p_n and G_n = (|q|/2) u_n, both in real space: mode-diagonal maps commute
+    with the transform, so H = a p_n + (E0 (1 - a) - Eeff) G_n needs no transform, and
+    G_{n+1} = (K u_{n+1}) / Eeff comes with the solve (as for the Prony series,
+    :mod:`.prony`). Only a state that starts from a given u (:meth:`start`) costs one.
+
     Parameters
     ----------
     material : StandardLinearSolid
@@ -177,45 +182,67 @@ class ViscoelasticHalfSpace:
         |q|/2 of each Fourier mode this rank holds, in the FFT's local order (1/length).
     n : int
         Grid points.
+    local_n : int, optional
+        Nodes of this rank's real-space block (default n: one rank).
     """
 
-    def __init__(self, material: StandardLinearSolid, half_q, n: int):
+    def __init__(self, material: StandardLinearSolid, half_q, n: int, local_n: int = None):
         self.material = material
         self.half_q = half_q
         self.n = n
+        self.relaxed_traction = np.zeros(n if local_n is None else local_n)  # G_n
         self._dt = None
-        self._kept = {}  # dt -> (operators, decay, history diagonal), least recent first
+        self._kept = {}  # dt -> (operators, decay, e_history, e_eff), least recent first
 
     def operators(self, dt: float) -> StepOperators:
         """Stiffness (|q|/2) Eeff(dt) and its preconditioner; dt = inf is the relaxed solid."""
         self._prepare(dt)
         return self._ops
 
-    def history(self, fft, u, substrate_traction, dt, out):
-        """Collective (one FFT pair): history traction H of a step of length dt (stress units).
+    def start(self, fft, u):
+        """Collective (one FFT pair): the state's G = (|q|/2) u of the displacement ``u``
+        (a state not reached by :meth:`update`: a given start, an old checkpoint)."""
+        fft.apply_diagonal(u, self.half_q * (1.0 / self.n), self.relaxed_traction)
 
-        Mode-local: H_q = a p_q + (|q|/2)(E0 (1 - a) - Eeff) u_q on this rank's modes; u_n,
-        p_n and H are this rank's real-space blocks.
+    def history(self, fft, u, substrate_traction, dt, out):
+        """History traction H of a step of length dt (M8) into ``out`` (stress units).
+
+        Local (no transform): H = a p_n + (E0 (1 - a) - Eeff) G_n, G_n = (|q|/2) u_n of the
+        state (:meth:`update`, :meth:`start`); ``fft`` and ``u`` are not needed.
         """
         self._prepare(dt)
-        fft.apply_diagonal(u, self._history_diag, out)
+        np.multiply(self.relaxed_traction, self._e_history, out=out)
         out += self._decay * substrate_traction
         return out
 
+    def state_elastic_traction(self, dt, out):
+        """K(dt) u_n = Eeff(dt) G_n of the state's displacement under a step of length dt
+        (stress units; local, no transform)."""
+        self._prepare(dt)
+        return np.multiply(self.relaxed_traction, self._e_eff, out=out)
+
     def field_names(self):
-        """Names of state fields beyond u and p: none (p_n holds the SLS's history)."""
-        return ()
+        """Names of the state fields beyond u and p: G."""
+        return ("relaxed_traction",)
 
     def fields(self):
-        """{name: block} of the state fields beyond u and p: none."""
-        return {}
+        """{name: this rank's block} of the state fields beyond u and p (views)."""
+        return {"relaxed_traction": self.relaxed_traction}
 
-    def restore(self, fields):
-        """Nothing to restore beyond u and p."""
+    def restore(self, fields, fft=None, u=None):
+        """Set G from ``fields``; from ``u`` by one transform when they lack it (checkpoints
+        written before G was kept)."""
+        if "relaxed_traction" in fields:
+            self.relaxed_traction[:] = fields["relaxed_traction"]
+        else:
+            self.start(fft, u)
 
     def update(self, elastic_traction, history, dt, substrate_traction):
-        """After a step's solve: the substrate traction p_{n+1} = K u_{n+1} + H (M8)."""
+        """After a step's solve: the substrate traction p_{n+1} = K u_{n+1} + H (M8) and
+        G_{n+1} = (K u_{n+1}) / Eeff."""
+        self._prepare(dt)
         np.add(elastic_traction, history, out=substrate_traction)
+        np.multiply(elastic_traction, 1.0 / self._e_eff, out=self.relaxed_traction)
 
     def correct(self, missed, dt, substrate_traction):
         """Add the traction the step of length dt missed to p (the whole history)."""
@@ -230,9 +257,9 @@ class ViscoelasticHalfSpace:
         if kept is None:
             f = self.material.step_factors(dt)
             kept = (StepOperators.from_modulus(self.half_q, f.e_eff, self.n), f.decay,
-                    self.half_q * (f.e_history / self.n))
+                    f.e_history, f.e_eff)
         self._kept[dt] = kept
         if len(self._kept) > KEPT_LENGTHS:
             del self._kept[next(iter(self._kept))]  # the least recently used
-        self._ops, self._decay, self._history_diag = kept
+        self._ops, self._decay, self._e_history, self._e_eff = kept
         self._dt = dt

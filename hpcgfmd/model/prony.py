@@ -184,10 +184,17 @@ class MaxwellHalfSpace:
         named.update({f"branch_traction_{i}": s for i, s in enumerate(self.branch_tractions)})
         return named
 
-    def restore(self, fields):
-        """Set the state fields from ``fields`` (:meth:`fields`' names)."""
+    def restore(self, fields, fft=None, u=None):
+        """Set the state fields from ``fields`` (:meth:`fields`' names; ``fft`` and ``u``
+        are not needed)."""
         for name, block in self.fields().items():
             block[:] = fields[name]
+
+    def state_elastic_traction(self, dt, out):
+        """K(dt) u_n = Eeff(dt) G_n of the state's displacement under a step of length dt
+        (stress units; local, no transform)."""
+        self._prepare(dt)
+        return np.multiply(self.relaxed_traction, self._e_eff, out=out)
 
     def operators(self, dt: float) -> StepOperators:
         """Stiffness (|q|/2) Eeff(dt) and its preconditioner; dt = inf is the relaxed solid."""

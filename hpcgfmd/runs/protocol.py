@@ -41,6 +41,7 @@ from ..parallel.domain import Domain
 from ..parallel.fft import aligned_empty, plan_real_fft
 from ..solvers import EdgeWatch, make_solver
 from ..solvers.predictor import Predictor
+from ..solvers.step_kernels import all_beyond, interaction_state
 from ..solvers.stepping import HistoryError, make_step_control
 from .coarse_start import coarse_start
 from .drive import CompliantDrive
@@ -96,7 +97,8 @@ class Retraction:
         self.half_q = np.pi * np.abs(self.fft.wavenumber) / case.cell  # |q|/2 per local mode
         self.substrate = (MaxwellHalfSpace(case.material(), self.half_q, n,
                                            self.domain.local_n) if case.prony
-                          else ViscoelasticHalfSpace(case.material(), self.half_q, n))
+                          else ViscoelasticHalfSpace(case.material(), self.half_q, n,
+                                                     self.domain.local_n))
         # the state's fields: these and the substrate's own (a Prony series' branches)
         self.field_names = self.FIELDS + self.substrate.field_names()
         self.law = DugdaleMaugis(case.sigma_a, case.dmax)
@@ -133,8 +135,13 @@ class Retraction:
         # attempt's two latest states, which become them when it is accepted
         self._states = (None, None)
         self._attempt_states = None
-        self._saved = {name: np.empty(n) for name in self.field_names}
+        self._reverted = ("u", "u_previous", "substrate_traction", "traction",
+                          *self.substrate.field_names())
+        self._saved = {name: np.empty(n) for name in self._reverted}
         self._absent = np.zeros(n)  # a field the state does not have yet (read only)
+        self._stiffness_u = np.empty(n)  # K u_n under a step's stiffness (the predictor's)
+        self._gap_before = np.empty(n)  # the gap and contact of u_n under the last wall
+        self._contact_before = np.empty(n, dtype=bool)
 
     # --- one equilibrium -------------------------------------------------------------
     def _equilibrate(self, ops, dt, solver, edge_watch=None, substrate_dt=None):
@@ -281,10 +288,8 @@ class Retraction:
         """Each node's interaction state for displacement u under the indenter at
         ``indenter``: 2 on the wall, 1 in the cohesive zone (0 < gap < dmax), 0 beyond the
         range (int8)."""
-        gap = self.profile + indenter - u
-        state = (gap <= 0.0).astype(np.int8)
-        state += state
-        state += (gap > 0.0) & (gap < self.case.dmax)
+        state = np.empty(u.shape, dtype=np.int8)
+        interaction_state(self.profile, indenter, u, self.case.dmax, state)
         return state
 
     def _advance(self, dt, end=None) -> StepRecord | None:
@@ -295,8 +300,8 @@ class Retraction:
         step control accepts (:meth:`~hpcgfmd.solvers.stepping.AdaptiveSteps.edge_limit`).
         """
         self.substrate.history(self.fft, self.u, self.substrate_traction, dt, self.history)
-        gap_before = self.wall - self.u
-        contact = gap_before <= 0.0
+        gap_before = np.subtract(self.wall, self.u, out=self._gap_before)
+        contact = np.less_equal(gap_before, 0.0, out=self._contact_before)
         self.step_index += 1
         if end is not None:  # the segment's end, exactly
             self.time = end
@@ -319,7 +324,9 @@ class Retraction:
             self.predictor.start(
                 self.u, self.wall, gap_before, contact, rise, ratio,
                 self.edges, self.edges_previous,
-                lambda v: self.solver.energy(v, self.wall, ops, self.history))
+                lambda v, k_v=None: self.solver.energy(v, self.wall, ops, self.history,
+                                                       stiffness_u=k_v),
+                self.substrate.state_elastic_traction(dt, self._stiffness_u))
         if self.spring is not None:
             return self.spring.balance(self, ops, dt)
         return self._equilibrate(ops, dt, self.solver, self.edge_watch(dt))
@@ -350,10 +357,12 @@ class Retraction:
         return float(np.max(np.abs(np.subtract(self.edges, self.edges_previous))))
 
     def _save(self):
-        """Keep the state before a step, to undo a rejected one."""
+        """Keep the state before a step, to undo a rejected one (the fields :meth:`_revert`
+        restores: the older state and the history estimate's change only once a step is
+        accepted)."""
         fields, attrs = self.state()
-        for name, value in fields.items():
-            self._saved[name][:] = value
+        for name in self._reverted:
+            self._saved[name][:] = fields[name]
         self._saved_attrs = attrs
 
     def _revert(self):
@@ -361,7 +370,8 @@ class Retraction:
 
     def detached(self) -> bool:
         """Collective: True when no node is within the interaction range (complete detachment)."""
-        return self.domain.all(self.wall - self.u > self.case.dmax)
+        beyond = all_beyond(self.wall, self.u, self.case.dmax)  # (True on an empty block)
+        return self.domain.min(1.0 if beyond else 0.0) > 0.0
 
     def finished(self) -> bool:
         """Collective: True when the protocol is over (after the last step's segment ended;
@@ -433,7 +443,7 @@ class Retraction:
         self.u[:] = fields["u"]
         self.substrate_traction[:] = fields["substrate_traction"]
         self.traction[:] = fields["traction"]
-        self.substrate.restore(fields)
+        self.substrate.restore(fields, self.fft, self.u)
         self.time = float(attrs["time"])
         self.indenter = float(attrs["indenter"])
         # (absent from checkpoints before the compliant drive: displacement control)

@@ -108,8 +108,9 @@ class EquilibriumSolver(ABC):
         case's tolerance): ``self``, or a solver that shares this one's statistics."""
 
     @abstractmethod
-    def energy(self, u, wall, ops, history, applied=None) -> float:
-        """Collective: the step's energy per unit length divided by dx (one FFT pair)."""
+    def energy(self, u, wall, ops, history, applied=None, stiffness_u=None) -> float:
+        """Collective: the step's energy per unit length divided by dx (one FFT pair; none
+        when ``stiffness_u``, K u under ``ops``, is given)."""
 
     @abstractmethod
     def elastic_traction(self):

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..parallel.fft import aligned_empty
 from .projection import project_feasible
+from .step_kernels import linear_guess
 
 
 class Predictor:
@@ -47,9 +48,16 @@ class Predictor:
         self.u_previous = None
         self.choices = [0, 0]
         self.rejected = 0
+        n = domain.local_n
+        # the guesses, their feasible projections (aligned: the energy transforms them in
+        # place) and the moving edges' gap: nothing of the block's size is allocated per step
+        self._linear = np.empty(n)
+        self._moved = np.empty(n)
+        self._gap = np.empty(n)
+        self._starts = (aligned_empty(n), aligned_empty(n))
 
     def start(self, u, wall, gap_before, contact, rise, ratio, edges, edges_previous,
-              energy):
+              energy, stiffness_u):
         """Collective: replace ``u`` (u_n) by the lowest-energy feasible guess, if lower.
 
         Parameters
@@ -69,20 +77,23 @@ class Predictor:
         edges, edges_previous : tuple of float or None
             Contact edges of steps n and n - 1 (length); None or NaN when unknown.
         energy : callable
-            ``energy(v)``: the step's energy of a displacement (collective).
+            ``energy(v, k_v=None)``: the step's energy of a displacement v (collective), with
+            K v when it is known (u_n's: no transform).
+        stiffness_u : ndarray
+            K u_n under the new step's stiffness.
         """
         if self.u_previous is None:
             self.u_previous = u - rise * contact
             ratio = 1.0
-        linear = u + ratio * (u - self.u_previous)
-        np.copyto(linear, wall, where=contact)
+        linear = self._linear
+        linear_guess(u, self.u_previous, ratio, wall, contact, linear)
         guesses = (linear, self._moving_edges(linear, wall, gap_before, ratio, edges,
                                               edges_previous))
         candidates = {}
         for kind, guess in enumerate(guesses):
             if guess is None:
                 continue
-            start = aligned_empty(self.domain.local_n)
+            start = self._starts[kind]
             try:
                 project_feasible(self.domain, guess, wall, start)
             except FloatingPointError:  # no feasible point of that form (tiny grids): skip it
@@ -91,7 +102,7 @@ class Predictor:
         self.u_previous[:] = u
         energies = {kind: energy(c) for kind, c in candidates.items()}
         best = min(energies, key=energies.get) if energies else None
-        if best is not None and energies[best] <= energy(u):
+        if best is not None and energies[best] <= energy(u, stiffness_u):
             u[:] = candidates[best]
             self.choices[best] += 1
         else:
@@ -103,7 +114,7 @@ class Predictor:
             return None
         dom = self.domain
         n, dx, x = dom.n, dom.dx, dom.x
-        gap = wall - linear
+        gap = np.subtract(wall, linear, out=self._gap)
         for edge, previous in zip(edges, edges_previous):
             shift = ratio * (edge - previous)
             if not np.isfinite(shift) or shift == 0.0:
@@ -125,7 +136,7 @@ class Predictor:
             window[near] = np.interp(x[block][near] - shift,
                                      dom.position(first + np.arange(length)), values)
         np.maximum(gap, 0.0, out=gap)
-        return wall - gap
+        return np.subtract(wall, gap, out=self._moved)
 
     def state(self, u):
         """(field, attrs) for a checkpoint: u_{n-1} (zeros when unknown) and the counters."""

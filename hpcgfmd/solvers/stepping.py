@@ -48,6 +48,7 @@ import numpy as np
 
 from ..model.accuracy import PULL_OFF_SCALE
 from ..parallel.fft import aligned_empty
+from .step_kernels import contact_sums, curvature
 
 GROWTH_LIMIT = 2.0     # largest factor between consecutive steps
 SHRINK_LIMIT = 0.25    # smallest factor (also the retry factor bound after a rejection)
@@ -451,13 +452,8 @@ class HistoryError:
         """
         h1, h0 = time_after - time_before, time_before - time_older
         c = self._curvature
-        np.subtract(after, before, out=c)
-        c *= 1.0 / h1
-        c -= (before - older) * (1.0 / h0)
-        c *= 1.0 / (h1 + h0)
-        kinks = (state_older != state_before) | (state_before != state)
-        c[kinks] = 0.0
-        self._smooth = self.domain.count(kinks) == 0
+        kinks = curvature(older, before, after, h0, h1, state_older, state_before, state, c)
+        self._smooth = self.domain.sum(kinks) == 0
         reuse = (not self._smooth and self.curvature_age <= CURVATURE_AGE
                  and time_after - self.curvature_time <= self._lifetime)
         self._time = time_after
@@ -468,11 +464,11 @@ class HistoryError:
                                 self._traction)
         self._estimated = True
         self._step = h1
-        contact = state == 2
         comparable = self.has_previous and not reuse and not self.previous_reused
         self._reused = reuse
-        step_part = self._traction[contact].sum()  # 0 on a rank without nodes
-        kept = self.previous_correction[contact].sum() * self._response if comparable else 0.0
+        # (0 on a rank without nodes)
+        step_part, previous = contact_sums(self._traction, self.previous_correction, state)
+        kept = previous * self._response if comparable else 0.0
         step_error, change = self.domain.sums(step_part, step_part - kept)
         dx = self.domain.dx
         return step_error * dx, (change if comparable else step_error) * dx

@@ -457,9 +457,9 @@ class DampedVerletGFMD(EquilibriumSolver):
         """Traction the indenter exerts on the surface (ConstrainedCG.interface_traction)."""
         return self._cg.interface_traction(u, wall, history, mean_traction, out, applied)
 
-    def energy(self, u, wall, ops, history, applied=None):
+    def energy(self, u, wall, ops, history, applied=None, stiffness_u=None):
         """Collective: energy of the step per unit length over dx (ConstrainedCG.energy)."""
-        return self._cg.energy(u, wall, ops, history, applied)
+        return self._cg.energy(u, wall, ops, history, applied, stiffness_u)
 
     def statistics(self) -> dict:
         """No counters beyond the pseudo steps (the protocol counts them as iterations)."""

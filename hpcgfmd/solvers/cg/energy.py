@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...parallel.fft import aligned_empty
+from ..step_kernels import energy_terms
 
 
 class StepEnergy:
@@ -36,14 +37,17 @@ class StepEnergy:
         self._guess_energy = np.inf
         self._spectrum_mask = None
 
-    def energy(self, u, wall, ops, history, applied=None):
-        """Collective: energy of the step per unit length, divided by dx (one FFT pair).
+    def energy(self, u, wall, ops, history, applied=None, stiffness_u=None):
+        """Collective: energy of the step per unit length, divided by dx (one FFT pair to
+        form K u, none when it is given as ``stiffness_u``).
 
         The lowest-energy vector evaluated since the last solve began is kept with its K
         (:meth:`recall`: the next solve starts from it without a transform).
         """
-        k_u = self._k_u
-        self.fft.apply_diagonal(u, ops.stiffness, k_u)
+        k_u = stiffness_u
+        if k_u is None:
+            k_u = self._k_u
+            self.fft.apply_diagonal(u, ops.stiffness, k_u)
         value = self.energy_with(u, k_u, wall, history, applied)
         if value < self._guess_energy:
             np.copyto(self._guess, u)
@@ -54,18 +58,22 @@ class StepEnergy:
 
     def energy_with(self, u, k_u, wall, history, applied=None):
         """Collective: energy (per unit length, divided by dx) of u with K u given."""
-        value = 0.5 * float(u @ k_u) + float(history @ u)
+        value = self._bulk_energy(u, k_u, history, wall)
         if applied is not None:
             value -= float(applied @ u)
-        return self._interface_energy(u, wall, value)
+        return self._interface_energy(value)
 
     def energy_linear(self, u, k_u, wall, linear):
         """:meth:`energy_with` with the linear term H - p_applied given as one vector."""
-        return self._interface_energy(u, wall, 0.5 * float(u @ k_u) + float(linear @ u))
+        return self._interface_energy(self._bulk_energy(u, k_u, linear, wall))
 
-    def _interface_energy(self, u, wall, value):
+    def _bulk_energy(self, u, k_u, linear, wall):
+        """Local: 1/2 u.K u + linear.u, and the gaps wall - u into the ghosted buffer."""
+        return energy_terms(u, k_u, linear, wall, self._gap_ext[1:-1])
+
+    def _interface_energy(self, value):
+        """Collective: ``value`` plus the cohesive energy of the gaps in the buffer, summed."""
         gap_ext = self._gap_ext
-        np.subtract(wall, u, out=gap_ext[1:-1])
         self.domain.fill_halo(gap_ext)
         return self.domain.sum(value + self.law.energy(gap_ext, 1.0))
 

@@ -17,6 +17,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .. import step_kernels
+
 FAST = {"reassoc"}  # reductions may be reassociated (vectorised); inf and NaN keep their meaning
 
 
@@ -338,7 +340,9 @@ def dot(a, b):
 
 
 def compile_all():
-    """Compile every kernel for this machine into numba's cache (scripts/setup.sh calls it)."""
+    """Compile every kernel for this machine into numba's cache (scripts/setup.sh calls it),
+    those of the per-step work (:mod:`hpcgfmd.solvers.step_kernels`) too."""
+    step_kernels.compile_all()
     m = 8
     gap_ext = np.linspace(0.0, 2.0, m + 2)
     a, b, c, d = (np.linspace(-1.0, 1.0, m) for _ in range(4))

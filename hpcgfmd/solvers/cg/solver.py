@@ -30,9 +30,9 @@ them the direction is projected in real space (pressed nodes zeroed, mean remove
 direction pushes into the wall held), so K d is not K K^-1 r = r and needs its own pair
 whenever a node is pressed, i.e. while there is contact. One more pair per projected
 backtracking trial and for the residual direction when a step reaches the wall (rare). Per
-solve, one pair at the end (exact K u of the solution) and one at the start unless the
-predictor evaluated the start (:meth:`.energy.StepEnergy.recall`). K u is updated
-incrementally. The elementwise work is about 15 passes over the block: r = t - (K u + H -
+solve, one pair at the start unless the predictor evaluated the start
+(:meth:`.energy.StepEnergy.recall`). K u is updated incrementally, through the running
+load K u + H - p_applied, also for the solution (its exact K u differs by round-off). The elementwise work is about 15 passes over the block: r = t - (K u + H -
 p_applied), its sum and extrema, the mean of z, one pass for the three CG dot products (a
 2 x 2 matmul of the stacked r, r_old and z, d_old), one axpy for d, d.Kd, the trial point's
 gaps, the axpy on u and the one on K u + H - p_applied, plus the point's gaps and its span
@@ -122,7 +122,7 @@ class ConstrainedCG(EquilibriumSolver):
         self._walls = WallSteps(domain, fft, self._energy)
         # Every buffer of a solve is made here: an iteration allocates nothing of size n.
         # (aligned: the serial transform reads and writes them in place)
-        self._k_u = aligned_empty(n)  # K u; exact at the end of a solve (elastic_traction)
+        self._k_u = aligned_empty(n)  # K u at the start and the end of a solve (elastic_traction)
         self._load = np.empty(n)      # K u + H - p_applied during a solve (updated by steps)
         self._linear = np.empty(n)    # H - p_applied when a traction is applied
         self._k_d = aligned_empty(n)
@@ -218,7 +218,10 @@ class ConstrainedCG(EquilibriumSolver):
         # the state (reaction, load, contact width, predictor) sees the same contact set.
         np.copyto(u[lo:hi], wall[lo:hi], where=self._active.on_wall[:hi - lo])
         self._points = (it.cur, it.trial, it.probe)
-        self.fft.apply_diagonal(u, ops.stiffness, self._k_u)
+        # K u from the running load, without a transform: the steps added exact K d, and
+        # the nodes just put on the wall moved by round-off of the wall (at most 1e-14 of
+        # its magnitude), which changes K u by about 1e-9 of the traction scale (measured)
+        np.subtract(self._load, linear, out=self._k_u)
         return SolveResult(iterations=it.iteration, residual=it.residual,
                            converged=it.residual <= self.tolerance, mean_traction=it.mu)
 
@@ -385,9 +388,10 @@ class ConstrainedCG(EquilibriumSolver):
             it.restart = True
 
     # --- the rest of the solver interface ------------------------------------------------
-    def energy(self, u, wall, ops, history, applied=None):
-        """Collective: energy of the step per unit length, divided by dx (one FFT pair)."""
-        return self._energy.energy(u, wall, ops, history, applied)
+    def energy(self, u, wall, ops, history, applied=None, stiffness_u=None):
+        """Collective: energy of the step per unit length, divided by dx (one FFT pair; none
+        when K u is given as ``stiffness_u``)."""
+        return self._energy.energy(u, wall, ops, history, applied, stiffness_u)
 
     def energy_with(self, u, k_u, wall, history, applied=None):
         """Collective: energy (per unit length, divided by dx) of u with K u given."""

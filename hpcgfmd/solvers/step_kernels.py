@@ -1,0 +1,102 @@
+"""Compiled loops of the work done once per time step around the solve.
+
+A step's own work (the predictor's guesses and their energies, the history's time-error
+estimate) is a few passes over this rank's block each;
+with numpy each pass is one call and often one temporary. These kernels do each stretch in
+one loop (numba, cached as :mod:`hpcgfmd.solvers.cg.kernels` is). They are local (no MPI):
+the callers reduce their sums. Sums may be reassociated (vectorised), as in the CG kernels:
+the same block gives the same bits every time. NaN propagates as it did through numpy: a
+non-finite displacement is never replaced by the wall.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+FAST = {"reassoc"}  # as hpcgfmd.solvers.cg.kernels.FAST
+
+
+@njit(cache=True)
+def linear_guess(u, u_previous, ratio, wall, contact, out):
+    """out = u + ratio (u - u_previous), exactly on the wall on the ``contact`` nodes."""
+    for i in range(u.shape[0]):
+        if contact[i]:
+            out[i] = wall[i]
+        else:
+            out[i] = u[i] + ratio * (u[i] - u_previous[i])
+
+
+@njit(cache=True, fastmath=FAST)
+def energy_terms(u, k_u, linear, wall, gap):
+    """gap = wall - u; returns 1/2 u.k_u + linear.u (the quadratic and linear energy terms)."""
+    quadratic, first_order = 0.0, 0.0
+    for i in range(u.shape[0]):
+        v = u[i]
+        quadratic += v * k_u[i]
+        first_order += v * linear[i]
+        gap[i] = wall[i] - v
+    return 0.5 * quadratic + first_order
+
+
+@njit(cache=True)
+def interaction_state(profile, indenter, u, dmax, out):
+    """out = 2 on the wall (gap <= 0), 1 in the cohesive zone (0 < gap < dmax), else 0, for
+    gap = profile + indenter - u (int8)."""
+    for i in range(u.shape[0]):
+        g = profile[i] + indenter - u[i]
+        if g <= 0.0:
+            out[i] = 2
+        elif g < dmax:
+            out[i] = 1
+        else:
+            out[i] = 0
+
+
+@njit(cache=True)
+def curvature(older, before, after, h0, h1, state_older, state_before, state, out):
+    """out = ((after - before) / h1 - (before - older) / h0) / (h1 + h0), the u_tt / 2 of the
+    quadratic through three states, and 0 on the nodes whose interaction state changed;
+    returns the number of such nodes."""
+    inv0, inv1, inv = 1.0 / h0, 1.0 / h1, 1.0 / (h1 + h0)
+    kinks = 0
+    for i in range(out.shape[0]):
+        if state_older[i] != state_before[i] or state_before[i] != state[i]:
+            out[i] = 0.0
+            kinks += 1
+        else:
+            out[i] = ((after[i] - before[i]) * inv1 - (before[i] - older[i]) * inv0) * inv
+    return kinks
+
+
+@njit(cache=True, fastmath=FAST)
+def contact_sums(a, b, state):
+    """(sum of a, sum of b) over the nodes on the wall (state 2)."""
+    total_a, total_b = 0.0, 0.0
+    for i in range(a.shape[0]):
+        if state[i] == 2:
+            total_a += a[i]
+            total_b += b[i]
+    return total_a, total_b
+
+
+@njit(cache=True)
+def all_beyond(wall, u, level):
+    """True when every gap wall - u exceeds ``level`` (stops at the first that does not)."""
+    for i in range(u.shape[0]):
+        if not wall[i] - u[i] > level:
+            return False
+    return True
+
+
+def compile_all():
+    """Compile every kernel of this module into numba's cache."""
+    m = 8
+    a, b, c, d = (np.linspace(-1.0, 1.0, m) for _ in range(4))
+    flags = np.zeros(m, dtype=np.bool_)
+    states = [np.zeros(m, dtype=np.int8) for _ in range(3)]
+    linear_guess(a, b, 0.5, c, flags, d)
+    energy_terms(a, b, c, d, d.copy())
+    interaction_state(a, 0.1, b, 0.5, states[0])
+    curvature(a, b, c, 0.5, 0.5, states[0], states[1], states[2], d)
+    contact_sums(a, b, states[0])
+    all_beyond(a, b, 0.5)
