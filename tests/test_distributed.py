@@ -60,6 +60,9 @@ def read(path):
     return series, snaps
 
 
+EDGE = 1e-9  # the contact half-width between rank counts (assert_same)
+
+
 def relative(a, b):
     """max |a - b| / max |a|; max |b| when a is zero (a detached snapshot's pressure)."""
     scale = np.max(np.abs(a))
@@ -72,7 +75,9 @@ def assert_same(reference, other, tolerance, edge_tolerance=None, field_toleranc
     ``edge_tolerance`` for the contact half-width: the (x - a)^(3/2) extrapolation from the
     two first open nodes amplifies round-off; two uninterrupted serial runs of this case
     differ by 2.0e-12 there (FFTW_MEASURE picks its plans by timing), against 5.9e-13 in
-    the load (measured). ``field_tolerance`` for the snapshots (default ``tolerance``): the
+    the load (measured). Since each solve's K u is the running one (its increments carry
+    the rank count's transform round-off, no transform at the solve's end), the serial and
+    the 3-rank run of the 9 x 2^8 grid differed by 1.5e-10 there (measured once in CI). ``field_tolerance`` for the snapshots (default ``tolerance``): the
     contact pressure is the reaction K u + H + mu, whose multiplier mu is converged to the
     solver tolerance (measured between rank counts: 6e-12 to 2.5e-11 of the peak pressure).
     """
@@ -107,7 +112,7 @@ def test_same_answer_on_any_rank_count(serial_run, tmp_path, ranks):
     done = run(ranks, "run", "case.toml", "-o", "out.h5", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert f"on {ranks} rank(s)" in done.stdout
-    assert_same(reference, read(tmp_path / "out.h5"), 1e-10)
+    assert_same(reference, read(tmp_path / "out.h5"), 1e-10, edge_tolerance=EDGE)
 
 
 def test_same_answer_on_a_grid_of_nine_times_a_power_of_two(tmp_path):
@@ -121,7 +126,7 @@ def test_same_answer_on_a_grid_of_nine_times_a_power_of_two(tmp_path):
         done = run(ranks, "run", "case.toml", "-o", "out.h5", cwd=cwd)
         assert done.returncode == 0, done.stderr
         answers.append(read(cwd / "out.h5"))
-    assert_same(answers[0], answers[1], 1e-10)
+    assert_same(answers[0], answers[1], 1e-10, edge_tolerance=EDGE)
 
 
 @pytest.mark.parametrize("groups", [
@@ -145,7 +150,7 @@ def test_prony_spring_and_protocols_same_answer_on_two_ranks(tmp_path, groups):
         done = run(ranks, "run", "case.toml", "-o", "out.h5", cwd=cwd)
         assert done.returncode == 0, done.stderr
         answers.append(read(cwd / "out.h5"))
-    assert_same(answers[0], answers[1], 1e-10)
+    assert_same(answers[0], answers[1], 1e-10, edge_tolerance=EDGE)
 
 
 def interrupt(tmp_path, ranks, signum):
@@ -254,7 +259,8 @@ def test_ranks_that_own_no_nodes(tmp_path):
     assert serial.returncode == 0, serial.stderr
     done = run(10, "run", "case.toml", "-o", "ten.h5", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
-    assert_same(read(tmp_path / "serial.h5"), read(tmp_path / "ten.h5"), 1e-10)
+    assert_same(read(tmp_path / "serial.h5"), read(tmp_path / "ten.h5"), 1e-10,
+                edge_tolerance=EDGE)
 
 
 def test_signal_during_set_up_exits_75_with_nothing_written(tmp_path):
