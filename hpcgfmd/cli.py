@@ -79,6 +79,7 @@ def cmd_run(comm, args):
 
 
 def cmd_default(comm, args):
+    """Collective: run the default case (rank 0 names the output for all ranks)."""
     text = resources.files("hpcgfmd").joinpath("default_case.toml").read_text()
     case = parse_case(text)
     # one name for all ranks: rank 0's clock
@@ -266,7 +267,8 @@ def _parse(comm, argv):
         return build_parser().parse_args(argv)
 
 
-def _bench(comm, argv, stop):
+def _bench(comm, argv, stop, common):
+    """Collective: ``python -m hpcgfmd bench`` (its own options; ``common``: --quiet, --log)."""
     from .studies.benchmark import main as bench_main
 
     # no checkpoints to write: SIGTERM/SIGUSR1 end the benchmark as usual (it keeps the
@@ -275,12 +277,18 @@ def _bench(comm, argv, stop):
         return EXIT_RESUMABLE
     for signum in STOP_SIGNALS:
         signal.signal(signum, signal.SIG_DFL)
-    logs.configure(comm.Get_rank())
+    try:
+        logs.configure(comm.Get_rank(), quiet=getattr(common, "quiet", False),
+                       log_file=getattr(common, "log", None))
+    except OSError as err:
+        if comm.Get_rank() == 0:
+            print(f"hpcgfmd: error: --log {common.log}: {err.strerror}", file=sys.stderr)
+        return EXIT_USAGE
     return bench_main(comm, argv)
 
 
 def main(comm, argv=None, stop=None):
-    """Entry point on all ranks of ``comm``; returns the exit status.
+    """Collective entry point on all ranks of ``comm``; returns the exit status.
 
     ``stop`` is the process's :class:`~hpcgfmd.signals.StopSignals`, if the caller has one.
 
@@ -288,8 +296,9 @@ def main(comm, argv=None, stop=None):
     ranks; anything else propagates, and with more than one rank the caller aborts the job.
     """
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv[:1] == ["bench"]:  # its own options (hpcgfmd.studies.benchmark)
-        return _bench(comm, argv[1:], stop)
+    common, rest = _common_options().parse_known_args(argv)
+    if rest[:1] == ["bench"]:  # its own options (hpcgfmd.studies.benchmark)
+        return _bench(comm, rest[1:], stop, common)
     args = _parse(comm, argv)
     try:
         logs.configure(comm.Get_rank(), quiet=getattr(args, "quiet", False),

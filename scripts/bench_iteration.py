@@ -52,7 +52,7 @@ import pyfftw.builders  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from hpcgfmd.model.case import parse_case  # noqa: E402
+from hpcgfmd.model.case import case_file_text, parse_case  # noqa: E402
 from hpcgfmd.runs.protocol import Retraction  # noqa: E402
 
 DEFAULT_GROUPS = {"maugis": 7.0, "modulus_ratio": 0.1, "velocity": 0.45, "depth": 0.1,
@@ -239,8 +239,7 @@ def main():
     comm = MPI.COMM_WORLD
     rank = comm.Get_rank()
     n = 2**args.n
-    text = ("[case]\n" + "".join(f"{k} = {v!r}\n" for k, v in DEFAULT_GROUPS.items())
-            + f"[numerics]\nnx = {n}\n")
+    text = case_file_text(DEFAULT_GROUPS, {"nx": n})
     case = parse_case(text)
     start = time.perf_counter()
     sim = Retraction(case, comm, planner_effort=args.planner)

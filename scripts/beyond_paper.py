@@ -28,12 +28,14 @@ against 1e-3 at V_z = 0.45 and 0.045 (about 20 of the 30 minutes).
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 import numpy as np
 
 import hpcgfmd
 from hpcgfmd.model import theory
+from hpcgfmd.model.case import case_file_text
 from hpcgfmd.paper.curves import Retraction
 from hpcgfmd.studies.benchmark import code_identity
 
@@ -46,9 +48,8 @@ STEADY_FROM = 0.8  # effective work compared from abar <= 0.8 abar(0) to the pul
 
 
 def case_text(material, velocity, accuracy):
-    lines = [f"{key} = {value!r}" for key, value in {**GEOMETRY, **material,
-                                                      "velocity": velocity}.items()]
-    return "[case]\n" + "\n".join(lines) + f"\n[numerics]\naccuracy = {accuracy!r}\n"
+    return case_file_text({**GEOMETRY, **material, "velocity": velocity},
+                          {"accuracy": accuracy})
 
 
 def run(text, runs: Path, name: str):
@@ -156,11 +157,10 @@ STIFFNESSES = (1.0, 0.3, 0.1)
 
 def drive_figure(out: Path, runs: Path, plt):
     """<out>/drive.png and drive.txt (module docstring)."""
-    def text(stiffness=None, numerics="nx = 4096\naccuracy = 1e-3"):
-        lines = [f"{key} = {value!r}" for key, value in DRIVE_CASE.items()]
-        if stiffness is not None:
-            lines.append(f"drive_stiffness = {stiffness!r}")
-        return "[case]\n" + "\n".join(lines) + f"\n[numerics]\n{numerics}\n"
+    def text(stiffness=None, numerics=None):
+        drive = {} if stiffness is None else {"drive_stiffness": stiffness}
+        return case_file_text({**DRIVE_CASE, **drive},
+                              numerics or {"nx": 4096, "accuracy": 1e-3})
 
     case = hpcgfmd.Case.from_toml(text())
     scale = case.load_scale
@@ -206,7 +206,7 @@ def drive_figure(out: Path, runs: Path, plt):
     return lines
 
 
-CYCLE = "\n[[protocol]]\napproach = 0.03\n[[protocol]]\ndwell = 1.0\n[[protocol]]\nretract = inf\n"
+CYCLE = ({"approach": 0.03}, {"dwell": 1.0}, {"retract": math.inf})
 CYCLE_RUNS = (("elastic", 1.0, 1.0), ("SLS, V_z = 1", 0.1, 1.0), ("SLS, V_z = 10", 0.1, 10.0))
 
 
@@ -219,8 +219,7 @@ def cycle_figure(out: Path, runs: Path, plt):
              " loop area (E0 R^2 per unit length) and in dgamma0 beta"]
     for (label, k, velocity), color in zip(CYCLE_RUNS, ("k", "C0", "C3")):
         groups = {**DRIVE_CASE, "modulus_ratio": k, "velocity": velocity}
-        text = ("[case]\n" + "\n".join(f"{key} = {value!r}" for key, value in groups.items())
-                + "\n[numerics]\nnx = 4096\naccuracy = 1e-3\n" + CYCLE)
+        text = case_file_text(groups, {"nx": 4096, "accuracy": 1e-3}, CYCLE)
         case = hpcgfmd.Case.from_toml(text)
         series = run(text, runs, f"cycle-{label.replace(' ', '').replace(',', '-')}").series
         scale = case.load_scale

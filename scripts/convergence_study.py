@@ -22,15 +22,15 @@ from mpi4py import MPI  # noqa: E402
 
 from hpcgfmd.model import case as config  # noqa: E402
 from hpcgfmd.storage.reader import read_series  # noqa: E402
-from hpcgfmd.model.case import DEFAULT_STEP_PER_RANGE, parse_case  # noqa: E402
+from hpcgfmd.model.case import DEFAULT_STEP_PER_RANGE, case_file_text, parse_case  # noqa: E402
 from hpcgfmd.runs.single_case import run_case  # noqa: E402
 
 
 def case_text(lam, vz, nx, dt_factor, depth=0.1):
     dmax = 5e-5 ** (2 / 3) / lam
     dt = dt_factor * DEFAULT_STEP_PER_RANGE * dmax / (vz * 5e-5 ** (2 / 3))
-    return (f"[case]\nmaugis = {lam}\nmodulus_ratio = 0.1\nvelocity = {vz}\ndepth = {depth}\n"
-            f"cell = 10.0\nadhesion = 5e-5\n[numerics]\nnx = {nx}\ndt = {dt!r}\n")
+    return case_file_text({"maugis": lam, "modulus_ratio": 0.1, "velocity": vz, "depth": depth,
+                           "cell": 10.0, "adhesion": 5e-5}, {"nx": nx, "dt": dt})
 
 
 def main():

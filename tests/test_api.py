@@ -14,7 +14,7 @@ from hpcgfmd.errors import CaseError
 from hpcgfmd.model.case import SOLVERS, parse_case
 from hpcgfmd.solvers import registered
 
-from cases import GROUPS, case_text
+from cases import GROUPS, case_text, physical_text
 
 REPO = Path(__file__).resolve().parents[1]
 ELASTIC = {**GROUPS, "maugis": 1.0, "modulus_ratio": 1.0}  # fast: about 80 steps at nx = 1024
@@ -40,8 +40,8 @@ def test_case_from_keywords_equals_the_case_file():
 
 
 def test_case_from_a_path(tmp_path):
-    (tmp_path / "c.toml").write_text(case_text("nx = 4096"))
-    for source in (tmp_path / "c.toml", str(tmp_path / "c.toml")):
+    (tmp_path / "c[1].toml").write_text(case_text("nx = 4096"))  # "[" in a path: still a path
+    for source in (tmp_path / "c[1].toml", str(tmp_path / "c[1].toml")):
         assert hpcgfmd.Case.from_toml(source).numerics.nx == 4096
 
 
@@ -102,9 +102,9 @@ def test_xarray_opens_series_and_snapshots_with_coordinates(written):
 
 def test_physical_units_in_si(tmp_path):
     xarray = pytest.importorskip("xarray")
-    text = ("[physical]\nradius = 1e-3\nmodulus_relaxed = 1e6\nmodulus_instantaneous = 1e6\n"
-            "relaxation_time = 2.0\nwork_of_adhesion = 0.1\ninteraction_range = 1e-6\n"
-            "velocity = 1e-6\ndepth = 3e-5\ncell_length = 2e-3\n[numerics]\nnx = 1024\n")
+    text = physical_text("nx = 1024", modulus_instantaneous="1e6", relaxation_time="2.0",
+                         work_of_adhesion="0.1", interaction_range="1e-6", depth="3e-5",
+                         cell_length="2e-3")
     hpcgfmd.run(text, tmp_path / "p.h5", planner_effort="FFTW_ESTIMATE")
     series = xarray.open_dataset(tmp_path / "p.h5", group="series", engine="h5netcdf")
     assert {name: series[name].attrs["units"] for name in ("time", "load", "indenter")} == \

@@ -46,9 +46,8 @@ BAD = [
     ("both forms", case_text() + "[physical]\nradius = 1.0\n", ["exactly one of"]),
     ("unknown section", case_text() + "[solver]\nx = 1\n", ["[solver]", "unknown section"]),
     ("not toml", "[case\nmaugis = ", ["not valid TOML"]),
-    ("physical moduli", "[physical]\nradius = 1e-3\nmodulus_relaxed = 2e6\n"
-     "modulus_instantaneous = 1e6\nrelaxation_time = 1.0\nwork_of_adhesion = 0.05\n"
-     "interaction_range = 1e-8\nvelocity = 1e-6\ndepth = 1e-4\ncell_length = 1e-2\n",
+    ("physical moduli", cases.physical_text(modulus_relaxed="2e6", modulus_instantaneous="1e6",
+                                            interaction_range="1e-8"),
      ["modulus_instantaneous", "1000000.0", "modulus_relaxed"]),
     ("snapshot list", case_text(output="snapshot_times = [1, -2]"), ["snapshot_times", "list"]),
     ("checkpoint steps", case_text(output="checkpoint_steps = -1"),
@@ -173,10 +172,10 @@ def test_physical_form_equals_case_form_in_si_units(tmp_path):
     work = alpha * E0 * R
     beta = (R**2 * work / E0) ** (1 / 3)
     dmax = (work**2 * R / (E0**2 * lam**3)) ** (1 / 3)
-    phys = (f"[physical]\nradius = {R}\nmodulus_relaxed = {E0}\nmodulus_instantaneous = {E0 / 0.1}"
-            f"\nrelaxation_time = {tau}\nwork_of_adhesion = {work}\ninteraction_range = {dmax}"
-            f"\nvelocity = {Vz * beta**2 / (R * tau)}\ndepth = {0.03 * R}\ncell_length = {2 * R}"
-            "\n[numerics]\nnx = 1024\nstep_control = \"fixed\"\ntolerance = 1e-9\n")
+    phys = cases.physical_text('nx = 1024\nstep_control = "fixed"\ntolerance = 1e-9',
+                               radius=R, modulus_relaxed=E0, modulus_instantaneous=E0 / 0.1,
+                               relaxation_time=tau, work_of_adhesion=work, interaction_range=dmax,
+                               velocity=Vz * beta**2 / (R * tau), depth=0.03 * R, cell_length=2 * R)
     (tmp_path / "p.toml").write_text(phys)
     # fixed steps: adaptive decisions may round differently between the two unit systems
     (tmp_path / "c.toml").write_text(case_text('nx = 1024\nstep_control = "fixed"\ntolerance = 1e-9',

@@ -4,9 +4,11 @@
   block holding only [numerics] or [output] is completed with the default case's [case]).
 - docs/case-file.md states each [numerics] and [output] default as a Python expression in a
   table (key | meaning | default); each is evaluated and compared with what the parser makes of
-  default_case.toml and of two other cases (the [physical] form, and fixed steps).
+  default_case.toml and of four other cases (the [physical] form, fixed steps, a creeping
+  retraction and a compliant drive).
 - Every `python -m hpcgfmd ...` in a ```sh block uses a subcommand and options that the
-  command's --help lists; every scripts/ and jobs/ path named there exists.
+  command's --help lists; every scripts/ and jobs/ path named there is tracked by git (so a
+  clone has it; outside a git checkout: exists).
 """
 import math
 import re
@@ -24,14 +26,13 @@ from hpcgfmd.errors import SweepError
 from hpcgfmd.model.case import NUMERICS_KEYS, OUTPUT_KEYS, parse_case
 from hpcgfmd.runs.sweep import parse_sweep
 
-from cases import case_text
+from cases import case_text, physical_text
 
 REPO = Path(__file__).resolve().parents[1]
 DOCS = [REPO / "README.md"] + sorted((REPO / "docs").glob("*.md"))
 DEFAULT_CASE = resources.files("hpcgfmd").joinpath("default_case.toml").read_text()
-PHYSICAL = ("[physical]\nradius = 1e-3\nmodulus_relaxed = 1e6\nmodulus_instantaneous = 1e7\n"
-            "relaxation_time = 2.0\nwork_of_adhesion = 0.05\ninteraction_range = 1e-6\n"
-            "velocity = 1e-6\ndepth = 3e-5\ncell_length = 2e-3\n")
+PHYSICAL = physical_text(relaxation_time="2.0", interaction_range="1e-6", depth="3e-5",
+                         cell_length="2e-3")
 
 
 def blocks(language):
@@ -90,7 +91,7 @@ def namespace(case):
     """The names the default expressions use, in the case's units."""
     u, num = case.units, case.numerics
     return {"dmax": case.dmax * u.length, "v_z": case.indenter_speed * u.length / u.time,
-            "h0": case.depth * u.length, "tau": u.time, "L": case.cell * u.length,
+            "h0": case.depth * u.length, "tau": u.time, "L": case.cell * u.length, "R": u.length,
             "w": case.zone_width * u.length, "nx": num.nx, "dt": num.dt * u.time,
             "fixed": num.step_control == "fixed", "accuracy": num.accuracy, "k": case.k,
             "chi_ve": case.chi_ve, "lambda0": case.lambda0, "compliant": case.compliant,
@@ -168,12 +169,35 @@ def commands():
 COMMANDS = commands()
 
 
+@lru_cache(maxsize=None)
+def tracked_files():
+    """The paths git tracks in the repository, or None outside a git checkout (or without git)."""
+    if not (REPO / ".git").exists():
+        return None
+    try:
+        done = subprocess.run(["git", "-C", str(REPO), "ls-files", "-z"], capture_output=True,
+                              text=True, timeout=60)
+    except OSError:
+        return None
+    return set(done.stdout.split("\0")) - {""} if done.returncode == 0 else None
+
+
+def in_repository(path):
+    """Whether ``path`` (relative to the repository) is a tracked file or holds one; outside a
+    git checkout, whether it exists."""
+    tracked = tracked_files()
+    if tracked is None:
+        return (REPO / path).exists()
+    path = path.rstrip("/")
+    return path in tracked or any(name.startswith(path + "/") for name in tracked)
+
+
 @pytest.mark.parametrize("source, line", COMMANDS, ids=[f"{s}: {c[:50]}" for s, c in COMMANDS])
 def test_shell_commands_exist(source, line):
     words = shlex.split(line)
     for word in words:  # repository paths named in the command
         if re.match(r"(scripts|jobs)/", word):
-            assert (REPO / word).exists(), f"{source}: {word} does not exist"
+            assert in_repository(word), f"{source}: {word} is not in the repository (git)"
     if "hpcgfmd" not in words or "-m" not in words:
         return
     rest = words[words.index("hpcgfmd") + 1:]

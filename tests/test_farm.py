@@ -103,6 +103,12 @@ def test_farm_records_failures_goes_on_and_resumes(tmp_path):
     with h5py.File(tmp_path / "out" / "summary.h5", "r") as f:
         assert [v.decode() for v in f["status"][:]] == [rows[i]["status"] for i in range(4)]
         np.testing.assert_array_equal(f["index"][:], [0, 1, 2, 3])
+        units = {name: f[name].attrs.get("units") for name in
+                 ("pull_off_load", "detachment_indenter", "wall_time", "steps", "lambda0",
+                  "case.velocity", "status")}
+        assert units == {"pull_off_load": "E0 R", "detachment_indenter": "R", "wall_time": "s",
+                         "steps": "1", "lambda0": "1", "case.velocity": "as in the sweep file",
+                         "status": None}
     before = os.path.getmtime(tmp_path / "out" / rows[0]["file"])
     again = subprocess.run(farm_command(2, "sweep.toml", "-o", "out"), cwd=tmp_path,
                            capture_output=True, text=True, timeout=300, env=environment())

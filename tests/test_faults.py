@@ -377,6 +377,7 @@ def rank_pid(launcher, rank):
     raise AssertionError(f"no rank {rank} under mpirun {launcher}")
 
 
+@pytest.mark.slow
 @pytest.mark.mpi
 @pytest.mark.skipif(MPIRUN is None, reason="OpenMPI's mpirun is not installed")
 def test_killed_rank_ends_the_job_and_the_run_resumes_on_one_rank(tmp_path, whole):

@@ -17,15 +17,14 @@ from hpcgfmd.storage.checkpoint import (checkpoint_path, read_checkpoint, remove
 from hpcgfmd.model.case import parse_case
 from hpcgfmd.storage.casefile import SERIES, SERIES_UNITS, CaseFile
 
-from cases import case_text
+from cases import case_text, physical_text
 
 COMM = MPI.COMM_SELF
 CASE_TEXT = case_text("nx = 64", maugis=1.0, modulus_ratio=1.0)
 
 
-PHYSICAL_TEXT = ("[physical]\nradius = 1e-3\nmodulus_relaxed = 1e6\nmodulus_instantaneous = 1e7\n"
-                 "relaxation_time = 2.0\nwork_of_adhesion = 0.05\ninteraction_range = 1e-6\n"
-                 "velocity = 1e-6\ndepth = 3e-5\ncell_length = 2e-3\n[numerics]\nnx = 1024\n")
+PHYSICAL_TEXT = physical_text("nx = 1024", relaxation_time="2.0", interaction_range="1e-6",
+                              depth="3e-5", cell_length="2e-3")
 
 
 @pytest.fixture

@@ -11,8 +11,10 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "hpcgfmd"
 
 # Which parts each part may import (besides itself). The foundation (``errors``, ``signals``,
-# the package's ``__version__``) may be imported by every part.
-FOUNDATION = {"errors", "signals", "hpcgfmd", "__version__"}
+# the package's ``__version__``) may be imported by every part. The bare package is not: a
+# ``from hpcgfmd import x`` counts as an import of ``hpcgfmd.x``, and an ``import hpcgfmd``
+# (whose attribute uses cannot be followed here) only its own __init__ may make.
+FOUNDATION = {"errors", "signals", "__version__"}
 ALLOWED = {
     "errors": set(),
     "signals": set(),
@@ -60,12 +62,15 @@ def imported(path, source=None):
             if node.level:
                 base = package[:len(package) - node.level + 1]
                 target = ".".join(base + ([node.module] if node.module else []))
-                if node.module is None:  # from . import x: each x is a module or a name
-                    found += [f"{target}.{a.name}" for a in node.names]
-                    continue
             else:
                 target = node.module or ""
-            if target.split(".")[0] == "hpcgfmd":
+            if target.split(".")[0] != "hpcgfmd":
+                continue
+            if node.module is None or target == "hpcgfmd":
+                # from . import x, from .. import x, from hpcgfmd import x: each x is a module
+                # or a name of that package, so x decides the part (hpcgfmd.runs, not hpcgfmd)
+                found += [f"{target}.{a.name}" for a in node.names]
+            else:
                 found.append(target)
     # __init__'s lazy table names its modules as strings
     if path == PACKAGE / "__init__.py":
@@ -111,3 +116,18 @@ def test_an_upward_import_is_caught():
     casefile = PACKAGE / "storage" / "casefile.py"
     assert violations(casefile, "from hpcgfmd.solvers import cg\n") == ["hpcgfmd.solvers"]
     assert violations(casefile, "def f():\n    from ..runs import farm\n") == ["hpcgfmd.runs"]
+
+
+def test_an_import_through_the_package_root_is_caught():
+    # From the package root, the names imported decide the part: the root itself is not the
+    # foundation, only its __version__ is.
+    case = PACKAGE / "model" / "case.py"
+    assert violations(case, "from hpcgfmd import runs\n") == ["hpcgfmd.runs"]
+    assert violations(case, "from hpcgfmd import errors, runs as r, solvers\n") \
+        == ["hpcgfmd.runs", "hpcgfmd.solvers"]
+    assert violations(PACKAGE / "model" / "x.py", "from .. import runs\n") == ["hpcgfmd.runs"]
+    assert violations(case, "import hpcgfmd.runs\n") == ["hpcgfmd.runs"]
+    assert violations(case, "import hpcgfmd\n") == ["hpcgfmd"]
+    assert violations(case, "from hpcgfmd import __version__\n") == []
+    assert violations(case, "from .. import __version__, errors, signals\n") == []
+    assert violations(case, "from hpcgfmd.model import theory\n") == []

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from cases import case_text, whole_run
+from cases import case_text, physical_text, whole_run
 from hpcgfmd.errors import CaseError
 from hpcgfmd.model import theory
 from hpcgfmd.model.accuracy import STEP_SHARE
@@ -199,17 +199,9 @@ def test_bad_prony_keys_are_named(groups, message):
     assert str(err.value).startswith(message), str(err.value)
 
 
-PHYSICAL = """[physical]
-radius = 1e-3
-modulus_relaxed = 1e6
-relaxation_moduli = [3e6, 6e6]
-relaxation_times = [0.01, 0.145]
-work_of_adhesion = 0.05
-interaction_range = 1.94e-7
-velocity = 1e-6
-depth = 1e-4
-cell_length = 1e-2
-"""
+# The [physical] form with a two-term Prony series in place of the SLS's modulus and time
+PHYSICAL = physical_text(modulus_instantaneous=None, relaxation_time=None,
+                         relaxation_moduli="[3e6, 6e6]", relaxation_times="[0.01, 0.145]")
 
 
 def test_physical_prony_series_forms_the_groups_with_its_reference_time():

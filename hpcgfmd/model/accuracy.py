@@ -60,14 +60,12 @@ def fast_widening(chi_ve, k, lambda0):
 
     The zone width is proportional to the modulus the tip sees (w = pi E dmax / (4 sigma_a)):
     between the relaxed E0 and the glassy E0 / k, toward the latter as chi_ve / k, the
-    edge's speed against the retardation time, grows (the mirror of :func:`creep_factor`).
-    The paper's fast cases (glassy lambda 1.5 and 3) changed their pull-off by 0.02-0.06 %
-    from w/dx = 1.9 to 3.9 (docs/results.md, "Convergence"), twenty times less than the
-    elastic law says. Where the glassy tip is DMT-like (lambda0 k^(2/3) < 1: its zone wider
-    than its contact) the contact, not the zone, sets the grid: widened by 1.8-3 there,
-    lambda0 = 1 and 3.5 at k = 0.01, V_z = 100 and 10 were up to 8e-3 off at accuracy 5e-3.
-    Capped at FAST_CAP = 3 (validated up to it, docs/results.md, "The accuracy knob"); 1 for
-    the elastic solid.
+    edge's speed against the retardation time, grows (the mirror of :func:`creep_factor`):
+    the grid error of a fast retraction is far below the elastic law's at the relaxed w.
+    Where the glassy tip is DMT-like (lambda0 k^(2/3) < GLASSY_MAUGIS: its zone wider than
+    its contact) the contact, not the zone, sets the grid, and there is no widening.
+    Capped at FAST_CAP (validated up to it); 1 for the elastic solid. The measurements are
+    in docs/results.md ("Convergence", "The accuracy knob").
     """
     if k >= 1.0 or not chi_ve > 0.0 or lambda0 * k ** (2.0 / 3.0) < GLASSY_MAUGIS:
         return 1.0
@@ -82,15 +80,11 @@ def creep_factor(chi_ve, k):
     chi_ve / k measures the edge's speed against the retardation time tau / k (chi_ve,
     paper Eq. 22, against tau). Where it is small the contact edge creeps across the nodes,
     pinned by the grid between crossings, and the dissipation it sees follows that stick
-    and slip: the pull-off converges slower than on an elastic solid (order about 1.5) and
-    is off 2-3 times more at equal w/dx (lambda0 = 1 and 3.5, k = 0.1, chi_ve/k = 1: 7e-3
-    at w/dx = 4; docs/results.md, "The accuracy knob", grid errors). The factor was fitted to
-    the points those cases need (2.7 times the elastic law's at chi_ve/k = 1, 1.3 at 10, 1
-    from 20 on) and validated on others. Capped at 3 (reached at chi_ve / k = 0.74): the
-    relaxed limit is the elastic solid's (at chi_ve / k = 0.006 the grid error was that of
-    the elastic counterpart), so the cap over-resolves very slow retractions; where the
-    penalty falls back between 0.006 and 0.74 was not measured. 1 for the elastic solid
-    (k = 1).
+    and slip: the pull-off converges slower than on an elastic solid and is off more at
+    equal w/dx. The factor is fitted to the points such cases need and validated on others
+    (docs/results.md, "The accuracy knob"). Capped at CREEP_CAP: the relaxed limit is the
+    elastic solid's, so the cap over-resolves very slow retractions. 1 for the elastic
+    solid (k = 1).
     """
     if k >= 1.0 or not chi_ve > 0.0:
         return 1.0
@@ -115,13 +109,10 @@ def time_tolerance(accuracy):
     (:class:`~hpcgfmd.solvers.stepping.HistoryError`).
 
     The whole error in units of the relaxed pull-off, twice the steps' share: the estimates
-    are conservative. With the whole step error taken as persistent, the pull-off error let
-    through was about 0.35 of the allowance on creeping retractions (chi_ve ~ 1) and
-    0.05-0.1 on fast ones; with the kept error apart, every validation run stays within its
-    accuracy (docs/results.md, "The accuracy knob"), the creeping ones bound by the tip's lag.
-    The signed sum of the kept errors, an estimate rather than a bound, is held to half of it
-    (:data:`~hpcgfmd.solvers.stepping.KEPT_SHARE`): with all of it a two-branch Prony
-    series' pull-off erred by 2.2e-3 in time alone (docs/results.md, "Fast retractions").
+    are conservative (the pull-off error they let through is a fraction of the allowance).
+    The signed sum of the kept errors, an estimate rather than a bound, is held to
+    :data:`~hpcgfmd.solvers.stepping.KEPT_SHARE` of it. The validation is in
+    docs/results.md ("The accuracy knob", "Fast retractions").
     """
     return accuracy * PULL_OFF_SCALE
 
@@ -131,14 +122,11 @@ def solver_tolerance(accuracy, compliant=False):
     [1e-8, 1e-3] under displacement control, 0.02 accuracy within [1e-8, 1e-4] with a
     compliant drive or under load control.
 
-    The residual is a nodal maximum, and the load (its mean) errs far less: at accuracy 5e-3
-    the tolerance 1e-3 moved the paper's pull-offs by at most 5e-4 of themselves against
-    1e-4, with a fifth to a third fewer iterations (docs/results.md, "The paper's four
-    cases"). A drive that lets go where its spring line touches the load curve is decided
-    at a fold of the curve, where a load error moves the let-go point by its square root:
-    with a soft spring (k_s = 0.01 E0, elastic, nx 4096) 1e-3 put the pull-off 1.5e-3 off
-    the curve's minimum, 3e-4 and 1e-4 4e-5 and 6e-5 off; the compliant drive keeps the
-    tighter share.
+    The residual is a nodal maximum, and the load (its mean) errs far less, hence the
+    larger share under displacement control. A drive that lets go where its spring line
+    touches the load curve is decided at a fold of the curve, where a load error moves the
+    let-go point by its square root: the compliant drive keeps the tighter share. The
+    measurements are in docs/results.md ("The paper's four cases", the soft spring).
     """
     low, high = SOLVER_RANGE_COMPLIANT if compliant else SOLVER_RANGE
     return min(high, max(low, (SOLVER_SHARE_COMPLIANT if compliant else SOLVER_SHARE)

@@ -52,6 +52,10 @@ MIN_ZONE_POINTS = 1.0      # below this nx is rejected
 # image correction pi^2 a^2 / (6 L^2) to the load stays below 5 %.
 MIN_CELL_PER_CONTACT = 6.0
 DEFAULT_STEP_PER_RANGE = 0.25  # fixed steps: the indenter moves this fraction of dmax per step
+# The iteration cap of a solve: this many, plus the nodes across the geometric contact width
+# 2 sqrt(2 R h0) (contact_nodes): an active-set solve lets about one node per contact edge
+# off the wall per iteration, so the snap-off's last solve, which lets the whole remaining
+# contact go at dt_min, needs about as many iterations as the contact has nodes.
 DEFAULT_MAX_ITERATIONS = 5000
 DT_MIN_PER_DEFAULT = 1.0 / 64.0     # dt_min: this fraction of the first step (<= fixed one)
 FIRST_STEP_PER_DEFAULT = 1.0 / 16.0  # adaptive: the first step, doubling while errors allow
@@ -325,11 +329,12 @@ class Case:
     # --- construction -------------------------------------------------------------------
     @classmethod
     def from_toml(cls, source) -> "Case":
-        """The case of a case file (a path) or of its text (a string holding a ``[`` section).
+        """The case of a case file (a path: a ``pathlib.Path`` or a one-line string) or of its
+        text (a string of more than one line).
 
         Raises :class:`~hpcgfmd.errors.CaseError`, also for an unreadable file.
         """
-        if isinstance(source, os.PathLike) or (isinstance(source, str) and "[" not in source):
+        if isinstance(source, os.PathLike) or (isinstance(source, str) and "\n" not in source):
             return load_case(source)
         return parse_case(source)
 
@@ -375,7 +380,8 @@ class Case:
         return Numerics(
             nx=nx, nx_automatic=automatic, dt=dt, tolerance=tolerance, accuracy=accuracy,
             max_iterations=(_integer(num, "numerics", "max_iterations", 1)
-                            if "max_iterations" in num else DEFAULT_MAX_ITERATIONS),
+                            if "max_iterations" in num
+                            else DEFAULT_MAX_ITERATIONS + self.contact_nodes(nx)),
             solver=solver, step_control=step_control, dt_min=dt_min, dt_max=dt_max,
             edge_fraction=(_number(num, "numerics", "edge_fraction") if "edge_fraction" in num
                            else knob.edge_fraction(accuracy)),
@@ -416,6 +422,11 @@ class Case:
                             f" {points:.3g} points; at least {MIN_ZONE_POINTS:g} is needed"
                             f" (nx >= {need}; left out, nx follows [numerics] accuracy)")
         return nx, False
+
+    def contact_nodes(self, nx) -> int:
+        """Nodes of an nx grid across the geometric contact width 2 sqrt(2 R h0), which
+        bounds the contact (:data:`MIN_CELL_PER_CONTACT`)."""
+        return math.ceil(2.0 * math.sqrt(2.0 * self.depth) * nx / self.cell)
 
     def cell_key(self) -> str:
         """The case file's name for the cell length ([case] cell or [physical] cell_length)."""
@@ -722,6 +733,22 @@ def _groups_from_physical(t):
     if "drive_stiffness" in t:  # Pa (N/m per m of cylinder and m of travel) -> E0
         groups["drive_stiffness"] = _stiffness(t, "physical") / e0
     return groups, Units(length=radius, stress=e0, time=tau)
+
+
+def case_file_text(case: dict, numerics: dict | None = None, protocol=None) -> str:
+    """A case file's text (docs/case-file.md) from its ``[case]`` groups, its ``[numerics]``
+    keys and its ``[[protocol]]`` segments (a list of dicts), written by ``tomli_w``; numpy
+    scalars are written as the numbers they hold, tuples as lists."""
+    def plain(value):
+        if isinstance(value, np.generic):
+            return value.item()
+        return [plain(v) for v in value] if isinstance(value, (list, tuple)) else value
+    doc = {"case": {key: plain(value) for key, value in case.items()}}
+    if numerics:
+        doc["numerics"] = {key: plain(value) for key, value in numerics.items()}
+    if protocol:
+        doc["protocol"] = [dict(segment) for segment in protocol]
+    return tomli_w.dumps(doc)
 
 
 def parse_case(text: str) -> Case:

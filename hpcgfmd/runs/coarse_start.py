@@ -82,7 +82,7 @@ def prolong(coarse_full: np.ndarray, x_start: int, x_stop: int) -> np.ndarray:
     return 0.5 * (left + right)  # even nodes: left == right
 
 
-def coarse_start(case, domain, planner_effort: str):
+def coarse_start(case, domain, planner_effort: str, level):
     """Collective: this rank's block of the fine preload's start, or None (no coarser level).
 
     Parameters
@@ -93,6 +93,10 @@ def coarse_start(case, domain, planner_effort: str):
         The fine grid's domain (its communicator and this rank's block).
     planner_effort : str
         FFTW planner flag of the coarse levels' transforms.
+    level : callable
+        ``level(case, comm, planner_effort=...)`` builds a coarse level's protocol (the
+        caller's class, :class:`hpcgfmd.runs.protocol.Retraction`: a coarse level is an
+        ordinary preload, which starts from its own coarser level in turn).
 
     Returns
     -------
@@ -101,12 +105,10 @@ def coarse_start(case, domain, planner_effort: str):
     levels : list of (int, int)
         (n_x, preload iterations) of every coarser level solved, coarsest first.
     """
-    from .protocol import Retraction  # the coarse level is an ordinary preload
-
     nx = coarser_nx(case)
     if nx is None:
         return None, []
-    coarse = Retraction(coarse_case(case, nx), domain.comm, planner_effort=planner_effort)
+    coarse = level(coarse_case(case, nx), domain.comm, planner_effort=planner_effort)
     try:
         record = coarse.preload()
         levels = coarse.preload_levels + [(nx, record.iterations)]

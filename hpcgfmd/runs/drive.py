@@ -111,7 +111,7 @@ class CompliantDrive:
         """
         stiffness, tolerance = self.stiffness, self.tolerance
         watch = sim.edge_watch(dt)
-        edges_before = sim.edges
+        edges_before = sim.edges.current
         slope = self.slope if math.isfinite(self.slope) else -1.0
         iterations = 0
         previous = below = above = None  # (u_z, f); f > 0 below the root, < 0 above
@@ -126,7 +126,7 @@ class CompliantDrive:
             imbalance = record.load - self.force(sim.indenter, sim.drive)
             point = (sim.indenter, imbalance)
             if self.load_control and record.load == 0.0 and record.cohesive_half_width == 0.0:
-                sim.edges_previous = edges_before  # the load let go: the indenter flew off
+                sim.edges.previous = edges_before  # the load let go: the indenter flew off
                 record.iterations = iterations
                 return record
             if imbalance > 0.0:
@@ -140,7 +140,7 @@ class CompliantDrive:
                         and abs(imbalance * slope) <= tolerance * (stiffness - slope))
                     or (bracket and (above[0] - below[0]) * max(stiffness, abs(slope))
                         <= tolerance)):
-                sim.edges_previous = edges_before  # (each solve's record moved them)
+                sim.edges.previous = edges_before  # (each solve's record moved them)
                 record.iterations = iterations
                 return record
             target = self._next(sim, record, point, previous, below, above, bracket, bisect,

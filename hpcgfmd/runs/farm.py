@@ -40,6 +40,7 @@ from mpi4py import MPI
 from ..errors import (EXIT_FAILED_BASE, EXIT_RESUMABLE, CaseError, CaseFailure, Interrupted,
                       UsageError)
 from ..signals import StopSignals
+from ..storage.casefile import UNIT_NAMES
 from ..storage.checkpoint import checkpoint_path, usable_checkpoint
 from ..storage.lock import acquire_output_lock
 from ..storage.reader import read_series
@@ -51,6 +52,10 @@ SUMMARY_COLUMNS = ("index", "name", "status", "error", "lambda0", "lambda_inf", 
                    "chi_ve", "alpha", "depth", "cell", "nx", "pull_off_load", "pull_off_lbar",
                    "pull_off_contact_half_width", "pull_off_abar", "detachment_indenter",
                    "max_effective_work", "steps", "wall_time", "ranks", "file")
+# the dimension of each numeric summary column (storage.casefile.UNIT_NAMES; None: a number
+# of its own, the groups are dimensionless); swept columns keep the sweep file's values
+SUMMARY_DIMENSIONS = {"pull_off_load": "load", "pull_off_contact_half_width": "length",
+                      "detachment_indenter": "length"}
 
 
 def case_file(out_dir, item) -> str:
@@ -206,7 +211,7 @@ def _run_one(item, out_dir, group, say, stop):
 
 
 def _run_locked(item, path, record, group, say, stop):
-    """:func:`_run_one` once the case file's lock is held."""
+    """Collective over ``group``: :func:`_run_one` once the case file's lock is held."""
     # one reading of the file system for the whole group (caches may differ between nodes)
     status = group.bcast(file_status(path, item) if group.Get_rank() == 0 else None, root=0)
     if status == "finished":
@@ -367,11 +372,15 @@ def write_summary(sweep, out_dir, records):
     with open(os.path.join(out_dir, ".summary.lock"), "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         rows = summary_rows(sweep, out_dir, records)
-        _write_tables(out_dir, rows, sweep.swept)
+        forms = [item.case.form for item in sweep.cases if item.case is not None]
+        _write_tables(out_dir, rows, sweep.swept, forms[0] if forms else "case")
     return rows
 
 
-def _write_tables(out_dir, rows, swept):
+def _write_tables(out_dir, rows, swept, form):
+    """summary.csv and summary.h5 through private files; ``form``: the cases' input form
+    (the units of summary.h5's ``units`` attributes)."""
+    names = UNIT_NAMES[form]
     columns = list(SUMMARY_COLUMNS[:4]) + [k for k in swept] + list(SUMMARY_COLUMNS[4:])
     private = f".{os.getpid()}.tmp"
     csv_path = os.path.join(out_dir, "summary.csv")
@@ -395,5 +404,10 @@ def _write_tables(out_dir, rows, swept):
             else:
                 f.create_dataset(column, data=np.asarray([str(v) for v in values], dtype=object),
                                  dtype=h5py.string_dtype())
+                continue
+            f[column].attrs["units"] = (
+                "as in the sweep file" if column in swept
+                else "s" if column == "wall_time"
+                else names[SUMMARY_DIMENSIONS.get(column)])
         f.attrs["columns"] = columns
     os.replace(h5_path + private, h5_path)

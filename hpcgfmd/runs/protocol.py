@@ -33,18 +33,20 @@ import numpy as np
 
 from ..errors import NonConvergenceError
 from ..model.case import Case
-from ..model.interface import DugdaleMaugis, edge_positions
+from ..model.interface import DugdaleMaugis
 from ..model.loading import START_HEIGHT
 from ..model.material import ViscoelasticHalfSpace
 from ..model.prony import MaxwellHalfSpace
 from ..parallel.domain import Domain
 from ..parallel.fft import aligned_empty, plan_real_fft
-from ..solvers import EdgeWatch, make_solver
+from ..solvers import make_solver
 from ..solvers.predictor import Predictor
-from ..solvers.step_kernels import all_beyond, interaction_state
-from ..solvers.stepping import HistoryError, make_step_control
+from ..solvers.step_kernels import all_beyond
+from ..solvers.stepping import make_step_control
 from .coarse_start import coarse_start
+from .contact_edges import ContactEdges
 from .drive import CompliantDrive
+from .history_window import HistoryWindow
 from .schedule import Schedule
 
 
@@ -68,6 +70,18 @@ class StepRecord:
         return {**self.__dict__, "applied_load": self.drive}
 
 
+def non_finite_report(sim, residual):
+    """Collective: one line naming the step, the time and the state arrays of ``sim`` (a
+    :class:`Retraction`) that hold non-finite values (after a solve whose residual was not
+    finite)."""
+    names = ("u", "history", "substrate_traction", "traction")
+    bad = sim.domain.maxes(*(float(not np.isfinite(getattr(sim, name)).all())
+                             for name in names))
+    where = ", ".join(name for name, flag in zip(names, bad) if flag) or "none of the state"
+    return (f"step {sim.step_index} (t = {sim.time:.6g} tau): the equilibrium solve's"
+            f" residual is {residual}; non-finite values in: {where}")
+
+
 class Retraction:
     """State and stepping of one case on the ranks of ``comm``.
 
@@ -81,8 +95,7 @@ class Retraction:
         FFTW planner flag (FFTW_MEASURE for runs, FFTW_ESTIMATE for quick tests).
     """
 
-    FIELDS = ("u", "u_previous", "u_older", "substrate_traction", "traction",
-              "history_curvature", "history_correction")
+    FIELDS = ("u", "u_previous", "substrate_traction", "traction") + HistoryWindow.FIELDS
 
     def __init__(self, case: Case, comm, planner_effort="FFTW_MEASURE"):
         self.case = case
@@ -106,8 +119,9 @@ class Retraction:
         self.steps = make_step_control(case)
         self.predictor = Predictor(self.domain, 4.0 * case.zone_width / case.k)
         # the history's time error, estimated where the step control uses it
-        self.history_error = (HistoryError(self.substrate, self.fft, self.domain)
-                              if self.steps.adaptive and case.k < 1.0 else None)
+        self.history_window = (HistoryWindow(self.substrate, self.fft, self.domain,
+                                             self.profile, case.dmax)
+                               if self.steps.adaptive and case.k < 1.0 else None)
         n = self.domain.local_n  # from here on: this rank's block
         # (aligned: the serial transform reads u and writes the history in place)
         self.u = aligned_empty(n)  # surface displacement, upward positive
@@ -128,13 +142,7 @@ class Retraction:
         self.preload_iterations = 0
         self.preload_levels = []  # (nx, iterations) of the coarser preload levels (coarse_start)
         self.dt_previous = None  # length of the last accepted step (None after the preload)
-        self.edges = (np.nan, np.nan)  # contact edges of the last step
-        self.edges_previous = None
-        self._older = None  # (u, time, indenter) of the accepted step before the last
-        # interaction states (_state_at) of u_older and u_n when known, and of the last
-        # attempt's two latest states, which become them when it is accepted
-        self._states = (None, None)
-        self._attempt_states = None
+        self.edges = ContactEdges()  # of the last two steps
         self._reverted = ("u", "u_previous", "substrate_traction", "traction",
                           *self.substrate.field_names())
         self._saved = {name: np.empty(n) for name in self._reverted}
@@ -156,7 +164,7 @@ class Retraction:
         if result.abandoned:
             return None
         if not math.isfinite(result.residual):  # a reduced value: every rank raises
-            raise FloatingPointError(self._non_finite_report(result.residual))
+            raise FloatingPointError(non_finite_report(self, result.residual))
         if not result.converged:
             raise NonConvergenceError(
                 f"step {self.step_index} (t = {self.time:.6g}): residual {result.residual:.3g}"
@@ -171,26 +179,12 @@ class Retraction:
                               self.substrate_traction)
         return self._record(result, dt)
 
-    def _non_finite_report(self, residual):
-        """Collective: one line naming the step, the time and the state arrays that hold
-        non-finite values (after a solve whose residual was not finite)."""
-        names = ("u", "history", "substrate_traction", "traction")
-        bad = self.domain.maxes(*(float(not np.isfinite(getattr(self, name)).all())
-                                  for name in names))
-        where = ", ".join(name for name, flag in zip(names, bad) if flag) or "none of the state"
-        return (f"step {self.step_index} (t = {self.time:.6g} tau): the equilibrium solve's"
-                f" residual is {residual}; non-finite values in: {where}")
-
     def _record(self, result, dt):
-        gap = self.wall - self.u
-        left, right = edge_positions(self.domain, gap, 0.0, 1.5)
-        self.edges_previous, self.edges = self.edges, (left, right)
-        zl, zr = edge_positions(self.domain, gap, self.case.dmax, 1.0)
+        contact, zone = self.edges.record(self.domain, self.wall - self.u, self.case.dmax)
         return StepRecord(time=self.time, indenter=self.indenter, drive=self.drive,
                           segment=self.schedule.index,
                           load=-self.domain.sum(self.traction.sum()) * self.dx,
-                          contact_half_width=0.5 * (right - left) if left == left else 0.0,
-                          cohesive_half_width=0.5 * (zr - zl) if zl == zl else 0.0,
+                          contact_half_width=contact, cohesive_half_width=zone,
                           iterations=result.iterations, residual=result.residual, dt=dt)
 
     # --- protocol ----------------------------------------------------------------------
@@ -204,7 +198,7 @@ class Retraction:
             self.u[:] = 0.0
         else:
             start, self.preload_levels = coarse_start(self.case, self.domain,
-                                                      self.planner_effort)
+                                                      self.planner_effort, type(self))
             if start is not None:
                 self.u[:] = start
         record = self._equilibrate(self.substrate.operators(math.inf), 0.0,
@@ -227,14 +221,13 @@ class Retraction:
         dt, end = self.schedule.cut(self.time, proposed)
         while True:
             self._save()
-            self._attempt_states = None
             record = self._advance(dt, end)
             if record is None:  # abandoned: its edges moved too far, the verdict is known
                 decision = self.steps.judge(dt, self.time, None, math.inf)
             else:
                 step_error, kept = self._history_error()
                 decision = self.steps.judge(
-                    dt, record.time, record.load, self._edge_motion(), step_error,
+                    dt, record.time, record.load, self.edges.motion(), step_error,
                     record.cohesive_half_width - record.contact_half_width, kept)
             if decision.accepted:
                 break
@@ -246,16 +239,10 @@ class Retraction:
             # a step cut short by the segment's end: the next one as proposed before the cut
             self.steps.dt = max(self.steps.dt, proposed)
         self.steps.accept(record.time, record.load)
-        if self.history_error is not None:
-            # the substrate traction the exact-for-quadratic history gives (HistoryError)
-            self.history_error.correct(self.substrate_traction)
-            # u_n, t_n and u_z,n become the older state
-            if self._older is None:
-                self._older = (np.empty_like(self.u), 0.0, 0.0)
-            self._older[0][:] = self._saved["u"]
-            self._older = (self._older[0], float(self._saved_attrs["time"]),
-                           float(self._saved_attrs["indenter"]))
-            self._states = self._attempt_states or (None, None)
+        if self.history_window is not None:  # the corrected history; u_n becomes u_{n-1}
+            self.history_window.accept(self.substrate_traction, self._saved["u"],
+                                       self._saved_attrs["time"],
+                                       self._saved_attrs["indenter"])
         if self.spring is not None:
             self.spring.accept(float(self._saved_attrs["indenter"]), self.indenter,
                                record.load, dt)
@@ -264,33 +251,12 @@ class Retraction:
 
     def _history_error(self):
         """Collective: the load error of the last step's history and the part of it kept in
-        the history after the correction (:meth:`HistoryError.estimate`; 0 without one)."""
-        if self.history_error is None:
+        the history after the correction (:class:`HistoryWindow`; 0 without one)."""
+        if self.history_window is None:
             return 0.0, 0.0
-        self.history_error.forget()
-        if self._older is None:
-            return 0.0, 0.0
-        older, time_older, indenter_older = self._older
-        time_before = float(self._saved_attrs["time"])
-        indenter_before = float(self._saved_attrs["indenter"])
-        state_older, state_before = self._states
-        if state_older is None:
-            state_older = self._state_at(older, indenter_older)
-        if state_before is None:
-            state_before = self._state_at(self._saved["u"], indenter_before)
-        state = self._state_at(self.u, self.indenter)
-        self._attempt_states = (state_before, state)
-        return self.history_error.estimate(
-            older, time_older, state_older, self._saved["u"], time_before, state_before,
-            self.u, self.time, state)
-
-    def _state_at(self, u, indenter):
-        """Each node's interaction state for displacement u under the indenter at
-        ``indenter``: 2 on the wall, 1 in the cohesive zone (0 < gap < dmax), 0 beyond the
-        range (int8)."""
-        state = np.empty(u.shape, dtype=np.int8)
-        interaction_state(self.profile, indenter, u, self.case.dmax, state)
-        return state
+        return self.history_window.estimate(
+            self._saved["u"], float(self._saved_attrs["time"]),
+            float(self._saved_attrs["indenter"]), self.u, self.time, self.indenter)
 
     def _advance(self, dt, end=None) -> StepRecord | None:
         """One step of length dt from the current state (paper Eq. 14; docs/model.md (M8), (M40)),
@@ -323,7 +289,7 @@ class Retraction:
                     else self.schedule.rate() * dt)
             self.predictor.start(
                 self.u, self.wall, gap_before, contact, rise, ratio,
-                self.edges, self.edges_previous,
+                self.edges.current, self.edges.previous,
                 lambda v, k_v=None: self.solver.energy(v, self.wall, ops, self.history,
                                                        stiffness_u=k_v),
                 self.substrate.state_elastic_traction(dt, self._stiffness_u))
@@ -338,23 +304,7 @@ class Retraction:
 
     def edge_watch(self, dt):
         """The limit on the solve's edge motion, or None (no contact before, or at dt_min)."""
-        limit = self.steps.edge_limit(dt)
-        left, right = self.edges
-        if not (math.isfinite(limit) and math.isfinite(left) and math.isfinite(right)):
-            return None
-        return EdgeWatch(left, right, limit)
-
-    def _edge_motion(self):
-        """Largest contact-edge displacement of the last step; inf if the contact (dis)appeared."""
-        if self.edges_previous is None:
-            return math.nan
-        before = np.isfinite(self.edges_previous)
-        after = np.isfinite(self.edges)
-        if not before.any() and not after.any():
-            return math.nan
-        if not (before.all() and after.all()):
-            return math.inf
-        return float(np.max(np.abs(np.subtract(self.edges, self.edges_previous))))
+        return self.edges.watch(self.steps.edge_limit(dt))
 
     def _save(self):
         """Keep the state before a step, to undo a rejected one (the fields :meth:`_revert`
@@ -401,32 +351,19 @@ class Retraction:
         solver's state.
         """
         u_previous, attrs = self.predictor.state(self.u)
+        window = self.history_window
         fields = {"u": self.u, "substrate_traction": self.substrate_traction,
                   "traction": self.traction, "u_previous": u_previous,
-                  "u_older": self._older[0] if self._older else self._absent,
-                  "history_curvature": (self.history_error.smooth_curvature
-                                        if self.history_error else self._absent),
-                  "history_correction": (self.history_error.previous_correction
-                                         if self.history_error else self._absent)}
+                  **(window.fields(self._absent) if window
+                     else dict.fromkeys(HistoryWindow.FIELDS, self._absent))}
         fields.update(self.substrate.fields())
         attrs.update(time=self.time, indenter=self.indenter, step_index=self.step_index,
                      total_iterations=self.total_iterations, fft_pairs=self.fft.pairs,
                      rejected_steps=self.rejected_steps,
                      dt_previous=math.nan if self.dt_previous is None else self.dt_previous,
-                     edges=np.array(self.edges),
-                     edges_previous=np.array(self.edges_previous or (np.nan, np.nan)),
-                     has_edges_previous=self.edges_previous is not None,
-                     time_older=self._older[1] if self._older else math.nan,
-                     indenter_older=self._older[2] if self._older else math.nan,
-                     drive=self.drive,
-                     curvature_age=(self.history_error.curvature_age if self.history_error
-                                    else math.inf),
-                     curvature_time=(self.history_error.curvature_time if self.history_error
-                                     else -math.inf),
-                     has_previous_correction=bool(self.history_error
-                                                  and self.history_error.has_previous),
-                     previous_correction_reused=bool(self.history_error
-                                                     and self.history_error.previous_reused))
+                     **self.edges.attrs(),
+                     drive=self.drive)
+        attrs.update(window.attrs() if window else HistoryWindow.empty_attrs())
         attrs.update(self.solver.statistics())
         attrs.update(self.steps.state())
         if self.spring is not None:
@@ -453,16 +390,11 @@ class Retraction:
         # (checkpoints before protocols: the paper's retraction from the drive's start)
         self.schedule.restore(attrs, float(attrs.get("drive_start", -self.case.depth)))
         self.step_index = int(attrs["step_index"])
-        self.edges = tuple(float(v) for v in attrs["edges"])
-        self.edges_previous = (tuple(float(v) for v in attrs["edges_previous"])
-                                if attrs["has_edges_previous"] else None)
+        self.edges.restore(attrs)
         if statistics:
-            self._states = (None, None)
-            time_older = float(attrs.get("time_older", math.nan))
-            indenter_older = float(attrs.get(
-                "indenter_older", -self.case.depth + self.case.indenter_speed * time_older))
-            self._older = (None if math.isnan(time_older)
-                           else (fields["u_older"].copy(), time_older, indenter_older))
+            if self.history_window is not None:
+                self.history_window.restore(
+                    fields, attrs, lambda t: -self.case.depth + self.case.indenter_speed * t)
             self.predictor.restore(fields["u_previous"], attrs)
             self.total_iterations = int(attrs["total_iterations"])
             self.fft.pairs = int(attrs["fft_pairs"])
@@ -471,21 +403,6 @@ class Retraction:
             self.dt_previous = None if math.isnan(dt_previous) else dt_previous
             self.solver.restore_statistics(attrs)
             self.steps.restore(attrs)
-            if self.history_error is not None:  # (absent from checkpoints before it existed)
-                self.history_error.curvature_age = float(attrs.get("curvature_age", math.inf))
-                self.history_error.curvature_time = float(attrs.get("curvature_time",
-                                                                    -math.inf))
-                if "history_curvature" in fields:
-                    self.history_error.smooth_curvature[:] = fields["history_curvature"]
-                # (absent from checkpoints before the correction's error was estimated: the
-                # first estimate after the restart then bounds it by the step's error)
-                previous = "history_correction" in fields and bool(
-                    attrs.get("has_previous_correction", False))
-                self.history_error.has_previous = previous
-                self.history_error.previous_reused = bool(
-                    attrs.get("previous_correction_reused", False))
-                if previous:
-                    self.history_error.previous_correction[:] = fields["history_correction"]
         else:  # the predictor's u_{n-1} goes back too, its counters stay
             choices, rejected = self.predictor.choices, self.predictor.rejected
             self.predictor.restore(fields["u_previous"], attrs)

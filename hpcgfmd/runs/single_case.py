@@ -208,7 +208,7 @@ def _resume_from(newest, resume, comm):
 
 
 def _run(sim, case, path, comm, overwrite, resume, stop, start):
-    """The body of :func:`run_case` on a built :class:`Retraction`."""
+    """Collective: the body of :func:`run_case` on a built :class:`Retraction`."""
     dom = sim.domain
     checkpoint = checkpoint_path(path)
     schedule = SnapshotSchedule(case.output)

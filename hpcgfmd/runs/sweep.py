@@ -174,27 +174,7 @@ def parse_sweep(text: str, directory: str = ".", path: str = "") -> Sweep:
                              " [[cases]], [farm]")
     if "base" not in doc:
         raise SweepError("base: missing; give a case file name or [base.case] / [base.physical]")
-    base = doc["base"]
-    if isinstance(base, str):
-        base_path = os.path.join(directory, base)
-        try:
-            with open(base_path, "rb") as fh:
-                raw = fh.read()
-        except OSError as err:
-            raise SweepError(f"base = {doc['base']!r}: cannot read it ({err.strerror})") from None
-        except ValueError:  # a NUL character
-            raise SweepError(f"base = {doc['base']!r}: not a file name") from None
-        try:
-            base = tomllib.loads(raw.decode("utf-8"))
-        except UnicodeDecodeError:
-            raise SweepError(f"base = {doc['base']!r}: not UTF-8 text") from None
-        except RecursionError:
-            raise SweepError(f"base = {doc['base']!r}: not valid TOML: arrays or inline tables"
-                             " nested too deeply") from None
-        except ValueError as err:  # TOMLDecodeError, or int()'s limit of 4300 digits
-            raise SweepError(f"base = {doc['base']!r}: not valid TOML: {err}") from None
-    if not isinstance(base, dict) or not ({"case", "physical"} & set(base)):
-        raise SweepError("base: needs a [base.case] or [base.physical] section (or a case file)")
+    base = _read_base(doc["base"], directory)
     grid = doc.get("grid", {})
     if not isinstance(grid, dict):
         raise SweepError("grid: expected a section [grid] of key = [values]")
@@ -203,15 +183,49 @@ def parse_sweep(text: str, directory: str = ".", path: str = "") -> Sweep:
         raise SweepError("cases: expected [[cases]] tables")
     if not entries:
         raise SweepError("cases = []: expected at least one [[cases]] table (or none at all)")
-    grid = _flatten(grid)
     entries = [_flatten(e) for e in entries]
     axes = []
-    for key, values in grid.items():
+    for key, values in _flatten(grid).items():
         if not isinstance(values, list) or not values:
             raise SweepError(f"[grid] {_dotted(key)} = {values!r}: expected a non-empty list"
                              " of values")
         axes.append((_resolve(key, base), values))
-    farm = doc.get("farm", {})
+    ranks, output = _read_farm(doc.get("farm", {}))
+    cases, swept = _expand(base, entries, axes)
+    if all(c.case is None for c in cases):  # the base itself is wrong: say so at once
+        raise SweepError(f"no valid case; the first one: {cases[0].error}")
+    return Sweep(cases=cases, swept=swept, ranks_per_case=ranks, output=output, path=path)
+
+
+def _read_base(base, directory):
+    """The sweep's base case as a TOML table: given inline, or read from the case file it
+    names (relative to the sweep file's ``directory``)."""
+    given = base
+    if isinstance(base, str):
+        base_path = os.path.join(directory, base)
+        try:
+            with open(base_path, "rb") as fh:
+                raw = fh.read()
+        except OSError as err:
+            raise SweepError(f"base = {given!r}: cannot read it ({err.strerror})") from None
+        except ValueError:  # a NUL character
+            raise SweepError(f"base = {given!r}: not a file name") from None
+        try:
+            base = tomllib.loads(raw.decode("utf-8"))
+        except UnicodeDecodeError:
+            raise SweepError(f"base = {given!r}: not UTF-8 text") from None
+        except RecursionError:
+            raise SweepError(f"base = {given!r}: not valid TOML: arrays or inline tables"
+                             " nested too deeply") from None
+        except ValueError as err:  # TOMLDecodeError, or int()'s limit of 4300 digits
+            raise SweepError(f"base = {given!r}: not valid TOML: {err}") from None
+    if not isinstance(base, dict) or not ({"case", "physical"} & set(base)):
+        raise SweepError("base: needs a [base.case] or [base.physical] section (or a case file)")
+    return base
+
+
+def _read_farm(farm):
+    """([farm] ranks_per_case, [farm] output or None), checked."""
     if not isinstance(farm, dict):
         raise SweepError(f"farm = {farm!r}: expected a section [farm] of ranks_per_case, output")
     for key in farm:
@@ -224,7 +238,13 @@ def parse_sweep(text: str, directory: str = ".", path: str = "") -> Sweep:
     output = farm.get("output")
     if output is not None and not isinstance(output, str):
         raise SweepError(f"[farm] output = {output!r}: expected a directory name")
+    return ranks, output
 
+
+def _expand(base, entries, axes):
+    """(the sweep's cases, the swept keys in order of appearance): every [[cases]] entry
+    crossed with every point of the [grid] axes, each validated (an invalid case keeps its
+    error, the others run)."""
     cases, names, swept = [], {}, []
     for entry, point in itertools.product(entries, itertools.product(*[v for _, v in axes])):
         values = {}
@@ -258,9 +278,7 @@ def parse_sweep(text: str, directory: str = ".", path: str = "") -> Sweep:
         except CaseError as err:
             item.error = str(err)
         cases.append(item)
-    if all(c.case is None for c in cases):  # the base itself is wrong: say so at once
-        raise SweepError(f"no valid case; the first one: {cases[0].error}")
-    return Sweep(cases=cases, swept=swept, ranks_per_case=ranks, output=output, path=path)
+    return cases, swept
 
 
 def load_sweep(path) -> Sweep:

@@ -119,6 +119,8 @@ class CaseFile:
         attrs["dt_max"] = num.dt_max * case.units.time
         attrs["edge_fraction"] = num.edge_fraction
         attrs["load_tolerance"] = num.load_tolerance
+        attrs["time_tolerance"] = num.time_tolerance
+        attrs["accuracy"] = num.accuracy
         attrs["equilibration_steps"] = num.equilibration_steps
         attrs["beta"] = case.beta * case.units.length
         attrs["load_scale"] = case.load_scale * case.units.load

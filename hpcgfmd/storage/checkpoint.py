@@ -116,7 +116,8 @@ def usable_checkpoint(path) -> tuple[str | None, list[str]]:
 
 
 def _on_root(comm, action):
-    """Run ``action`` on rank 0; re-raise its error on every rank (so none waits forever)."""
+    """Collective: run ``action`` on rank 0; re-raise its error on every rank (so none
+    waits forever)."""
     error = None
     if comm.rank == 0:
         try:

@@ -87,7 +87,8 @@ def read_block(ds, start, stop):
 
 
 def check_blocks(comm, n, x_start, x_stop):
-    """Raise ValueError on every rank unless the ranks' blocks tile [0, n) in rank order."""
+    """Collective: raise ValueError on every rank unless the ranks' blocks tile [0, n) in
+    rank order."""
     blocks = comm.allgather((int(x_start), int(x_stop)))
     starts, stops = [a for a, _ in blocks], [b for _, b in blocks]
     if starts != [0] + stops[:-1] or stops[-1] != n or any(b < a for a, b in blocks):

@@ -22,6 +22,7 @@ import csv
 import hashlib
 import math
 import os
+import sys
 
 from ..errors import CaseError
 from ..model.case import parse_case
@@ -139,7 +140,7 @@ def main(comm, argv=None):
     specs, error = _specs(args)
     if error:
         if comm.Get_rank() == 0:
-            print(f"accuracy_study: error: {error}")
+            print(f"accuracy_study: error: {error}", file=sys.stderr)
         return 2
     folder = f"{args.out}-runs"
     if comm.Get_rank() == 0:

@@ -45,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CaseError
-from ..model.case import parse_case
+from ..model.case import case_file_text, parse_case
 from ..runs.protocol import Retraction
 from .distance import load_area_distances
 
@@ -66,7 +66,7 @@ SWEEP = (("accuracy=1e-2", {"accuracy": 1e-2}),
          ("accuracy=1e-3", {"accuracy": 1e-3}),
          ("fixed dt=dmax/(4 v_z)", {"step_control": "fixed"}))
 # pseudo steps per step of the paper's method: the slowest modes contract by about
-# exp(-E / (512 ln-units)) at 2^17 with Eeff = 10 E0 (hpcgfmd/gfmd.py)
+# exp(-E / (512 ln-units)) at 2^17 with Eeff = 10 E0 (hpcgfmd/solvers/verlet.py)
 PAPER_EQUILIBRATION = (2000, 8000)
 PAPER_STEPS = 4
 PAPER_TIME_STEPS = 20000  # longest fixed-step run for the paper method's time error
@@ -79,12 +79,8 @@ COLUMNS = ("case", "lambda0", "Vz", "solver", "label", "accuracy", "nx", "tolera
 
 
 def case_text(lambda0, vz, numerics, geometry=GEOMETRY):
-    lines = ["[case]", f"maugis = {lambda0!r}", f"velocity = {vz!r}"]
-    lines += [f"{key} = {value!r}" for key, value in geometry.items()]
-    lines.append("[numerics]")
-    lines += [f"{key} = {value!r}" if not isinstance(value, str) else f'{key} = "{value}"'
-              for key, value in numerics.items()]
-    return "\n".join(lines) + "\n"
+    """The case file of (lambda0, V_z) with the given ``[numerics]`` keys and geometry."""
+    return case_file_text({"maugis": lambda0, "velocity": vz, **geometry}, numerics)
 
 
 def run(text, comm, max_steps=None, progress=None):
@@ -366,7 +362,7 @@ def plot(rows, path, clock="wall"):
 
 def _parser():
     parser = argparse.ArgumentParser(prog="python -m hpcgfmd bench", description=__doc__.split(
-        "\n")[0])
+        "\n")[0], epilog="--quiet and --log FILE as for every command (before or after bench)")
     parser.add_argument("--cases", nargs="+", default=list(CASES),
                         help="lambda0:V_z pairs (default: the paper's hard and slow cases)")
     parser.add_argument("--nx", nargs="+", type=int, default=[16, 17],
