@@ -180,7 +180,7 @@ def run_here(args):
     """Measure every grid on COMM_WORLD and append the rows (rank 0 prints and writes)."""
     from mpi4py import MPI
 
-    from hpcgfmd.model import case as config
+    from hpcgfmd.model import numerics as config
 
     # Cost, not accuracy, is measured: accept the quick test grid 2^14 (w/dx = 0.97 < 1).
     config.MIN_ZONE_POINTS = 0.5

@@ -20,9 +20,10 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):  # one BLAS thread, as 
 
 from mpi4py import MPI  # noqa: E402
 
-from hpcgfmd.model import case as config  # noqa: E402
+from hpcgfmd.model import numerics as config  # noqa: E402
 from hpcgfmd.storage.reader import read_series  # noqa: E402
-from hpcgfmd.model.case import DEFAULT_STEP_PER_RANGE, case_file_text, parse_case  # noqa: E402
+from hpcgfmd.model.case import case_file_text, parse_case  # noqa: E402
+from hpcgfmd.model.numerics import DEFAULT_STEP_PER_RANGE  # noqa: E402
 from hpcgfmd.runs.single_case import run_case  # noqa: E402
 
 

@@ -11,7 +11,8 @@ import pytest
 
 import hpcgfmd
 from hpcgfmd.errors import CaseError
-from hpcgfmd.model.case import SOLVERS, parse_case
+from hpcgfmd.model.case import parse_case
+from hpcgfmd.model.numerics import SOLVERS
 from hpcgfmd.solvers import registered
 
 from cases import GROUPS, case_text, physical_text

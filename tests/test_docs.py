@@ -23,7 +23,8 @@ from pathlib import Path
 import pytest
 
 from hpcgfmd.errors import SweepError
-from hpcgfmd.model.case import NUMERICS_KEYS, OUTPUT_KEYS, parse_case
+from hpcgfmd.model.case import OUTPUT_KEYS, parse_case
+from hpcgfmd.model.numerics import NUMERICS_KEYS
 from hpcgfmd.runs.sweep import parse_sweep
 
 from cases import case_text, physical_text

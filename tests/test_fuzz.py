@@ -29,8 +29,8 @@ from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 from hpcgfmd.errors import CaseError, SweepError  # noqa: E402
-from hpcgfmd.model.case import (CASE_KEYS, MIN_TOLERANCE, NUMERICS_KEYS, OUTPUT_KEYS,  # noqa: E402
-                                PHYSICAL_KEYS, parse_case)
+from hpcgfmd.model.case import CASE_KEYS, OUTPUT_KEYS, PHYSICAL_KEYS, parse_case  # noqa: E402
+from hpcgfmd.model.numerics import MIN_TOLERANCE, NUMERICS_KEYS  # noqa: E402
 from hpcgfmd.runs.single_case import describe  # noqa: E402
 from hpcgfmd.runs.sweep import parse_sweep  # noqa: E402
 

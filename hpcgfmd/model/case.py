@@ -38,34 +38,17 @@ import numpy as np
 import tomli_w
 
 from ..errors import CaseError
-from . import accuracy as knob
 from . import theory
-from .grid import smallest_grid
+from .keys import (as_float, integer, number, numbers_list, quoted_key, shown,
+                   unknown_keys)
 from .loading import Segment, paper_protocol, parse_protocol
 from .material import StandardLinearSolid
+from .numerics import NUMERICS_KEYS, Numerics, resolve_numerics
 from .prony import GeneralizedMaxwell
 
-# Cohesive-zone resolution w/dx (w: relaxed zone width pi E0 dmax / (4 sigma_a)); the
-# accuracy it buys is measured in docs/results.md ("Grid and time-step convergence").
-MIN_ZONE_POINTS = 1.0      # below this nx is rejected
 # The geometric contact width sqrt(2 R h0) bounds a_c; with L >= 6 sqrt(2 R h0) the periodic
 # image correction pi^2 a^2 / (6 L^2) to the load stays below 5 %.
 MIN_CELL_PER_CONTACT = 6.0
-DEFAULT_STEP_PER_RANGE = 0.25  # fixed steps: the indenter moves this fraction of dmax per step
-# The iteration cap of a solve: this many, plus the nodes across the geometric contact width
-# 2 sqrt(2 R h0) (contact_nodes): an active-set solve lets about one node per contact edge
-# off the wall per iteration, so the snap-off's last solve, which lets the whole remaining
-# contact go at dt_min, needs about as many iterations as the contact has nodes.
-DEFAULT_MAX_ITERATIONS = 5000
-DT_MIN_PER_DEFAULT = 1.0 / 64.0     # dt_min: this fraction of the first step (<= fixed one)
-FIRST_STEP_PER_DEFAULT = 1.0 / 16.0  # adaptive: the first step, doubling while errors allow
-DT_MAX_DEPTH_FRACTION = 0.02        # dt_max: the indenter rises by this fraction of h0
-PAPER_EQUILIBRATION_PER_ROOT_N = 1024  # the paper authors' code: 256 * 4 * sqrt(nx) pseudo steps
-SOLVERS = ("cg", "paper")  # the names of hpcgfmd.solvers' registry
-STEP_CONTROLS = ("adaptive", "fixed")
-MIN_TOLERANCE = 1e-13      # the residual's round-off floor (max norm relative to sigma_a)
-BYTES_PER_POINT = 320      # about 40 float64 work arrays per grid point
-BYTES_PER_BRANCH = 24      # a Prony branch's traction, its step start and its undo copy
 MEAN_TIME_TOLERANCE = 1e-6  # [case] relaxation_times: their weighted mean is 1 to this
 
 CASE_KEYS = ("maugis", "modulus_ratio", "velocity", "depth", "cell", "adhesion")
@@ -73,9 +56,6 @@ PHYSICAL_KEYS = ("radius", "modulus_relaxed", "modulus_instantaneous", "relaxati
                  "work_of_adhesion", "interaction_range", "velocity", "depth", "cell_length")
 PRONY_KEYS = ("relaxation_moduli", "relaxation_times")  # [case] and [physical]
 DRIVE_KEYS = ("drive_stiffness",)  # [case] (in E0) and [physical] (in Pa): the compliant drive
-NUMERICS_KEYS = ("accuracy", "nx", "dt", "tolerance", "max_iterations", "solver",
-                 "step_control", "dt_min", "dt_max", "edge_fraction", "load_tolerance",
-                 "time_tolerance", "equilibration_steps")
 OUTPUT_KEYS = ("snapshot_times", "snapshot_contact_widths", "snapshot_zero_load",
                "progress_interval", "checkpoint_interval", "checkpoint_steps")
 SECTIONS = {"case": CASE_KEYS + PRONY_KEYS + DRIVE_KEYS,
@@ -101,32 +81,6 @@ class Units:
     def load(self) -> float:
         """Load per unit length: E0 R."""
         return self.stress * self.length
-
-
-@dataclass(frozen=True)
-class Numerics:
-    """Discretisation: grid points, time steps (internal units of tau), solver and its tolerance.
-
-    With ``step_control = "adaptive"`` ``dt`` is the first step; ``edge_fraction`` (of the
-    relaxed cohesive-zone width) and ``load_tolerance`` (in load scales) are the error
-    targets of :mod:`hpcgfmd.solvers.stepping`. ``equilibration_steps`` is the paper solver's
-    fixed number of pseudo time steps per time step.
-    """
-
-    nx: int
-    nx_automatic: bool
-    dt: float
-    tolerance: float
-    max_iterations: int
-    accuracy: float = knob.DEFAULT_ACCURACY
-    solver: str = "cg"
-    step_control: str = "adaptive"
-    dt_min: float = 0.0
-    dt_max: float = math.inf
-    edge_fraction: float = 0.5
-    load_tolerance: float = 0.01
-    time_tolerance: float = 0.01
-    equilibration_steps: int = 0
 
 
 @dataclass(frozen=True)
@@ -206,12 +160,12 @@ class Case:
             stiffness = self.drive_stiffness
             if not (isinstance(stiffness, (int, float)) and not isinstance(stiffness, bool)
                     and stiffness == 0.0):  # 0 is load control
-                stiffness = _number({"drive_stiffness": stiffness}, section, "drive_stiffness")
+                stiffness = number({"drive_stiffness": stiffness}, section, "drive_stiffness")
             object.__setattr__(self, "drive_stiffness", float(stiffness))
         if self.form == "case":
             groups = {key: getattr(self, key) for key in CASE_KEYS}
             for key in CASE_KEYS:
-                object.__setattr__(self, key, _number(groups, "case", key))
+                object.__setattr__(self, key, number(groups, "case", key))
             if self.modulus_ratio > 1.0:
                 raise CaseError(f"[case] modulus_ratio = {self.modulus_ratio}: expected"
                                 " k = E0/Einf in (0, 1] (1 is the elastic solid)")
@@ -223,7 +177,7 @@ class Case:
                             f" small for the contact; need L >= {MIN_CELL_PER_CONTACT:g}"
                             f" sqrt(2 R h0) = {min_cell * self.units.length:.4g}")
         if not isinstance(self.numerics, Numerics):
-            object.__setattr__(self, "numerics", self._resolve_numerics(self.numerics or {}))
+            object.__setattr__(self, "numerics", resolve_numerics(self, self.numerics or {}))
         if not isinstance(self.output, Output):
             object.__setattr__(self, "output", _resolve_output(self.output or {}, self.units))
         if not self.text:  # built from keywords: the case file that gives this case
@@ -247,7 +201,7 @@ class Case:
         if self.form == "case" and not abs(mean - 1.0) <= MEAN_TIME_TOLERANCE:
             scaled = ", ".join(f"{t / mean:.10g}" for t in times)
             raise CaseError(
-                f"[case] relaxation_times = {_fmt(list(times))}: expected times in units of the"
+                f"[case] relaxation_times = {shown(list(times))}: expected times in units of the"
                 " reference time sum E_i tau_i / sum E_i, whose mean weighted by"
                 f" relaxation_moduli is 1; these average {mean:.10g}: the same solid is"
                 f" relaxation_times = [{scaled}] with velocity times {mean:.10g}")
@@ -255,7 +209,7 @@ class Case:
         given = self.modulus_ratio
         if given is not None and (isinstance(given, bool) or not isinstance(given, (int, float))
                                   or not abs(given - k) <= 1e-12 * k):
-            raise CaseError(f"[{section}] modulus_ratio = {_fmt(given)}: a Prony series sets"
+            raise CaseError(f"[{section}] modulus_ratio = {shown(given)}: a Prony series sets"
                             f" k = 1 / (1 + sum of relaxation_moduli) = {k:.12g}; leave"
                             " modulus_ratio out")
         object.__setattr__(self, "relaxation_moduli", moduli)
@@ -337,96 +291,6 @@ class Case:
         if isinstance(source, os.PathLike) or (isinstance(source, str) and "\n" not in source):
             return load_case(source)
         return parse_case(source)
-
-    def _resolve_numerics(self, num: dict) -> Numerics:
-        """``[numerics]`` keys (case units) -> :class:`Numerics` (internal units), defaults."""
-        _unknown(num, "numerics", NUMERICS_KEYS)
-        accuracy = (_number(num, "numerics", "accuracy") if "accuracy" in num
-                    else knob.DEFAULT_ACCURACY)
-        if not accuracy < 0.1:
-            raise CaseError(f"[numerics] accuracy = {accuracy}: expected a relative error in"
-                            " (0, 0.1)")
-        nx, automatic = self._grid(num, accuracy)
-        time_unit = self.units.time
-        solver = _choice(num, "numerics", "solver", SOLVERS)
-        step_control = _choice(num, "numerics", "step_control", STEP_CONTROLS)
-        speed = self.Vz * self.alpha ** (2.0 / 3.0)  # v_z = V_z beta^2, beta^2 = alpha^(2/3)
-        dmax = self.alpha ** (2.0 / 3.0) / self.lambda0
-        fixed_default = DEFAULT_STEP_PER_RANGE * dmax / speed
-        # adaptive steps start short: the retraction starts with the steepest load change
-        dt = (_number(num, "numerics", "dt") / time_unit if "dt" in num
-              else fixed_default * (1.0 if step_control == "fixed" else FIRST_STEP_PER_DEFAULT))
-        dt_min = (_number(num, "numerics", "dt_min") / time_unit if "dt_min" in num
-                  else DT_MIN_PER_DEFAULT * min(dt, fixed_default))
-        dt_max = (_number(num, "numerics", "dt_max") / time_unit if "dt_max" in num
-                  else max(DT_MAX_DEPTH_FRACTION * self.depth / speed, dt))
-        for key, value in (("dt", dt), ("dt_min", dt_min)):  # over- or underflowed
-            if not 0.0 < value < math.inf:
-                given = f" = {_fmt(num[key])}" if key in num else " (default)"
-                raise CaseError(f"[numerics] {key}{given}: {value:g} relaxation times, out of"
-                                " the floating-point range; expected a step finite and > 0")
-        if dt_min > dt_max:
-            raise CaseError(f"[numerics] dt_min = {dt_min * time_unit:g}: must not exceed"
-                            f" dt_max = {dt_max * time_unit:g}")
-        if "equilibration_steps" in num:
-            equilibration = _integer(num, "numerics", "equilibration_steps", 1)
-        else:
-            equilibration = round(PAPER_EQUILIBRATION_PER_ROOT_N * math.sqrt(nx))
-        tolerance = (_number(num, "numerics", "tolerance") if "tolerance" in num
-                     else knob.solver_tolerance(accuracy, self.compliant))
-        if not MIN_TOLERANCE <= tolerance < 1e-2:
-            raise CaseError(f"[numerics] tolerance = {tolerance}: expected a number in"
-                            f" [{MIN_TOLERANCE:g}, 0.01)")
-        return Numerics(
-            nx=nx, nx_automatic=automatic, dt=dt, tolerance=tolerance, accuracy=accuracy,
-            max_iterations=(_integer(num, "numerics", "max_iterations", 1)
-                            if "max_iterations" in num
-                            else DEFAULT_MAX_ITERATIONS + self.contact_nodes(nx)),
-            solver=solver, step_control=step_control, dt_min=dt_min, dt_max=dt_max,
-            edge_fraction=(_number(num, "numerics", "edge_fraction") if "edge_fraction" in num
-                           else knob.edge_fraction(accuracy)),
-            load_tolerance=(_number(num, "numerics", "load_tolerance")
-                            if "load_tolerance" in num else knob.load_tolerance(accuracy)),
-            time_tolerance=(_number(num, "numerics", "time_tolerance")
-                            if "time_tolerance" in num else knob.time_tolerance(accuracy)),
-            equilibration_steps=equilibration)
-
-    def _grid(self, num, accuracy):
-        """(nx, chosen automatically): given and checked, or the smallest grid size
-        (:func:`~hpcgfmd.model.grid.smallest_grid`: f 2^a, f in {1, 3, 9}) with the zone
-        points :func:`~hpcgfmd.model.accuracy.zone_points` of ``accuracy`` (and of the
-        retraction's rate) across the relaxed cohesive zone (:attr:`zone_width`)."""
-        width = self.zone_width
-        if "nx" not in num:
-            try:
-                points = knob.zone_points(accuracy, self.chi_ve, self.k, self.lambda0)
-            except ZeroDivisionError:  # a subnormal accuracy underflows to 0
-                points = math.inf
-            if not math.isfinite(points):
-                raise CaseError(f"[numerics] accuracy = {accuracy:g}: the grid it needs is out of"
-                                " the floating-point range; expected a relative error in (0, 0.1)"
-                                " of a size a grid can reach")
-            nx = smallest_grid(_log2_ratio(points, self.cell, width))
-            _check_memory(nx, True, len(self.relaxation_moduli))
-            return nx, True
-        nx = num["nx"]
-        if isinstance(nx, bool) or not isinstance(nx, int) or nx < 64 or nx % 2:
-            raise CaseError(f"[numerics] nx = {_fmt(nx)}: expected an even integer >= 64")
-        _check_memory(nx, False, len(self.relaxation_moduli))  # first: nx may exceed floats
-        points = width / (self.cell / nx)
-        if points < MIN_ZONE_POINTS:
-            ratio = MIN_ZONE_POINTS * self.cell / width  # inf when beyond the float range
-            need = (max(64, 2 * math.ceil(ratio / 2)) if math.isfinite(ratio)
-                    else smallest_grid(_log2_ratio(MIN_ZONE_POINTS, self.cell, width)))
-            raise CaseError(f"[numerics] nx = {nx}: resolves the cohesive zone with"
-                            f" {points:.3g} points; at least {MIN_ZONE_POINTS:g} is needed"
-                            f" (nx >= {need}; left out, nx follows [numerics] accuracy)")
-        return nx, False
-
-    def contact_nodes(self, nx) -> int:
-        """Nodes of an nx grid across the geometric contact width 2 sqrt(2 R h0), which
-        bounds the contact (:data:`MIN_CELL_PER_CONTACT`)."""
-        return math.ceil(2.0 * math.sqrt(2.0 * self.depth) * nx / self.cell)
 
     def cell_key(self) -> str:
         """The case file's name for the cell length ([case] cell or [physical] cell_length)."""
@@ -533,25 +397,6 @@ class Case:
         return groups
 
 
-def _log2_ratio(a, b, c):
-    """log2(a b / c), also where a b / c leaves the float range (in logarithms then)."""
-    ratio = a * b / c
-    if 0.0 < ratio < math.inf:
-        return math.log2(ratio)
-    return math.log2(a) + math.log2(b) - math.log2(c)
-
-
-def _check_memory(nx, automatic, branches=0):
-    memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    size = nx * (BYTES_PER_POINT + BYTES_PER_BRANCH * branches)
-    if size > memory:
-        gib = (f"{size / 2**30:.1f}" if size.bit_length() < 1000  # else beyond float range
-               else f"2^{size.bit_length() - 31}")
-        raise CaseError(f"[numerics] nx = {nx}{' (automatic)' if automatic else ''}: needs"
-                        f" about {gib} GiB, more than the {memory / 2**30:.1f} GiB of this"
-                        " machine")
-
-
 def _finite_scales(where, scales):
     """CaseError unless each derived scale (name -> function) is finite and > 0."""
     for name, scale in scales.items():
@@ -564,42 +409,6 @@ def _finite_scales(where, scales):
                             " expected values whose derived scales are finite and > 0")
 
 
-def quoted_key(name) -> str:
-    """A key or section name as written, quoted unless it is a bare TOML key."""
-    return name if name and all(c.isascii() and (c.isalnum() or c in "_-") for c in name) \
-        else repr(name)
-
-
-def _float(value) -> float:
-    """float(value); inf for an integer beyond the float range."""
-    try:
-        return float(value)
-    except OverflowError:
-        return math.inf
-
-
-def _fmt(value) -> str:
-    if isinstance(value, str):
-        return repr(value)
-    if isinstance(value, bool):
-        return str(value).lower()
-    return str(value)
-
-
-def _number(table, section, key):
-    """A finite number > 0 from ``table[key]`` (CaseError naming the key otherwise)."""
-    if key not in table:
-        raise CaseError(f"[{section}] {key} is missing: a number > 0 is required")
-    value = table[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected a number")
-    number = _float(value)
-    if not math.isfinite(number) or number <= 0.0:
-        shown = value if isinstance(value, int) and math.isinf(number) else number  # as written
-        raise CaseError(f"[{section}] {key} = {_fmt(shown)}: expected a finite number > 0")
-    return number
-
-
 def _positive_list(value, section, key):
     """A tuple of finite numbers > 0 from a non-empty list (CaseError naming the key)."""
     if value is None:
@@ -607,8 +416,8 @@ def _positive_list(value, section, key):
                         " relaxation_moduli and relaxation_times")
     if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) == 0 \
             or any(isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real)
-                   or not 0.0 < _float(v) < math.inf for v in value):
-        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected a non-empty list of"
+                   or not 0.0 < as_float(v) < math.inf for v in value):
+        raise CaseError(f"[{section}] {key} = {shown(value)}: expected a non-empty list of"
                         " finite numbers > 0")
     return tuple(float(v) for v in value)
 
@@ -618,7 +427,7 @@ def _prony_series(moduli, times, section):
     moduli = _positive_list(moduli, section, "relaxation_moduli")
     times = _positive_list(times, section, "relaxation_times")
     if len(moduli) != len(times):
-        raise CaseError(f"[{section}] relaxation_times = {_fmt(list(times))}: expected as"
+        raise CaseError(f"[{section}] relaxation_times = {shown(list(times))}: expected as"
                         f" many times as relaxation_moduli ({len(moduli)})")
     return moduli, times
 
@@ -629,9 +438,9 @@ def _stiffness(table, section):
     if isinstance(value, (int, float)) and not isinstance(value, bool) and value == 0:
         return 0.0
     try:
-        return _number(table, section, "drive_stiffness")
+        return number(table, section, "drive_stiffness")
     except CaseError:
-        raise CaseError(f"[{section}] drive_stiffness = {_fmt(value)}: expected a finite"
+        raise CaseError(f"[{section}] drive_stiffness = {shown(value)}: expected a finite"
                         " number > 0 (a spring) or 0 (load control)") from None
 
 
@@ -640,53 +449,22 @@ def _plain(value):
     return list(value) if isinstance(value, tuple) else value
 
 
-def _integer(table, section, key, smallest):
-    value = table[key]
-    if isinstance(value, bool) or not isinstance(value, int) or value < smallest:
-        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected an integer >= {smallest}")
-    return value
-
-
-def _choice(table, section, key, accepted):
-    value = table.get(key, accepted[0])
-    if value not in accepted:
-        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected one of"
-                        f" {', '.join(repr(a) for a in accepted)}")
-    return value
-
-
-def _unknown(table, section, allowed):
-    for key in table:
-        if key not in allowed:
-            raise CaseError(f"[{section}] {quoted_key(key)}: unknown key; accepted:"
-                            f" {', '.join(allowed)}")
-
-
-def _numbers_list(table, section, key, units_scale):
-    value = table.get(key, [])
-    if not isinstance(value, list) or any(isinstance(v, bool) or not isinstance(v, (int, float))
-                                          or not math.isfinite(_float(v)) or v < 0
-                                          for v in value):
-        raise CaseError(f"[{section}] {key} = {_fmt(value)}: expected a list of numbers >= 0")
-    return tuple(sorted(float(v) / units_scale for v in value))
-
-
 def _resolve_output(out: dict, units: Units) -> Output:
     """``[output]`` keys (case units) -> :class:`Output` (internal units), defaults."""
-    _unknown(out, "output", OUTPUT_KEYS)
+    unknown_keys(out, "output", OUTPUT_KEYS)
     zero_load = out.get("snapshot_zero_load", False)
     if not isinstance(zero_load, bool):
-        raise CaseError(f"[output] snapshot_zero_load = {_fmt(zero_load)}: expected true or false")
+        raise CaseError(f"[output] snapshot_zero_load = {shown(zero_load)}: expected true or false")
     return Output(
-        snapshot_times=_numbers_list(out, "output", "snapshot_times", units.time),
-        snapshot_contact_widths=tuple(reversed(_numbers_list(
+        snapshot_times=numbers_list(out, "output", "snapshot_times", units.time),
+        snapshot_contact_widths=tuple(reversed(numbers_list(
             out, "output", "snapshot_contact_widths", units.length))),
         snapshot_zero_load=zero_load,
-        progress_interval=(_number(out, "output", "progress_interval")
+        progress_interval=(number(out, "output", "progress_interval")
                            if "progress_interval" in out else Output.progress_interval),
-        checkpoint_interval=(_number(out, "output", "checkpoint_interval")
+        checkpoint_interval=(number(out, "output", "checkpoint_interval")
                              if "checkpoint_interval" in out else Output.checkpoint_interval),
-        checkpoint_steps=(_integer(out, "output", "checkpoint_steps", 0)
+        checkpoint_steps=(integer(out, "output", "checkpoint_steps", 0)
                           if "checkpoint_steps" in out else 0))
 
 
@@ -707,13 +485,13 @@ def _groups_from_physical(t):
         moduli, times = _prony_series(t.get("relaxation_moduli"), t.get("relaxation_times"),
                                       "physical")
         t = dict(t)
-        t["modulus_instantaneous"] = _number(t, "physical", "modulus_relaxed") + math.fsum(moduli)
+        t["modulus_instantaneous"] = number(t, "physical", "modulus_relaxed") + math.fsum(moduli)
         t["relaxation_time"] = math.fsum(m * x for m, x in zip(moduli, times)) / math.fsum(moduli)
         e0, tau = t["modulus_relaxed"], t["relaxation_time"]
         prony = {"relaxation_moduli": tuple(m / e0 for m in moduli),
                  "relaxation_times": tuple(x / tau for x in times)}
     radius, e0, einf, tau, work, dmax, velocity, depth, cell = (
-        _number(t, "physical", key) for key in PHYSICAL_KEYS)
+        number(t, "physical", key) for key in PHYSICAL_KEYS)
     if einf < e0:
         raise CaseError(f"[physical] modulus_instantaneous = {einf}: must be >= modulus_relaxed"
                         f" = {e0} (k = E0/Einf in (0, 1])")
@@ -766,16 +544,16 @@ def parse_case(text: str) -> Case:
             raise CaseError(f"[{quoted_key(name)}]: unknown section; accepted: [case] or"
                             " [physical], [numerics], [output], [[protocol]]")
         if not isinstance(value, dict):
-            raise CaseError(f"{name} = {_fmt(value)}: expected a section [{name}]")
+            raise CaseError(f"{name} = {shown(value)}: expected a section [{name}]")
     if ("case" in doc) == ("physical" in doc):
         raise CaseError("exactly one of [case] (dimensionless groups) or [physical] (SI values)"
                         " is required")
     form = "case" if "case" in doc else "physical"
-    _unknown(doc[form], form, SECTIONS[form])
+    unknown_keys(doc[form], form, SECTIONS[form])
     if form == "case":
         table = doc["case"]
         prony = any(key in table for key in PRONY_KEYS)
-        groups = {key: _number(table, "case", key) for key in CASE_KEYS
+        groups = {key: number(table, "case", key) for key in CASE_KEYS
                   if not (prony and key == "modulus_ratio")}
         if prony:
             groups.update(modulus_ratio=table.get("modulus_ratio"),
@@ -789,7 +567,7 @@ def parse_case(text: str) -> Case:
     protocol = doc.get("protocol", ())
     if not isinstance(protocol, list) or not protocol:
         if "protocol" in doc:
-            raise CaseError(f"protocol = {_fmt(protocol)}: expected [[protocol]] tables"
+            raise CaseError(f"protocol = {shown(protocol)}: expected [[protocol]] tables"
                             " (approach, dwell or retract)")
     return Case(**groups, numerics=doc.get("numerics", {}), output=doc.get("output", {}),
                 units=units, text=text, form=form, protocol=protocol)

@@ -35,8 +35,9 @@ from dataclasses import dataclass
 import tomli_w
 
 from ..errors import CaseError, SweepError
-from ..model.case import (DEFAULT_STEP_PER_RANGE, NUMERICS_KEYS, OUTPUT_KEYS, SECTIONS, Case,
-                          parse_case, quoted_key)
+from ..model.case import OUTPUT_KEYS, SECTIONS, Case, parse_case
+from ..model.keys import quoted_key
+from ..model.numerics import DEFAULT_STEP_PER_RANGE, NUMERICS_KEYS
 
 FARM_KEYS = ("ranks_per_case", "output")
 # Cost model of the dry run and of the longest-first order: seconds per CG iteration and

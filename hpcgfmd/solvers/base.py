@@ -9,7 +9,7 @@ through :func:`make_solver`; it never branches on the name or probes attributes.
 
 To add a solver: subclass :class:`EquilibriumSolver`, decorate it with
 ``@register("name")``, import its module in :mod:`hpcgfmd.solvers` and add the name to
-``hpcgfmd.model.case.SOLVERS`` (the case-file vocabulary; a test holds the two equal).
+``hpcgfmd.model.numerics.SOLVERS`` (the case-file vocabulary; a test holds the two equal).
 """
 from __future__ import annotations
 

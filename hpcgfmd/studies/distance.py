@@ -36,10 +36,13 @@ def load_area_distances(abar, lbar, reference_abar, reference_lbar) -> np.ndarra
 
     The reference curve is its polyline from the start to its pull-off (its most tensile
     load), points without contact (abar = 0: the contact can vanish before the pull-off on
-    fast retractions) included, so a point near the curve's end is measured against the
-    end; after the pull-off the contact jumps off and nothing is compared. Both coordinates
-    are divided by the reference's abar at t = 0 and its |Lbar| at pull-off
-    (dimensionless).
+    fast retractions) included, and on along its attached branch past the pull-off while
+    it keeps a contact (abar > 0): under displacement control the load rises again while
+    the contact shrinks, until the contact jumps off. The pull-off is the flat minimum of
+    the load along that branch, where a load error of e moves the pull-off's contact width
+    by about sqrt(e): a run whose pull-off sample comes a little later on the same branch
+    is measured against the branch, not against its cut end. Both coordinates are divided
+    by the reference's abar at t = 0 and its |Lbar| at pull-off (dimensionless).
 
     Parameters
     ----------
@@ -53,8 +56,11 @@ def load_area_distances(abar, lbar, reference_abar, reference_lbar) -> np.ndarra
     ndarray, shape (m,)
         NaN when the reference has fewer than two points up to its pull-off.
     """
-    end = int(np.argmin(reference_lbar)) + 1
-    a_scale, l_scale = reference_abar[0], abs(reference_lbar[end - 1])
+    pull_off = int(np.argmin(reference_lbar))
+    end = pull_off + 1
+    while end < len(reference_abar) and reference_abar[end] > 0.0:  # the attached branch
+        end += 1
+    a_scale, l_scale = reference_abar[0], abs(reference_lbar[pull_off])
     line = np.stack([reference_abar[:end] / a_scale, reference_lbar[:end] / l_scale], 1)
     points = np.stack([np.asarray(abar) / a_scale, np.asarray(lbar) / l_scale], 1)
     if len(line) < 2 or not len(points):
