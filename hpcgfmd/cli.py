@@ -277,14 +277,22 @@ def _bench(comm, argv, stop, common):
         return EXIT_RESUMABLE
     for signum in STOP_SIGNALS:
         signal.signal(signum, signal.SIG_DFL)
-    try:
-        logs.configure(comm.Get_rank(), quiet=getattr(common, "quiet", False),
-                       log_file=getattr(common, "log", None))
-    except OSError as err:
-        if comm.Get_rank() == 0:
-            print(f"hpcgfmd: error: --log {common.log}: {err.strerror}", file=sys.stderr)
+    if not _configure_logs(comm, common):
         return EXIT_USAGE
     return bench_main(comm, argv)
+
+
+def _configure_logs(comm, options):
+    """The logger as --quiet and --log ask (``options``: parsed arguments that may hold
+    them); False, with a one-line error on rank 0, when the log file cannot be opened."""
+    try:
+        logs.configure(comm.Get_rank(), quiet=getattr(options, "quiet", False),
+                       log_file=getattr(options, "log", None))
+    except OSError as err:
+        if comm.Get_rank() == 0:
+            print(f"hpcgfmd: error: --log {options.log}: {err.strerror}", file=sys.stderr)
+        return False
+    return True
 
 
 def main(comm, argv=None, stop=None):
@@ -300,12 +308,7 @@ def main(comm, argv=None, stop=None):
     if rest[:1] == ["bench"]:  # its own options (hpcgfmd.studies.benchmark)
         return _bench(comm, rest[1:], stop, common)
     args = _parse(comm, argv)
-    try:
-        logs.configure(comm.Get_rank(), quiet=getattr(args, "quiet", False),
-                       log_file=getattr(args, "log", None))
-    except OSError as err:
-        if comm.Get_rank() == 0:
-            print(f"hpcgfmd: error: --log {args.log}: {err.strerror}", file=sys.stderr)
+    if not _configure_logs(comm, args):
         return EXIT_USAGE
     if getattr(args, "command", None) == "run" and args.output is None:
         args.output = os.path.splitext(args.case)[0] + ".h5"

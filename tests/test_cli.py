@@ -219,3 +219,15 @@ def test_killed_run_leaves_a_readable_file(tmp_path):
     assert s.time.size == n and np.all(np.diff(s.time) > 0) and np.all(s.iterations > 0)
 
 
+
+
+def test_bench_takes_the_common_options(tmp_path):
+    """--quiet and --log before or after `bench`: a log file that cannot be opened is a
+    one-line usage error, and bench's own argument errors still come through."""
+    missing = hpcgfmd("bench", "--log", tmp_path / "no" / "such" / "x.log", cwd=tmp_path)
+    assert missing.returncode == 2 and "--log" in missing.stderr
+    assert "Traceback" not in missing.stderr and len(missing.stderr.splitlines()) == 1
+    for args in (("--quiet", "bench", "--nx", "3"), ("bench", "--nx", "3", "--quiet")):
+        bad = hpcgfmd(*args, cwd=tmp_path)
+        assert bad.returncode == 2 and "--nx [3]" in bad.stderr, bad.stderr
+    assert "--log FILE" in hpcgfmd("bench", "--help", cwd=tmp_path).stdout

@@ -149,8 +149,15 @@ def test_load_control_lets_go_at_the_baney_hui_minimum():
     attached = a > 0
     assert not attached[-1] and attached[:-1].all()  # one jump: off, at the end
     # the load follows the applied load to the balance's tolerance (0.1 load allowances)
+    # away from the fold; within 1 % of the minimum load the balance may end on a bracket
+    # narrower than the load's travel (the discrete curve's jumps, runs/drive.py), and the
+    # imbalance is held to the load allowance there (over 20 draws of round-off: at most
+    # 1.00 tolerances away from the fold, up to 4.2 within 0.4 % of the minimum)
     tolerance = 0.1 * case.numerics.load_tolerance * case.load_scale
-    assert np.max(np.abs(load[attached] - applied[attached])) <= 1.5 * tolerance
+    imbalance = np.abs(load[attached] - applied[attached])
+    fold = load[attached] - load.min() <= 1e-2 * abs(load.min())
+    assert np.max(imbalance[~fold]) <= 1.01 * tolerance
+    assert np.max(imbalance[fold]) <= 10.0 * tolerance
     assert z[attached][-1] - z[0] > 0.03  # the indenter rose from the preload's -0.03 R
     abar = np.linspace(0.3, 3.0, 2701)
     curve = np.array([theory.maugis_dugdale(x, 3.5)[0] for x in abar])
