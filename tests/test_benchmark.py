@@ -169,3 +169,26 @@ def test_bad_case_one_line_status_2(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.strip().count("\n") == 0 and "seven" in proc.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+def test_curve_distance_follows_the_attached_branch_past_the_pull_off():
+    """A run's pull-off sample later on the reference's attached branch (past the reference's
+    own pull-off, the load's flat minimum) lies on the curve; a point off the branch does
+    not, and the reference's points after its contact jumped off are not part of it."""
+    import numpy as np
+
+    from hpcgfmd.studies.distance import load_area_distances
+
+    # reference: L = (a - 1)^2 - 1 on a from 2 down to 0.5 (pull-off at a = 1), then the
+    # contact jumps off (a = 0, L = 0)
+    a_ref = np.concatenate([np.linspace(2.0, 0.5, 1501), [0.0, 0.0]])
+    l_ref = np.where(a_ref > 0.0, (a_ref - 1.0) ** 2 - 1.0, 0.0)
+    scale_a = a_ref[0]
+    late = load_area_distances([0.9], [(0.9 - 1.0) ** 2 - 1.0], a_ref, l_ref)
+    assert late[0] < 1e-6  # on the branch, 0.05 abar(0) past the reference's pull-off
+    off = load_area_distances([0.9], [-0.9], a_ref, l_ref)
+    assert 0.05 < off[0] <= 0.09  # 0.09 |L| below the branch at a = 0.9, nearer obliquely
+    # a point without contact at a load between the pull-off and 0 is not matched by the
+    # reference's jump: distance to the branch's end (a = 0.5, L = -0.75) at least
+    detached = load_area_distances([0.0], [-0.5], a_ref, l_ref)
+    assert detached[0] >= 0.5 / scale_a - 1e-12
