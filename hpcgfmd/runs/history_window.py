@@ -97,7 +97,7 @@ class HistoryWindow:
 
     def attrs(self):
         """The rank-independent scalars of the checkpoint."""
-        return self.empty_attrs() | dict(
+        return dict(
             time_older=self._older[1] if self._older else math.nan,
             indenter_older=self._older[2] if self._older else math.nan,
             curvature_age=self.error.curvature_age,
