@@ -12,7 +12,7 @@ from mpi4py import MPI
 
 from hpcgfmd.storage.reader import read_series
 from hpcgfmd.model.case import parse_case
-from hpcgfmd.errors import Interrupted
+from hpcgfmd.errors import Interrupted, NonConvergenceError
 from hpcgfmd.runs.single_case import run_case
 from cases import StopAtStep, case_text
 
@@ -100,3 +100,40 @@ def test_a_state_without_the_relaxed_traction_is_restored_from_u():
     loads = [sim.step().load for _ in range(3)]
     resumed_loads = [resumed.step().load for _ in range(3)]
     np.testing.assert_allclose(resumed_loads, loads, rtol=1e-9)
+
+
+def test_a_run_stopped_at_its_iteration_cap_resumes_with_a_higher_cap(tmp_path):
+    # The cap's error says "raise [numerics] max_iterations": the same command with a higher
+    # cap continues from the checkpoint (the cap is not part of the case's identity: it only
+    # ends solves that would stop the run), and the result is the uncapped run's, bit for bit.
+    # A fast retraction on a coarse grid: preload 23 iterations, every step at most 23 but
+    # the snap-off's last solve 42 (measured), so a cap of 30 stops the run at its end.
+    output = "checkpoint_steps = 1"
+    uncapped = parse_case(case_text("nx = 1024", output, velocity=9.0))
+    capped = parse_case(case_text("nx = 1024\nmax_iterations = 30", output, velocity=9.0))
+    assert capped.identity() == uncapped.identity()
+    quiet = {"planner_effort": "FFTW_ESTIMATE"}
+    run_case(uncapped, tmp_path / "whole.h5", MPI.COMM_SELF, **quiet, stop=StopAtStep(10**9))
+    with pytest.raises(NonConvergenceError, match="after 30 iterations; raise"):
+        run_case(capped, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, stop=StopAtStep(10**9))
+    assert read_series(tmp_path / "parts.h5").load.size > 100  # stopped late, not at once
+    run_case(uncapped, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, resume=True,
+             stop=StopAtStep(10**9))
+    whole, parts = read_series(tmp_path / "whole.h5"), read_series(tmp_path / "parts.h5")
+    for name in ("time", "load", "contact_half_width", "iterations"):
+        np.testing.assert_array_equal(getattr(parts, name), getattr(whole, name), err_msg=name)
+
+
+def test_the_identities_of_the_version_that_hashed_the_cap_are_owned():
+    # identities written by the version before (commit 4cc8f77, which hashed the cap), of
+    # this case under its own cap (default 5251), under that version's default cap 5000 (its
+    # runs resume under today's default), and under a cap of 30 (not this case's: refused)
+    case = parse_case(case_text("nx = 1024", velocity=9.0))
+    capped = parse_case(case_text("nx = 1024\nmax_iterations = 30", velocity=9.0))
+    assert case.numerics.max_iterations == 5251
+    assert case.owns_identity(case.identity()) and case.owns_identity("dbd0e40dc01236e4")
+    assert case.owns_identity("2a3b33f48065b670")
+    assert not case.owns_identity("20ae078e533b8320") and capped.owns_identity("20ae078e533b8320")
+    other = parse_case(case_text("nx = 1024", velocity=8.0))
+    assert not other.owns_identity(case.identity())
+    assert not other.owns_identity("dbd0e40dc01236e4")

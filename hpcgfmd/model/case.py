@@ -43,7 +43,7 @@ from .keys import (as_float, integer, number, numbers_list, quoted_key, shown,
                    unknown_keys)
 from .loading import Segment, paper_protocol, parse_protocol
 from .material import StandardLinearSolid
-from .numerics import NUMERICS_KEYS, Numerics, resolve_numerics
+from .numerics import DEFAULT_MAX_ITERATIONS, NUMERICS_KEYS, Numerics, resolve_numerics
 from .prony import GeneralizedMaxwell
 
 # The geometric contact width sqrt(2 R h0) bounds a_c; with L >= 6 sqrt(2 R h0) the periodic
@@ -365,16 +365,39 @@ class Case:
     def identity(self) -> str:
         """Hash of everything that determines the series (groups, units, numerics).
 
-        A checkpoint stores it; a restart with a case of another identity is refused. The
+        A checkpoint stores it; a restart with a case of another identity is refused
+        (:meth:`owns_identity` also knows the identities of earlier versions). The
         ``[output]`` settings are left out: they change what is written, not the solution.
+        So is ``max_iterations``: the cap only ends a solve that has not converged, which
+        stops the run (NonConvergenceError), so every step written is the same under any
+        cap, and a run stopped by its cap continues with a higher one, as the error advises.
         """
+        return self._identity(None)
+
+    def owns_identity(self, identity: str) -> bool:
+        """True when a stored identity is this case's: :meth:`identity`, or the identity
+        of versions that hashed the iteration cap too, under this case's cap or that
+        version's default (``DEFAULT_MAX_ITERATIONS``, before the cap counted the contact's
+        nodes)."""
+        if identity == self.identity():
+            return True
+        return identity in {self._identity(cap) for cap in
+                            (self.numerics.max_iterations, DEFAULT_MAX_ITERATIONS)}
+
+    def _identity(self, max_iterations) -> str:
+        """The identity hash; with the iteration cap among the numerics when it is given
+        (the identity of earlier versions)."""
         n = self.numerics
+        numerics = [n.nx, n.dt, n.tolerance, n.max_iterations, n.solver, n.step_control,
+                    n.dt_min, n.dt_max, n.edge_fraction, n.load_tolerance, n.time_tolerance,
+                    n.equilibration_steps, n.accuracy]
+        if max_iterations is None:
+            del numerics[3]
+        else:
+            numerics[3] = max_iterations
         content = {"groups": [self.lambda0, self.k, self.Vz, self.depth, self.cell, self.alpha],
                    "units": [self.units.length, self.units.stress, self.units.time],
-                   "numerics": [n.nx, n.dt, n.tolerance, n.max_iterations, n.solver,
-                                n.step_control, n.dt_min, n.dt_max, n.edge_fraction,
-                                n.load_tolerance, n.time_tolerance, n.equilibration_steps,
-                                n.accuracy]}
+                   "numerics": numerics}
         if self.prony:  # (absent for the SLS: its identities predate Prony series)
             content["prony"] = [list(self.relaxation_moduli), list(self.relaxation_times)]
         if self.compliant:  # (likewise absent under displacement control)

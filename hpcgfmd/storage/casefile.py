@@ -195,7 +195,8 @@ class CaseFile:
         Returns
         -------
         CaseFile
-            Marked unfinished; the next :meth:`append_step` writes entry ``steps``.
+            Marked unfinished, with the case's text and identity; the next
+            :meth:`append_step` writes entry ``steps``.
         """
         self = cls.__new__(cls)
         file = open_file(path, "r+", comm)
@@ -211,6 +212,10 @@ class CaseFile:
             raise
         self._setup(file, case, comm, x_start)
         file.attrs["finished"] = False  # before truncating: a kill now leaves an unfinished file
+        # the case as it runs on (it may differ in what its identity leaves out: [output],
+        # max_iterations), under the identity of this version
+        file.attrs["config"] = case.text
+        file.attrs["case_identity"] = case.identity()
         for name in self.series_names:
             file["series"][name].resize((steps,))
         file.attrs["steps_complete"] = steps
