@@ -35,6 +35,29 @@ def test_grid_times_cases_and_overrides():
     assert all(c.error is None for c in sweep.cases)
 
 
+def test_a_file_of_the_same_case_under_another_cap_or_an_earlier_identity_is_its_own(tmp_path):
+    # the farm's file states: a finished file of the case is skipped whatever the cap it ran
+    # under, and so is one written by the version that hashed the cap (this case's identities
+    # there at its default cap and at that version's default 5000: tests/test_restart.py);
+    # another case's file is not touched
+    from hpcgfmd.runs.farm import file_status
+    base = case_text("nx = 1024", prefix="base.", velocity=9.0)
+    capped = parse_sweep(base + "[grid]\nnumerics.max_iterations = [30, 20000]\n").cases
+    default = parse_sweep(base + "[[cases]]\n").cases
+    path = str(tmp_path / "case.h5")
+
+    def states(identity, items):
+        with h5py.File(path, "w") as f:
+            f.attrs["finished"], f.attrs["case_identity"] = True, identity
+        return [file_status(path, item) for item in items]
+
+    assert states(capped[0].case.identity(), capped + default) == ["finished"] * 3
+    assert states("dbd0e40dc01236e4", default) == states("2a3b33f48065b670", default) == [
+        "finished"]
+    assert states(parse_case(case_text("nx = 2048")).identity(), capped + default) == [
+        "other case"] * 3
+
+
 def test_an_invalid_case_is_kept_with_its_error():
     sweep = parse_sweep(BASE + "[grid]\nnx = [1024, 64]\n")
     assert sweep.cases[0].error is None

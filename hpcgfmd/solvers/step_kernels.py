@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-FAST = {"reassoc"}  # as hpcgfmd.solvers.cg.kernels.FAST
+FAST = {"reassoc"}  # reductions may be reassociated (vectorised); inf and NaN keep their meaning
 
 
 @njit(cache=True)

@@ -18,8 +18,7 @@ import numpy as np
 from numba import njit
 
 from .. import step_kernels
-
-FAST = {"reassoc"}  # reductions may be reassociated (vectorised); inf and NaN keep their meaning
+from ..step_kernels import FAST
 
 
 @njit(cache=True)
