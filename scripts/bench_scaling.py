@@ -230,7 +230,7 @@ def launch(args):
             status = subprocess.run(command, env=env).returncode
             if status != 0:  # the measurement printed its own error
                 sys.exit(f"bench_scaling: n = 2^{n} on {ranks} rank(s) failed (exit status"
-                         f" {status}); the rows measured so far are in {args.out}")
+                         f" {status}); rows measured before it, if any, are in {args.out}")
     notes.append(f"end: {uptime()}")
     report(args.out, args.markdown, notes)
 

@@ -10,6 +10,7 @@ import pytest
 from mpi4py import MPI
 
 from cases import case_text
+from hpcgfmd.errors import SweepError
 from hpcgfmd.model import theory
 from hpcgfmd.paper import checks, curves, study
 from hpcgfmd.paper.command import parse_figures
@@ -227,6 +228,19 @@ def test_shipped_study_merges_shared_runs():
     assert "the 33 runs" in text and "at accuracy 1e-2" in text
     coarser, _ = study.paper_study(["5"], accuracy=2e-2)
     assert {c.case.numerics.accuracy for c in coarser.cases} == {2e-2}
+
+
+def test_runs_that_differ_in_their_iteration_cap_alone_are_not_merged():
+    # the cap is not part of a case's identity (a restart may raise it), but two figures
+    # asking for one run under two caps are two settings of the study: refused as before,
+    # not merged under the first figure's cap
+    text = case_text("accuracy = 1e-2", prefix="base.", depth=0.05) + "[[cases]]\n"
+    texts = {"4": text.replace("accuracy = 1e-2", "accuracy = 1e-2\nmax_iterations = 30"),
+             "5": text}
+    with pytest.raises(SweepError, match="would both be named"):
+        study.paper_study(["4", "5"], texts=texts)
+    merged, members = study.paper_study(["4", "5"], texts={"4": text, "5": text})
+    assert len(merged.cases) == 1 and members["4"] == members["5"]
 
 
 # the tests' shared groups (tests/cases.py) as sweep bases: a tiny study of 10 runs

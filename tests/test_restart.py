@@ -14,6 +14,7 @@ from hpcgfmd.storage.reader import read_series
 from hpcgfmd.model.case import parse_case
 from hpcgfmd.errors import Interrupted, NonConvergenceError
 from hpcgfmd.runs.single_case import run_case
+from hpcgfmd.storage.checkpoint import checkpoint_path, read_checkpoint_attrs
 from cases import StopAtStep, case_text
 
 CASE = case_text("nx = 2048", "snapshot_times = [0.0, 3.0, 8.0]\nsnapshot_zero_load = true")
@@ -103,20 +104,24 @@ def test_a_state_without_the_relaxed_traction_is_restored_from_u():
 
 
 def test_a_run_stopped_at_its_iteration_cap_resumes_with_a_higher_cap(tmp_path):
-    # The cap's error says "raise [numerics] max_iterations": the same command with a higher
-    # cap continues from the checkpoint (the cap is not part of the case's identity: it only
-    # ends solves that would stop the run), and the result is the uncapped run's, bit for bit.
-    # A fast retraction on a coarse grid: preload 23 iterations, every step at most 23 but
-    # the snap-off's last solve 42 (measured), so a cap of 30 stops the run at its end.
-    output = "checkpoint_steps = 1"
-    uncapped = parse_case(case_text("nx = 1024", output, velocity=9.0))
-    capped = parse_case(case_text("nx = 1024\nmax_iterations = 30", output, velocity=9.0))
+    # The cap's error says "raise [numerics] max_iterations": the run checkpoints its last
+    # accepted step as it stops (here its only checkpoint: none by steps, none in 600 s),
+    # and the same command with a higher cap continues from it (the cap is not part of the
+    # case's identity: it only ends solves that would stop the run); the result is the
+    # uncapped run's, bit for bit. A fast retraction on a coarse grid: preload 23
+    # iterations, every step at most 23 but the snap-off's last solve 42 (measured), so a
+    # cap of 30 stops the run at its end.
+    uncapped = parse_case(case_text("nx = 1024", velocity=9.0))
+    capped = parse_case(case_text("nx = 1024\nmax_iterations = 30", velocity=9.0))
     assert capped.identity() == uncapped.identity()
     quiet = {"planner_effort": "FFTW_ESTIMATE"}
     run_case(uncapped, tmp_path / "whole.h5", MPI.COMM_SELF, **quiet, stop=StopAtStep(10**9))
-    with pytest.raises(NonConvergenceError, match="after 30 iterations; raise"):
+    with pytest.raises(NonConvergenceError, match="after 30 iterations; raise.*checkpoint"):
         run_case(capped, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, stop=StopAtStep(10**9))
-    assert read_series(tmp_path / "parts.h5").load.size > 100  # stopped late, not at once
+    stopped = read_series(tmp_path / "parts.h5").load.size
+    assert stopped > 100  # stopped late, not at once
+    checkpoint = read_checkpoint_attrs(checkpoint_path(tmp_path / "parts.h5"))
+    assert checkpoint["step_index"] == stopped - 1
     run_case(uncapped, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, resume=True,
              stop=StopAtStep(10**9))
     whole, parts = read_series(tmp_path / "whole.h5"), read_series(tmp_path / "parts.h5")
@@ -125,15 +130,20 @@ def test_a_run_stopped_at_its_iteration_cap_resumes_with_a_higher_cap(tmp_path):
 
 
 def test_the_identities_of_the_version_that_hashed_the_cap_are_owned():
-    # identities written by the version before (commit 4cc8f77, which hashed the cap), of
-    # this case under its own cap (default 5251), under that version's default cap 5000 (its
-    # runs resume under today's default), and under a cap of 30 (not this case's: refused)
+    # identities written by the versions that hashed the cap (computed on commit 4cc8f77) of
+    # this case under its default cap there (5000 + the contact's 251 nodes, today's
+    # default too), under the default 5000 of the versions before 56eb886, and under a cap
+    # of 30: a run of theirs stopped at a default cap continues under a raised one (20000),
+    # one with a cap of its own only under that cap
     case = parse_case(case_text("nx = 1024", velocity=9.0))
+    raised = parse_case(case_text("nx = 1024\nmax_iterations = 20000", velocity=9.0))
     capped = parse_case(case_text("nx = 1024\nmax_iterations = 30", velocity=9.0))
     assert case.numerics.max_iterations == 5251
-    assert case.owns_identity(case.identity()) and case.owns_identity("dbd0e40dc01236e4")
-    assert case.owns_identity("2a3b33f48065b670")
-    assert not case.owns_identity("20ae078e533b8320") and capped.owns_identity("20ae078e533b8320")
+    for owner in (case, raised):
+        assert owner.owns_identity(case.identity())
+        assert owner.owns_identity("dbd0e40dc01236e4") and owner.owns_identity("2a3b33f48065b670")
+        assert not owner.owns_identity("20ae078e533b8320")
+    assert capped.owns_identity("20ae078e533b8320")
     other = parse_case(case_text("nx = 1024", velocity=8.0))
     assert not other.owns_identity(case.identity())
     assert not other.owns_identity("dbd0e40dc01236e4")

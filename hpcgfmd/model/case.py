@@ -43,7 +43,8 @@ from .keys import (as_float, integer, number, numbers_list, quoted_key, shown,
                    unknown_keys)
 from .loading import Segment, paper_protocol, parse_protocol
 from .material import StandardLinearSolid
-from .numerics import DEFAULT_MAX_ITERATIONS, NUMERICS_KEYS, Numerics, resolve_numerics
+from .numerics import (DEFAULT_MAX_ITERATIONS, NUMERICS_KEYS, Numerics, contact_nodes,
+                       resolve_numerics)
 from .prony import GeneralizedMaxwell
 
 # The geometric contact width sqrt(2 R h0) bounds a_c; with L >= 6 sqrt(2 R h0) the periodic
@@ -376,13 +377,16 @@ class Case:
 
     def owns_identity(self, identity: str) -> bool:
         """True when a stored identity is this case's: :meth:`identity`, or the identity
-        of versions that hashed the iteration cap too, under this case's cap or that
-        version's default (``DEFAULT_MAX_ITERATIONS``, before the cap counted the contact's
-        nodes)."""
+        of the versions that hashed the iteration cap too, under this case's cap or under
+        their defaults (``DEFAULT_MAX_ITERATIONS``, and from commit 56eb886 on that plus the
+        contact's nodes): a run of theirs stopped at its default cap continues under a
+        higher one; one with a cap of its own continues under that cap."""
         if identity == self.identity():
             return True
-        return identity in {self._identity(cap) for cap in
-                            (self.numerics.max_iterations, DEFAULT_MAX_ITERATIONS)}
+        nx = self.numerics.nx
+        caps = (self.numerics.max_iterations, DEFAULT_MAX_ITERATIONS,
+                DEFAULT_MAX_ITERATIONS + contact_nodes(self, nx))
+        return identity in {self._identity(cap) for cap in caps}
 
     def _identity(self, max_iterations) -> str:
         """The identity hash; with the iteration cap among the numerics when it is given

@@ -101,7 +101,8 @@ def paper_study(figures, accuracy=None, texts=None):
         for item in sweep.cases:
             if item.case is None:
                 raise SweepError(f"paper Fig. {figure}, case {item.name}: {item.error}")
-            identity = item.case.identity()
+            # (the cap too: cases that differ in it alone are different settings of the study)
+            identity = (item.case.identity(), item.case.numerics.max_iterations)
             if identity not in by_identity:
                 by_identity[identity] = replace(item, index=len(merged),
                                                 name=case_name(item.case))

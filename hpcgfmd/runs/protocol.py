@@ -215,13 +215,21 @@ class Retraction:
 
         A step whose error ratios exceed the rejection bounds (:mod:`hpcgfmd.solvers.stepping`)
         is undone and repeated with the shorter step the controller proposes; the iterations
-        of the rejected attempts count in ``total_iterations``.
+        of the rejected attempts count in ``total_iterations``. A solve that reaches the
+        iteration cap undoes the step too and raises NonConvergenceError: the state is then
+        the last accepted step's.
         """
         proposed = self.steps.dt
         dt, end = self.schedule.cut(self.time, proposed)
         while True:
             self._save()
-            record = self._advance(dt, end)
+            try:
+                record = self._advance(dt, end)
+            except NonConvergenceError:
+                # back to the last accepted step, which a checkpoint can keep: a higher
+                # iteration cap continues from there
+                self._revert()
+                raise
             if record is None:  # abandoned: its edges moved too far, the verdict is known
                 decision = self.steps.judge(dt, self.time, None, math.inf)
             else:

@@ -16,7 +16,7 @@ import logging
 import os
 import time
 
-from ..errors import CaseError, CaseFailure, Interrupted
+from ..errors import CaseError, CaseFailure, Interrupted, NonConvergenceError
 from ..model import accuracy as knob
 from ..model.case import Case
 from ..signals import StopSignals
@@ -248,7 +248,12 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
         if comm.bcast(short_of_space(), root=0):
             stop_for_space()
         while not sim.finished():
-            record = sim.step()
+            try:
+                record = sim.step()
+            except NonConvergenceError as err:  # (alike on every rank: a reduced residual)
+                save()  # the last accepted step (Retraction.step undid the failed one)
+                raise NonConvergenceError(f"{err}; checkpoint {checkpoint} holds the last"
+                                          f" accepted step, {sim.step_index}") from None
             out.append_step(record.as_dict())
             if schedule.due(record):
                 out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
