@@ -1,30 +1,37 @@
-"""The time error of three SLS steps at fixed step lengths, on one grid (a measurement of a
-scheme the package does not use).
+"""The time error of SLS steps of first and second order in time, on one grid (a measurement of
+a scheme the package does not use).
 
     taskset -c 0 python scripts/second_order_history.py maugis=7 modulus_ratio=0.1 \
-        velocity=0.045 depth=0.1 cell=10 adhesion=5e-5 --nx 8192 --dt 2 1 0.5 0.25 \
-        --reference-dt 0.03125
+        velocity=0.045 depth=0.1 cell=4 adhesion=5e-5 --nx 16384 --reference-dt 0.125 \
+        --dt 2 1 0.5 --adaptive linear:accuracy=5e-3 implicit:accuracy=5e-3
 
 The package's SLS step (docs/model.md, (M8)) is exact for u linear in time within a step;
 near a moving contact edge u is curved in time and the step's traction lags. Three schemes:
 
-- ``linear``: the package's step, as fixed steps take it (no history estimate);
-- ``corrected``: the same, and after each step the traction missed by u quadratic through
-  u_{n-1}, u_n, u_{n+1} added to the history (what the adaptive steps' ``HistoryError.correct``
-  does; here on every node, without its crossing rules): the history is second order, the
-  step's own equilibrium still first order;
+- ``linear``: the package's step. With fixed steps nothing more (no history estimate); with
+  adaptive steps the package as it is: the history estimate's correction after each step
+  (``HistoryError.correct``) makes the history second order, the step's own equilibrium stays
+  first order;
+- ``corrected`` (fixed steps only): the linear step, and after each step the traction missed
+  by u quadratic through u_{n-1}, u_n, u_{n+1} added to the history, as the adaptive steps'
+  correction does (here on every node, without its crossing rules);
 - ``implicit``: the step's equilibrium itself with u quadratic through u_{n-1}, u_n and the
   unknown u_{n+1}. The missed traction (|q|/2) (Einf - E0) F(dt) c, with
   c = ((u_{n+1} - u_n) / dt - (u_n - u_{n-1}) / h) / (dt + h) (h the step before), is linear
   in u_{n+1}: the step stays an elastic problem, of modulus Eeff + R / (dt (dt + h)),
   R = (Einf - E0) F(dt), with the history term -R (G_n / (dt (dt + h)) + (G_n - G_{n-1}) /
-  (h (dt + h))), G = (|q|/2) u kept in real space as the package keeps G_n.
+  (h (dt + h))), G = (|q|/2) u kept in real space as the package keeps G_n. With adaptive
+  steps the history estimate's correction is not added (the step holds it) and the step
+  control is the package's, unchanged (its history estimate then overstates the step's
+  error, and its tip-lag criterion is the linear step's).
 
-Each scheme runs the retraction with fixed steps dt (time units of tau) to the pull-off and
-is compared with the ``implicit`` scheme at ``--reference-dt`` on the same grid (the grid's
-error cancels): the pull-off's relative error, and the largest load difference at equal
-times up to the reference's pull-off, over the pull-off load (the curve error at equal
-times). Prints one line per scheme and step length.
+``--dt``: fixed steps of these lengths (time units of tau); ``--adaptive``: adaptive runs, each
+``scheme:key=value,...`` with [numerics] keys (``time_tolerance`` scales the history and
+tip-lag criteria). Every run goes to the pull-off and is compared with the ``implicit`` scheme
+at fixed ``--reference-dt`` on the same grid (the grid's error cancels): the pull-off's
+relative error, and for fixed steps also the largest load difference at equal times up to the
+reference's pull-off, over the pull-off load (the curve error at equal times). One line per
+run.
 """
 import argparse
 import math
@@ -49,17 +56,26 @@ SCHEMES = ("linear", "corrected", "implicit")
 
 class CurvedHistorySLS(ViscoelasticHalfSpace):
     """The SLS half-space with the ``corrected`` or ``implicit`` quadratic-in-time step
-    (module docstring); the first step after the preload is the linear one."""
+    (module docstring); the first step after the preload is the linear one.
 
-    def __init__(self, base, scheme):
+    ``sim``: the Retraction, whose last accepted step length is h; G_{n-1} is then one more
+    state field, undone with a rejected step.
+    """
+
+    def __init__(self, sim, scheme):
+        base = sim.substrate
         super().__init__(base.material, base.half_q, base.n, base.relaxed_traction.size)
-        self.scheme = scheme
+        self.sim, self.scheme = sim, scheme
         self.previous = np.zeros_like(self.relaxed_traction)  # G_{n-1}
-        self.h = None  # length of the accepted step before (None: no G_{n-1})
         m = self.material
         self._missed = lambda dt: (m.e_instantaneous - m.e_relaxed) * curvature_integral(
             dt, m.relaxation_time)
         self._implicit_ops = {}
+
+    @property
+    def h(self):
+        """Length of the last accepted step (None after the preload: no G_{n-1})."""
+        return self.sim.dt_previous
 
     def _implicit(self, dt):
         return self.scheme == "implicit" and self.h is not None and math.isfinite(dt)
@@ -104,15 +120,33 @@ class CurvedHistorySLS(ViscoelasticHalfSpace):
                          - (before - self.previous) / h) / (dt + h)
             substrate_traction += self._missed(dt) * curvature
         self.previous[:] = before
-        self.h = dt if math.isfinite(dt) else None
+
+    def correct(self, missed, dt, substrate_traction):
+        """The history estimate's correction (adaptive steps): held by the implicit step."""
+        if self.scheme != "implicit":
+            substrate_traction += missed
+
+    def field_names(self):
+        return ("relaxed_traction", "relaxed_previous")
+
+    def fields(self):
+        return {"relaxed_traction": self.relaxed_traction, "relaxed_previous": self.previous}
+
+    def restore(self, fields, fft=None, u=None):
+        super().restore(fields, fft, u)
+        self.previous[:] = fields["relaxed_previous"]
 
 
-def retraction(case_keys, nx, dt, scheme):
-    """Fixed-step retraction to the pull-off: (times, loads, CPU s)."""
+def retraction(case_keys, nx, numerics, scheme):
+    """A retraction to the pull-off: (times, loads in load scales, CPU s, steps, rejected)."""
     start = time.process_time()
-    case = hpcgfmd.Case(**case_keys, numerics={"nx": nx, "step_control": "fixed", "dt": dt})
+    case = hpcgfmd.Case(**case_keys, numerics={"nx": nx, **numerics})
     sim = Retraction(case, MPI.COMM_SELF)
-    sim.substrate = CurvedHistorySLS(sim.substrate, scheme)
+    sim.substrate = CurvedHistorySLS(sim, scheme)
+    if sim.history_window is not None:
+        sim.history_window.error.substrate = sim.substrate
+    sim._reverted += ("relaxed_previous",)  # undone with a rejected step, as G_n
+    sim._saved["relaxed_previous"] = np.empty(sim.domain.local_n)
     record = sim.preload()
     times, loads = [record.time], [record.load / case.load_scale]
     while not sim.detached():
@@ -120,7 +154,14 @@ def retraction(case_keys, nx, dt, scheme):
         times.append(record.time)
         loads.append(record.load / case.load_scale)
     sim.close()
-    return np.array(times), np.array(loads), time.process_time() - start, sim.step_index
+    return (np.array(times), np.array(loads), time.process_time() - start, sim.step_index,
+            sim.rejected_steps)
+
+
+def _numerics(text):
+    """``key=value,...`` as a dict of numbers."""
+    return {key: float(value) for key, _, value in
+            (item.partition("=") for item in text.split(",") if item)}
 
 
 def main(argv):
@@ -128,21 +169,25 @@ def main(argv):
                                      description=__doc__.split("\n")[0])
     parser.add_argument("case", nargs="+", help="[case] keys, key=value")
     parser.add_argument("--nx", type=int, required=True)
-    parser.add_argument("--dt", type=float, nargs="+", required=True)
     parser.add_argument("--reference-dt", type=float, required=True)
-    parser.add_argument("--schemes", nargs="+", default=list(SCHEMES), choices=SCHEMES)
+    parser.add_argument("--dt", type=float, nargs="+", default=[])
+    parser.add_argument("--schemes", nargs="+", default=list(SCHEMES), choices=SCHEMES,
+                        help="the schemes of the fixed steps")
+    parser.add_argument("--adaptive", nargs="+", default=[], metavar="SCHEME:KEYS")
     args = parser.parse_args(argv)
-    keys = {}
-    for item in args.case:
-        key, _, value = item.partition("=")
-        keys[key] = float(value)
-    ref_t, ref_l, ref_cpu, ref_steps = retraction(keys, args.nx, args.reference_dt, "implicit")
+    for item in args.adaptive:
+        if item.partition(":")[0] not in ("linear", "implicit"):
+            parser.error(f"--adaptive {item}: expected linear:... or implicit:...")
+    keys = _numerics(",".join(args.case))
+    ref_t, ref_l, ref_cpu, ref_steps, _ = retraction(
+        keys, args.nx, {"step_control": "fixed", "dt": args.reference_dt}, "implicit")
     pull_off = ref_l.min()
     print(f"reference implicit dt {args.reference_dt:g}: {ref_steps} steps, pull-off"
           f" {pull_off:.6f}, {ref_cpu:.1f} CPU s", flush=True)
-    for scheme in args.schemes:
+    for scheme in args.schemes if args.dt else ():
         for dt in args.dt:
-            t, loads, cpu, steps = retraction(keys, args.nx, dt, scheme)
+            t, loads, cpu, steps, _ = retraction(
+                keys, args.nx, {"step_control": "fixed", "dt": dt}, scheme)
             # equal times before the reference's pull-off (after it, a pull-off a little
             # earlier or later differs by the whole load)
             common = np.searchsorted(ref_t, t[t <= ref_t[np.argmin(ref_l)]])
@@ -152,6 +197,12 @@ def main(argv):
             print(f"{scheme:9s} dt {dt:g}: {steps} steps, pull-off {loads.min():.6f}"
                   f" error {abs(loads.min() / pull_off - 1):.2e}, curve at equal times"
                   f" {curve / abs(pull_off):.2e}, {cpu:.1f} CPU s", flush=True)
+    for item in args.adaptive:
+        scheme, _, text = item.partition(":")
+        _, loads, cpu, steps, rejected = retraction(keys, args.nx, _numerics(text), scheme)
+        print(f"{scheme:9s} adaptive {text}: {steps} steps ({rejected} rejected), pull-off"
+              f" {loads.min():.6f} error {abs(loads.min() / pull_off - 1):.2e},"
+              f" {cpu:.1f} CPU s", flush=True)
 
 
 if __name__ == "__main__":
