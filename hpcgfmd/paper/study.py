@@ -90,7 +90,7 @@ def paper_study(figures, accuracy=None, texts=None):
         A shipped (or given) sweep file that does not validate, or one of its cases.
     """
     texts = texts or {}
-    merged, members, by_identity = [], {}, {}
+    merged, members, by_run = [], {}, {}
     swept = []
     for figure in dict.fromkeys(runs_of(f) for f in figures):
         if figure not in SWEEP_FILES:
@@ -102,17 +102,16 @@ def paper_study(figures, accuracy=None, texts=None):
             if item.case is None:
                 raise SweepError(f"paper Fig. {figure}, case {item.name}: {item.error}")
             # (the cap too: cases that differ in it alone are different settings of the study)
-            identity = (item.case.identity(), item.case.numerics.max_iterations)
-            if identity not in by_identity:
-                by_identity[identity] = replace(item, index=len(merged),
-                                                name=case_name(item.case))
-                merged.append(by_identity[identity])
-            elif _snapshots(item.case) > _snapshots(by_identity[identity].case):
+            run = (item.case.identity(), item.case.numerics.max_iterations)
+            if run not in by_run:
+                by_run[run] = replace(item, index=len(merged), name=case_name(item.case))
+                merged.append(by_run[run])
+            elif _snapshots(item.case) > _snapshots(by_run[run].case):
                 # the same run ([output] is not part of the identity): keep the snapshots
-                kept = by_identity[identity]
-                by_identity[identity] = replace(item, index=kept.index, name=kept.name)
-                merged[kept.index] = by_identity[identity]
-            names.append(by_identity[identity].name)
+                kept = by_run[run]
+                by_run[run] = replace(item, index=kept.index, name=kept.name)
+                merged[kept.index] = by_run[run]
+            names.append(by_run[run].name)
         swept += [key for key in sweep.swept if key not in swept]
         members[figure] = names
     for figure in figures:

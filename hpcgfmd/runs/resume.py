@@ -2,11 +2,10 @@
 
 The same command resumes when the output file and its checkpoint both exist (``--restart``
 demands it); the checkpoint must be complete and unaltered (its digest), belong to the same
-case (its identity hash, :meth:`~hpcgfmd.model.case.Case.owns_identity`), and the output
-file must hold at least the steps and snapshots the
-checkpoint counts. A damaged newest checkpoint gives way to the previous generation, with a
-warning. Anything else is a :class:`~hpcgfmd.errors.UsageError` naming the file, with nothing
-touched.
+case (its identity hash, :meth:`~hpcgfmd.model.case.Case.owns_identity`), and the output file
+must hold at least the steps and snapshots the checkpoint counts. A damaged newest checkpoint
+gives way to the previous generation, with a warning. Anything else is a
+:class:`~hpcgfmd.errors.UsageError` naming the file, with nothing touched.
 """
 from __future__ import annotations
 
