@@ -2,6 +2,12 @@
 
     taskset -c 0 python scripts/retraction_cost.py maugis=7 modulus_ratio=0.1 velocity=4.5 \
         depth=0.1 cell=10 adhesion=5e-5 --numerics accuracy=5e-3
+
+A value with commas is a list (``relaxation_moduli=3,6``). Two settings for measurements of
+the step itself, after the numerics: ``--linear-step`` (adaptive steps with the paper's
+linear SLS step instead of the quadratic one) and ``--lag-per-load X`` (the tip-lag bound's
+constant, ``stepping.LAG_PER_LOAD`` for one relaxation time and ``LAG_PER_LOAD_SPECTRUM``
+for several, set to X).
 """
 import os
 import sys
@@ -16,12 +22,16 @@ from mpi4py import MPI  # noqa: E402
 
 import hpcgfmd  # noqa: E402
 from hpcgfmd.runs.protocol import Retraction  # noqa: E402
+from hpcgfmd.solvers import stepping  # noqa: E402
 
 
 def _pairs(items):
     out = {}
     for item in items:
         key, _, value = item.partition("=")
+        if "," in value:
+            out[key] = [float(v) for v in value.split(",")]
+            continue
         try:
             out[key] = int(value)
         except ValueError:
@@ -33,10 +43,22 @@ def _pairs(items):
 
 
 def main(argv):
+    argv = list(argv)
+    linear = "--linear-step" in argv
+    if linear:
+        argv.remove("--linear-step")
+    if "--lag-per-load" in argv:
+        at = argv.index("--lag-per-load")
+        stepping.LAG_PER_LOAD = stepping.LAG_PER_LOAD_SPECTRUM = float(argv[at + 1])
+        del argv[at:at + 2]
     cut = argv.index("--numerics") if "--numerics" in argv else len(argv)
     groups, numerics = _pairs(argv[:cut]), _pairs(argv[cut + 1:])
+    if "relaxation_moduli" in groups:  # a Prony series: k follows from its moduli
+        groups.setdefault("modulus_ratio", None)
     case = hpcgfmd.Case(**groups, numerics=numerics)
     sim = Retraction(case, MPI.COMM_SELF)
+    if linear:
+        sim.quadratic_history = False
     loads = [sim.preload().load]
     while not sim.detached():
         loads.append(sim.step().load)

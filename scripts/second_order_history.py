@@ -1,29 +1,21 @@
-"""The time error of SLS steps of first and second order in time, on one grid (a measurement of
-a scheme the package does not use).
+"""The time error of SLS steps of first and second order in time, on one grid.
 
     taskset -c 0 python scripts/second_order_history.py maugis=7 modulus_ratio=0.1 \
         velocity=0.045 depth=0.1 cell=4 adhesion=5e-5 --nx 16384 --reference-dt 0.125 \
         --dt 2 1 0.5 --adaptive linear:accuracy=5e-3 implicit:accuracy=5e-3
 
-The package's SLS step (docs/model.md, (M8)) is exact for u linear in time within a step;
+The SLS step of the paper (docs/model.md, (M8)) is exact for u linear in time within a step;
 near a moving contact edge u is curved in time and the step's traction lags. Three schemes:
 
-- ``linear``: the package's step. With fixed steps nothing more (no history estimate); with
-  adaptive steps the package as it is: the history estimate's correction after each step
-  (``HistoryError.correct``) makes the history second order, the step's own equilibrium stays
-  first order;
+- ``linear``: the paper's step (M8), which fixed steps take. With adaptive steps, the history
+  estimate's correction after each step (``HistoryError.correct``) makes the history second
+  order, the step's own equilibrium stays first order (the package's adaptive steps before
+  the quadratic step; the step control is today's);
 - ``corrected`` (fixed steps only): the linear step, and after each step the traction missed
   by u quadratic through u_{n-1}, u_n, u_{n+1} added to the history, as the adaptive steps'
   correction does (here on every node, without its crossing rules);
-- ``implicit``: the step's equilibrium itself with u quadratic through u_{n-1}, u_n and the
-  unknown u_{n+1}. The missed traction (|q|/2) (Einf - E0) F(dt) c, with
-  c = ((u_{n+1} - u_n) / dt - (u_n - u_{n-1}) / h) / (dt + h) (h the step before), is linear
-  in u_{n+1}: the step stays an elastic problem, of modulus Eeff + R / (dt (dt + h)),
-  R = (Einf - E0) F(dt), with the history term -R (G_n / (dt (dt + h)) + (G_n - G_{n-1}) /
-  (h (dt + h))), G = (|q|/2) u kept in real space as the package keeps G_n. With adaptive
-  steps the history estimate's correction is not added (the step holds it) and the step
-  control is the package's, unchanged (its history estimate then overstates the step's
-  error, and its tip-lag criterion is the linear step's).
+- ``implicit``: the quadratic step (M46), the step's equilibrium itself with u quadratic
+  through u_{n-1}, u_n and the unknown u_{n+1}, which adaptive steps take.
 
 ``--dt``: fixed steps of these lengths (time units of tau); ``--adaptive``: adaptive runs, each
 ``scheme:key=value,...`` with [numerics] keys (``time_tolerance`` scales the history and
@@ -47,94 +39,32 @@ import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
 import hpcgfmd  # noqa: E402
-from hpcgfmd.model.material import (StepOperators, ViscoelasticHalfSpace,  # noqa: E402
-                                    curvature_integral)
+from hpcgfmd.model.material import ViscoelasticHalfSpace  # noqa: E402
 from hpcgfmd.runs.protocol import Retraction  # noqa: E402
 
 SCHEMES = ("linear", "corrected", "implicit")
 
 
-class CurvedHistorySLS(ViscoelasticHalfSpace):
-    """The SLS half-space with the ``corrected`` or ``implicit`` quadratic-in-time step
-    (module docstring); the first step after the preload is the linear one.
+class CorrectedSLS(ViscoelasticHalfSpace):
+    """The linear SLS step and, after each step, the traction (Einf - E0) F(dt) c that u
+    quadratic through G_{n-1}, G_n, G_{n+1} adds, added to p (the ``corrected`` scheme).
 
-    ``sim``: the Retraction, whose last accepted step length is h; G_{n-1} is then one more
-    state field, undone with a rejected step.
+    ``sim``: the Retraction, whose last accepted step length is h (None after the preload).
     """
 
-    def __init__(self, sim, scheme):
+    def __init__(self, sim):
         base = sim.substrate
         super().__init__(base.material, base.half_q, base.n, base.relaxed_traction.size)
-        self.sim, self.scheme = sim, scheme
-        self.previous = np.zeros_like(self.relaxed_traction)  # G_{n-1}
-        m = self.material
-        self._missed = lambda dt: (m.e_instantaneous - m.e_relaxed) * curvature_integral(
-            dt, m.relaxation_time)
-        self._implicit_ops = {}
+        self.sim = sim
 
-    @property
-    def h(self):
-        """Length of the last accepted step (None after the preload: no G_{n-1})."""
-        return self.sim.dt_previous
-
-    def _implicit(self, dt):
-        return self.scheme == "implicit" and self.h is not None and math.isfinite(dt)
-
-    def _extra(self, dt):
-        return self._missed(dt) / (dt * (dt + self.h))
-
-    def operators(self, dt):
-        ops = super().operators(dt)
-        if not self._implicit(dt):
-            return ops
-        key = (dt, self.h)
-        if key not in self._implicit_ops:
-            modulus = self._e_eff + self._extra(dt)
-            self._implicit_ops[key] = StepOperators.from_modulus(self.half_q, modulus, self.n)
-        return self._implicit_ops[key]
-
-    def history(self, fft, u, substrate_traction, dt, out):
-        super().history(fft, u, substrate_traction, dt, out)
-        if self._implicit(dt):
-            r, h = self._missed(dt), self.h
-            out -= (r / (dt * (dt + h))) * self.relaxed_traction
-            out -= (r / (h * (dt + h))) * (self.relaxed_traction - self.previous)
-        return out
-
-    def state_elastic_traction(self, dt, out):
-        super().state_elastic_traction(dt, out)
-        if self._implicit(dt):
-            out += self._extra(dt) * self.relaxed_traction
-        return out
-
-    def update(self, elastic_traction, history, dt, substrate_traction):
-        implicit = self._implicit(dt)
-        modulus = (self._e_eff + self._extra(dt)) if implicit else None
-        before = self.relaxed_traction.copy()
-        super().update(elastic_traction, history, dt, substrate_traction)
-        if implicit:  # G_{n+1} = K' u_{n+1} / Eeff'
-            np.multiply(elastic_traction, 1.0 / modulus, out=self.relaxed_traction)
-        elif self.scheme == "corrected" and self.h is not None and math.isfinite(dt):
-            h = self.h
-            curvature = ((self.relaxed_traction - before) / dt
-                         - (before - self.previous) / h) / (dt + h)
-            substrate_traction += self._missed(dt) * curvature
-        self.previous[:] = before
-
-    def correct(self, missed, dt, substrate_traction):
-        """The history estimate's correction (adaptive steps): held by the implicit step."""
-        if self.scheme != "implicit":
-            substrate_traction += missed
-
-    def field_names(self):
-        return ("relaxed_traction", "relaxed_previous")
-
-    def fields(self):
-        return {"relaxed_traction": self.relaxed_traction, "relaxed_previous": self.previous}
-
-    def restore(self, fields, fft=None, u=None):
-        super().restore(fields, fft, u)
-        self.previous[:] = fields["relaxed_previous"]
+    def update(self, elastic_traction, history, dt, substrate_traction, step_before=None):
+        older = self.relaxed_before.copy()  # G_{n-1}
+        super().update(elastic_traction, history, dt, substrate_traction, step_before)
+        h = self.sim.dt_previous
+        if h is not None and math.isfinite(dt):  # G_n is now relaxed_before
+            before = self.relaxed_before
+            curvature = ((self.relaxed_traction - before) / dt - (before - older) / h) / (dt + h)
+            substrate_traction += self.material.curvature_response(dt) * curvature
 
 
 def retraction(case_keys, nx, numerics, scheme):
@@ -142,11 +72,9 @@ def retraction(case_keys, nx, numerics, scheme):
     start = time.process_time()
     case = hpcgfmd.Case(**case_keys, numerics={"nx": nx, **numerics})
     sim = Retraction(case, MPI.COMM_SELF)
-    sim.substrate = CurvedHistorySLS(sim, scheme)
-    if sim.history_window is not None:
-        sim.history_window.error.substrate = sim.substrate
-    sim._reverted += ("relaxed_previous",)  # undone with a rejected step, as G_n
-    sim._saved["relaxed_previous"] = np.empty(sim.domain.local_n)
+    sim.quadratic_history = scheme == "implicit"  # (fixed steps take the linear one)
+    if scheme == "corrected":
+        sim.substrate = CorrectedSLS(sim)
     record = sim.preload()
     times, loads = [record.time], [record.load / case.load_scale]
     while not sim.detached():

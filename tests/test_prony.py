@@ -284,6 +284,21 @@ def test_step_control_of_branches_of_one_time_is_the_sls(dt, moved):
     assert GeneralizedMaxwell(1.0, (4.5, 4.5), (1.0, 1.0)).retardation_time == sls_time
 
 
+def test_the_tip_lag_bound_of_one_relaxation_time_and_of_several():
+    """The quadratic step's tip-lag bound (LAG_PER_LOAD) holds for one relaxation time: the
+    SLS and branches of one time share it; several times keep the linear step's, four times
+    tighter (docs/numerics.md, "Time steps")."""
+    from hpcgfmd.solvers.stepping import make_step_control
+
+    def allowance(**groups):
+        return make_step_control(parse_case(case_text("nx = 1024", **groups))).lag_allowance
+
+    sls = allowance(modulus_ratio=0.1)
+    assert allowance(relaxation_moduli=[4.5, 4.5], relaxation_times=[1.0, 1.0]) == sls
+    assert allowance(relaxation_moduli=[3.0, 6.0], relaxation_times=[0.1, 1.45]) == \
+        pytest.approx(sls / 4, rel=1e-15)
+
+
 def test_slowest_retardation_time_of_a_prony_series():
     # a zero of s E~(s) = E0 + sum E_i s tau_i / (1 + s tau_i) at s = -1 / lambda, between
     # the slowest relaxation time and its bound tau_max Einf / E0; no slower zero

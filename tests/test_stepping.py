@@ -212,19 +212,20 @@ def pull_off(numerics):
 
 @pytest.fixture(scope="module")
 def converged():
-    """Edge allowance w/8, history error 1e-3 load scales: converged to ~1e-4 (measured:
-    w/4 -> w/8 changes it by 1e-4)."""
-    return pull_off("nx = 2048\nedge_fraction = 0.125\ntolerance = 1e-8\n"
-                    "time_tolerance = 1e-3\nload_tolerance = 1e-3")
+    """Edge allowance w/32, history error 2.5e-4 load scales: converged to ~2e-5 (measured:
+    w/16 -> w/32 changes it by 2.1e-5, a history error of 1e-3 -> 2.5e-4 by 2.2e-5; the
+    errors of test_error_falls_with_the_edge_allowance reach 8e-5)."""
+    return pull_off("nx = 2048\nedge_fraction = 0.03125\ntolerance = 1e-8\n"
+                    "time_tolerance = 2.5e-4\nload_tolerance = 1e-3")
 
 
 def test_default_adaptive_pull_off_and_cost(converged):
     reference, fine = converged
     # within the steps' share, half the accuracy (nx fixes the grid's share here), at the
-    # default tolerance in fewer steps than the fixed ones take (217 steps, 7.5e-4), and solved
-    # as tightly as they are (tolerance 0.02 accuracy) too; measured at 5e-3: 177 steps,
-    # 1.1e-3, and tightly solved 253 steps, 9.8e-4 (the kept history errors' signed sum binds:
-    # 172 steps, 1.3e-3, when their sizes were summed; docs/results.md, "Fast retractions").
+    # default tolerance in fewer steps than the fixed ones take (217 steps, 7.7e-4), and solved
+    # as tightly as they are (tolerance 0.02 accuracy) too; measured at 5e-3: 162 steps,
+    # 3.3e-4, and tightly solved 217 steps, 4.4e-4 (the quadratic step; the linear one took
+    # 177 and 253 steps to 1.1e-3 and 9.8e-4).
     fixed_value, fixed = pull_off('nx = 2048\nstep_control = "fixed"\ntolerance = 1e-4')
     for accuracy in (5e-3, 1e-2):
         value, sim = pull_off(f"nx = 2048\naccuracy = {accuracy}")

@@ -10,7 +10,11 @@ a = exp(-dt/tau), phi = tau (1 - a) / dt and Eeff = E0 + (Einf - E0) phi:
     p_{n+1} = (|q|/2) Eeff u_{n+1} + [a p_n + (|q|/2) (E0 (1 - a) - Eeff) u_n]
 
 so each time step is an elastic problem of stiffness (|q|/2) Eeff plus a known history
-traction. All moduli are plane-strain effective moduli E* = E / (1 - nu^2).
+traction. The quadratic step (docs/model.md, (M46)) takes u quadratic in time through
+u_{n-1}, u_n and u_{n+1} instead: it adds (|q|/2) R c, R = (Einf - E0) F(dt) (M8's curvature
+integral) and c = ((u_{n+1} - u_n) / dt - (u_n - u_{n-1}) / h) / (dt + h) (h the step
+before), which is linear in u_{n+1}, so the step stays an elastic problem, of modulus
+Eeff + R / (dt (dt + h)). All moduli are plane-strain effective moduli E* = E / (1 - nu^2).
 Pure numpy: it acts on whatever block of modes the caller owns (in any order).
 """
 from __future__ import annotations
@@ -20,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-KEPT_LENGTHS = 4  # step lengths whose operators a substrate keeps (2 spectra each)
+KEPT_LENGTHS = 6  # (step, step before) pairs whose operators a substrate keeps (2 spectra each)
 
 
 @dataclass(frozen=True)
@@ -163,6 +167,30 @@ class StepOperators:
         return cls(stiffness, compliance)
 
 
+def quadratic_terms(material, dt, step_before):
+    """The quadratic step's coefficients (docs/model.md, (M46)), or None for the linear step.
+
+    Parameters
+    ----------
+    material : StandardLinearSolid or GeneralizedMaxwell
+    dt, step_before : float
+        The step's length and the accepted step's before it, h (time units); ``step_before``
+        None (after the preload or a start from a given u) or ``dt`` infinite (the relaxed
+        preload): the linear step.
+
+    Returns
+    -------
+    (float, float, float) or None
+        (R / (dt (dt + h)), R / (h (dt + h)), R) with R = curvature_response(dt) (stress
+        time^2): the modulus added to Eeff, the weight of G_n - G_{n-1} in the history, and R.
+    """
+    if step_before is None or not math.isfinite(dt):
+        return None
+    response = material.curvature_response(dt)
+    return (response / (dt * (dt + step_before)),
+            response / (step_before * (dt + step_before)), response)
+
+
 class ViscoelasticHalfSpace:
     """Per-mode SLS time stepping of the periodic half-space (docs/model.md, "Substrate").
 
@@ -170,10 +198,16 @@ class ViscoelasticHalfSpace:
     history traction H = a p_n + (|q|/2)(E0 (1 - a) - Eeff) u_n from the previous state.
     After the step's equilibrium u_{n+1}, the substrate traction is p_{n+1} = K u_{n+1} + H.
 
-    The state is p_n and G_n = (|q|/2) u_n, both in real space: mode-diagonal maps commute
-    with the transform, so H = a p_n + (E0 (1 - a) - Eeff) G_n needs no transform, and
-    G_{n+1} = (K u_{n+1}) / Eeff comes with the solve (as for the Prony series,
+    The state is p_n, G_n = (|q|/2) u_n and G_{n-1}, all in real space: mode-diagonal maps
+    commute with the transform, so H = a p_n + (E0 (1 - a) - Eeff) G_n needs no transform,
+    and G_{n+1} = (K u_{n+1}) / Eeff comes with the solve (as for the Prony series,
     :mod:`.prony`). Only a state that starts from a given u (:meth:`start`) costs one.
+
+    Given the step before, h (``step_before``), a step is the quadratic one (module
+    docstring, (M46)): modulus Eeff' = Eeff + R / (dt (dt + h)) and history
+    H' = H - R (G_n / (dt (dt + h)) + (G_n - G_{n-1}) / (h (dt + h))); then
+    p_{n+1} = K' u_{n+1} + H' and G_{n+1} = K' u_{n+1} / Eeff'. Every method of a step takes
+    the same ``step_before``.
 
     Parameters
     ----------
@@ -190,76 +224,103 @@ class ViscoelasticHalfSpace:
         self.material = material
         self.half_q = half_q
         self.n = n
-        self.relaxed_traction = np.zeros(n if local_n is None else local_n)  # G_n
-        self._dt = None
-        self._kept = {}  # dt -> (operators, decay, e_history, e_eff), least recent first
+        local_n = n if local_n is None else local_n
+        self.relaxed_traction = np.zeros(local_n)  # G_n
+        self.relaxed_before = np.zeros(local_n)  # G_{n-1}
+        self._relaxed_start = np.zeros(local_n)  # G_n of the step being solved
+        self.last_step_quadratic = False  # the last update's step was the quadratic one
+        self._key = None
+        self._kept = {}  # (dt, h) -> (operators, decay, e_history, e_eff, terms), LRU first
 
-    def operators(self, dt: float) -> StepOperators:
-        """Stiffness (|q|/2) Eeff(dt) and its preconditioner; dt = inf is the relaxed solid."""
-        self._prepare(dt)
+    def operators(self, dt: float, step_before=None) -> StepOperators:
+        """Stiffness (|q|/2) Eeff(dt) (Eeff' for the quadratic step) and its preconditioner;
+        dt = inf is the relaxed solid."""
+        self._prepare(dt, step_before)
         return self._ops
 
-    def start(self, fft, u):
-        """Collective (one FFT pair): the state's G = (|q|/2) u of the displacement ``u``
-        (a state not reached by :meth:`update`: a given start, an old checkpoint)."""
-        fft.apply_diagonal(u, self.half_q * (1.0 / self.n), self.relaxed_traction)
+    def start(self, fft, u, out=None):
+        """Collective (one FFT pair): G = (|q|/2) u of the displacement ``u`` into ``out``
+        (default the state's G_n: a state not reached by :meth:`update`, a given start)."""
+        fft.apply_diagonal(u, self.half_q * (1.0 / self.n),
+                           self.relaxed_traction if out is None else out)
 
-    def history(self, fft, u, substrate_traction, dt, out):
-        """History traction H of a step of length dt (M8) into ``out`` (stress units).
+    def history(self, fft, u, substrate_traction, dt, out, step_before=None):
+        """History traction H of a step of length dt (M8; H' of (M46) given ``step_before``)
+        into ``out`` (stress units).
 
         Local (no transform): H = a p_n + (E0 (1 - a) - Eeff) G_n, G_n = (|q|/2) u_n of the
-        state (:meth:`update`, :meth:`start`); ``fft`` and ``u`` are not needed.
+        state (:meth:`update`, :meth:`start`); ``fft`` and ``u`` are not needed. The state's
+        G_n is kept as the step's start for :meth:`update` (a step may be solved more than
+        once: the compliant drive's search).
         """
-        self._prepare(dt)
+        self._prepare(dt, step_before)
+        self._relaxed_start[:] = self.relaxed_traction
         np.multiply(self.relaxed_traction, self._e_history, out=out)
         out += self._decay * substrate_traction
+        if self._terms is not None:
+            added, weight, _ = self._terms
+            out -= (added + weight) * self.relaxed_traction
+            out += weight * self.relaxed_before
         return out
 
-    def state_elastic_traction(self, dt, out):
-        """K(dt) u_n = Eeff(dt) G_n of the state's displacement under a step of length dt
-        (stress units; local, no transform)."""
-        self._prepare(dt)
-        return np.multiply(self.relaxed_traction, self._e_eff, out=out)
+    def state_elastic_traction(self, dt, out, step_before=None):
+        """K(dt) u_n = Eeff(dt) G_n (Eeff' G_n for the quadratic step) of the state's
+        displacement under a step of length dt (stress units; local, no transform)."""
+        self._prepare(dt, step_before)
+        return np.multiply(self.relaxed_traction, self._modulus, out=out)
 
     def field_names(self):
-        """Names of the state fields beyond u and p: G."""
-        return ("relaxed_traction",)
+        """Names of the state fields beyond u and p: G_n and G_{n-1}."""
+        return ("relaxed_traction", "relaxed_before")
 
     def fields(self):
         """{name: this rank's block} of the state fields beyond u and p (views)."""
-        return {"relaxed_traction": self.relaxed_traction}
+        return {"relaxed_traction": self.relaxed_traction,
+                "relaxed_before": self.relaxed_before}
 
-    def restore(self, fields, fft=None, u=None):
-        """Set G from ``fields``; from ``u`` by one transform when they lack it (checkpoints
-        written before G was kept)."""
+    def restore(self, fields, fft=None, u=None, u_before=None):
+        """Set G_n and G_{n-1} from ``fields``; collective when they lack them (checkpoints
+        written before they were kept): G_n from ``u``, G_{n-1} from ``u_before`` (u_{n-1},
+        or u when it is None) by one transform each."""
         if "relaxed_traction" in fields:
             self.relaxed_traction[:] = fields["relaxed_traction"]
         else:
             self.start(fft, u)
+        if "relaxed_before" in fields:
+            self.relaxed_before[:] = fields["relaxed_before"]
+        else:
+            self.start(fft, u if u_before is None else u_before, self.relaxed_before)
 
-    def update(self, elastic_traction, history, dt, substrate_traction):
-        """After a step's solve: the substrate traction p_{n+1} = K u_{n+1} + H (M8) and
-        G_{n+1} = (K u_{n+1}) / Eeff."""
-        self._prepare(dt)
+    def update(self, elastic_traction, history, dt, substrate_traction, step_before=None):
+        """After a step's solve: the substrate traction p_{n+1} = K u_{n+1} + H (M8, (M46)),
+        G_{n+1} = (K u_{n+1}) / Eeff (Eeff') and G_{n-1} = the step's start G_n."""
+        self._prepare(dt, step_before)
         np.add(elastic_traction, history, out=substrate_traction)
-        np.multiply(elastic_traction, 1.0 / self._e_eff, out=self.relaxed_traction)
+        self.relaxed_before[:] = self._relaxed_start
+        np.multiply(elastic_traction, 1.0 / self._modulus, out=self.relaxed_traction)
+        self.last_step_quadratic = self._terms is not None
 
     def correct(self, missed, dt, substrate_traction):
-        """Add the traction the step of length dt missed to p (the whole history)."""
-        substrate_traction += missed
+        """Add the traction the linear step of length dt missed to p (the whole history);
+        nothing after a quadratic step, which holds it."""
+        if not self.last_step_quadratic:
+            substrate_traction += missed
 
-    def _prepare(self, dt):
-        if dt == self._dt:
+    def _prepare(self, dt, step_before=None):
+        key = (dt, step_before)
+        if key == self._key:
             return
-        # Adaptive steps recur on a grid of lengths (dt_min 2^(j/4)): the last few lengths'
+        # Adaptive steps recur on a grid of lengths (dt_min 2^(j/4)): the last few pairs'
         # operators are kept rather than remade at every change.
-        kept = self._kept.pop(dt, None)
+        kept = self._kept.pop(key, None)
         if kept is None:
             f = self.material.step_factors(dt)
-            kept = (StepOperators.from_modulus(self.half_q, f.e_eff, self.n), f.decay,
-                    f.e_history, f.e_eff)
-        self._kept[dt] = kept
+            terms = quadratic_terms(self.material, dt, step_before)
+            modulus = f.e_eff + (terms[0] if terms else 0.0)
+            kept = (StepOperators.from_modulus(self.half_q, modulus, self.n), f.decay,
+                    f.e_history, modulus, terms)
+        self._kept[key] = kept
         if len(self._kept) > KEPT_LENGTHS:
             del self._kept[next(iter(self._kept))]  # the least recently used
-        self._ops, self._decay, self._e_history, self._e_eff = kept
-        self._dt = dt
+        self._ops, self._decay, self._e_history, self._modulus, self._terms = kept
+        self._key = key

@@ -17,7 +17,10 @@ with S_i = (|q|/2) s_i (the branch tractions) and G = (|q|/2) u (the traction of
 spring per unit modulus) held in real space: mode-diagonal maps commute with the transform,
 so the history needs no transform at all, and G_{n+1} = (K u_{n+1}) / Eeff comes with the
 solve. One branch is the standard linear solid of :mod:`.material` (tau = tau_1,
-Einf = E0 + E_1: (M8) is (M40) with a p_n = a (E0 G_n + S_1,n)).
+Einf = E0 + E_1: (M8) is (M40) with a p_n = a (E0 G_n + S_1,n)). The quadratic step (M46)
+takes u quadratic in time through u_{n-1}, u_n, u_{n+1}: each branch gains E_i F_i(dt) c,
+c = ((G_{n+1} - G_n) / dt - (G_n - G_{n-1}) / h) / (dt + h) (h the step before), and the
+step's modulus and history change as the SLS's (:func:`.material.quadratic_terms`).
 All moduli are plane-strain effective moduli E* = E / (1 - nu^2).
 """
 from __future__ import annotations
@@ -27,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .material import StepOperators, curvature_integral
+from .material import StepOperators, curvature_integral, quadratic_terms
 
 
 @dataclass(frozen=True)
@@ -166,74 +169,105 @@ class MaxwellHalfSpace:
         count = len(material.branch_moduli)
         self.branch_tractions = np.zeros((count, local_n))  # S_i
         self.relaxed_traction = np.zeros(local_n)  # G = (|q|/2) u of the accepted state
+        self.relaxed_before = np.zeros(local_n)  # G_{n-1}, for the quadratic step (M46)
+        self.last_step_quadratic = False  # the last update's step was the quadratic one
         # S_i,n and G_n of the step's start: a step may be solved more than once (the
         # compliant drive's search), each update starts from them
         self._branches_start = np.zeros((count, local_n))
         self._relaxed_start = np.zeros(local_n)
+        self._before_start = np.zeros(local_n)  # G_{n-1} of the step's start
         self._next = np.empty(local_n)
-        self._dt = None
+        self._key = None
 
     def field_names(self):
         """Names of the state fields this half-space adds (checkpoint and undo)."""
-        return ("relaxed_traction",) + tuple(
+        return ("relaxed_traction", "relaxed_before") + tuple(
             f"branch_traction_{i}" for i in range(len(self.branch_tractions)))
 
     def fields(self):
         """{name: this rank's block} of the state fields (views, not copies)."""
-        named = {"relaxed_traction": self.relaxed_traction}
+        named = {"relaxed_traction": self.relaxed_traction,
+                 "relaxed_before": self.relaxed_before}
         named.update({f"branch_traction_{i}": s for i, s in enumerate(self.branch_tractions)})
         return named
 
-    def restore(self, fields, fft=None, u=None):
-        """Set the state fields from ``fields`` (:meth:`fields`' names; ``fft`` and ``u``
-        are not needed)."""
+    def restore(self, fields, fft=None, u=None, u_before=None):
+        """Set the state fields from ``fields`` (:meth:`fields`' names). Collective when they
+        lack G_{n-1} (checkpoints written before it was kept): from ``u_before`` (u_{n-1}, or
+        ``u`` when it is None) by one transform."""
         for name, block in self.fields().items():
-            block[:] = fields[name]
+            if name in fields:
+                block[:] = fields[name]
+            elif name == "relaxed_before":
+                fft.apply_diagonal(u if u_before is None else u_before,
+                                   self.half_q * (1.0 / self.n), block)
+            else:
+                raise KeyError(name)
 
-    def state_elastic_traction(self, dt, out):
-        """K(dt) u_n = Eeff(dt) G_n of the state's displacement under a step of length dt
-        (stress units; local, no transform)."""
-        self._prepare(dt)
-        return np.multiply(self.relaxed_traction, self._e_eff, out=out)
+    def state_elastic_traction(self, dt, out, step_before=None):
+        """K(dt) u_n = Eeff(dt) G_n (Eeff' G_n for the quadratic step) of the state's
+        displacement under a step of length dt (stress units; local, no transform)."""
+        self._prepare(dt, step_before)
+        return np.multiply(self.relaxed_traction, self._modulus, out=out)
 
-    def operators(self, dt: float) -> StepOperators:
-        """Stiffness (|q|/2) Eeff(dt) and its preconditioner; dt = inf is the relaxed solid."""
-        self._prepare(dt)
+    def operators(self, dt: float, step_before=None) -> StepOperators:
+        """Stiffness (|q|/2) Eeff(dt) (Eeff' for the quadratic step) and its preconditioner;
+        dt = inf is the relaxed solid."""
+        self._prepare(dt, step_before)
         return self._ops
 
-    def history(self, fft, u, substrate_traction, dt, out):
-        """The history traction H of a step of length dt (M40) into ``out`` (stress units).
+    def history(self, fft, u, substrate_traction, dt, out, step_before=None):
+        """The history traction H of a step of length dt (M40; H' of (M46) given
+        ``step_before``) into ``out`` (stress units).
 
         Local (no transform): H = sum_i a_i S_i - (sum_i E_i phi_i) G. ``fft``, ``u`` and
         ``substrate_traction`` are not needed: the branch state holds the history. The
         state S_i,n, G_n is kept as the step's start for :meth:`update`.
         """
-        self._prepare(dt)
+        self._prepare(dt, step_before)
         self._branches_start[:] = self.branch_tractions
         self._relaxed_start[:] = self.relaxed_traction
+        self._before_start[:] = self.relaxed_before
         np.multiply(self.relaxed_traction, -self._weight_sum, out=out)
         for decay, branch in zip(self._decays, self.branch_tractions):
             if decay > 0.0:
                 out += decay * branch
+        if self._terms is not None:
+            added, weight, _ = self._terms
+            out -= (added + weight) * self.relaxed_traction
+            out += weight * self.relaxed_before
         return out
 
-    def update(self, elastic_traction, history, dt, substrate_traction):
-        """After a step's solve: the new substrate traction p = K u + H (M40) and the branch
-        state, S_i = a_i S_i,n + E_i phi_i (G_{n+1} - G_n) with G_{n+1} = K u / Eeff, from the
-        step's start (:meth:`history`; all zero before the preload, whose dt = inf has
-        a_i = phi_i = 0): a step solved again updates from the same start."""
-        self._prepare(dt)
+    def update(self, elastic_traction, history, dt, substrate_traction, step_before=None):
+        """After a step's solve: the new substrate traction p = K u + H (M40, (M46)) and the
+        branch state, S_i = a_i S_i,n + E_i phi_i (G_{n+1} - G_n) [+ E_i F_i(dt) c] with
+        G_{n+1} = K u / Eeff, from the step's start (:meth:`history`; all zero before the
+        preload, whose dt = inf has a_i = phi_i = 0): a step solved again updates from the
+        same start. G_{n-1} becomes the start's G_n."""
+        self._prepare(dt, step_before)
         np.add(elastic_traction, history, out=substrate_traction)
-        np.multiply(elastic_traction, 1.0 / self._e_eff, out=self.relaxed_traction)
+        self.relaxed_before[:] = self._relaxed_start
+        np.multiply(elastic_traction, 1.0 / self._modulus, out=self.relaxed_traction)
         np.subtract(self.relaxed_traction, self._relaxed_start, out=self._next)
         for decay, weight, branch, start in zip(self._decays, self._weights,
                                                 self.branch_tractions, self._branches_start):
             np.multiply(start, decay, out=branch)
             branch += weight * self._next
+        self.last_step_quadratic = self._terms is not None
+        if self.last_step_quadratic:
+            # c (in G's units) times E_i F_i(dt): (G_{n+1} - G_n) / dt is _next / dt
+            h = step_before
+            curvature = self._next * (1.0 / (dt * (dt + h)))
+            curvature -= (self._relaxed_start - self._before_start) * (1.0 / (h * (dt + h)))
+            for response, branch in zip(self._branch_responses, self.branch_tractions):
+                branch += response * curvature
 
     def correct(self, missed, dt, substrate_traction):
-        """Add the missed traction of a step of length dt to p and to each branch in
-        proportion to its share E_i F_i(dt) of the curvature response."""
+        """Add the missed traction of a linear step of length dt to p and to each branch in
+        proportion to its share E_i F_i(dt) of the curvature response; nothing after a
+        quadratic step, which holds it."""
+        if self.last_step_quadratic:
+            return
         substrate_traction += missed
         shares = self.material.branch_curvature_responses(dt)
         total = shares.sum()
@@ -241,9 +275,14 @@ class MaxwellHalfSpace:
             for share, branch in zip(shares / total, self.branch_tractions):
                 branch += share * missed
 
-    def _prepare(self, dt):
-        if dt != self._dt:
-            self._decays, self._weights, self._e_eff = self.material.step_factors(dt)
+    def _prepare(self, dt, step_before=None):
+        key = (dt, step_before)
+        if key != self._key:
+            self._decays, self._weights, e_eff = self.material.step_factors(dt)
             self._weight_sum = math.fsum(self._weights)
-            self._ops = StepOperators.from_modulus(self.half_q, self._e_eff, self.n)
-            self._dt = dt
+            self._terms = quadratic_terms(self.material, dt, step_before)
+            self._modulus = e_eff + (self._terms[0] if self._terms else 0.0)
+            if self._terms:
+                self._branch_responses = self.material.branch_curvature_responses(dt)
+            self._ops = StepOperators.from_modulus(self.half_q, self._modulus, self.n)
+            self._key = key

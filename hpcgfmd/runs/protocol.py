@@ -10,8 +10,11 @@
    (complete detachment). One exact step of length dt per time step, each an elastic problem
    of stiffness (|q|/2) Eeff with a history traction H: the SLS's
    H = a p_n + (|q|/2)(E0 (1 - a) - Eeff) u_n (M8), or a Prony series' from its branch
-   tractions (M40). Steps end exactly where segments do. Displacement control: jumps of the
-   contact (into contact on an approach, off it on a retraction) are recorded, never a stop.
+   tractions (M40). With adaptive steps every step after a segment's first takes u
+   quadratic in time through the last two accepted states instead (M46): modulus and
+   history change, the step stays an elastic problem. Steps end exactly where segments
+   do. Displacement control: jumps of the contact (into contact on an approach, off it on a
+   retraction) are recorded, never a stop.
 
 A compliant drive (``drive_stiffness`` k_s, :mod:`.drive`): the indenter hangs on a spring
 whose far end, the drive, moves as u_z did; each step the indenter position is the unknown
@@ -142,6 +145,10 @@ class Retraction:
         self.preload_iterations = 0
         self.preload_levels = []  # (nx, iterations) of the coarser preload levels (coarse_start)
         self.dt_previous = None  # length of the last accepted step (None after the preload)
+        # adaptive steps of a viscous solid take the quadratic step (M46) once a step was
+        # accepted; fixed steps keep the paper's linear one (M8)
+        self.quadratic_history = self.steps.adaptive and case.k < 1.0
+        self._step_before = None  # the step before of the step being solved (None: linear)
         self.edges = ContactEdges()  # of the last two steps
         self._reverted = ("u", "u_previous", "substrate_traction", "traction",
                           *self.substrate.field_names())
@@ -176,7 +183,8 @@ class Retraction:
         # substrate's own state
         self.substrate.update(solver.elastic_traction(), self.history,
                               dt if substrate_dt is None else substrate_dt,
-                              self.substrate_traction)
+                              self.substrate_traction,
+                              None if substrate_dt is not None else self._step_before)
         return self._record(result, dt)
 
     def _record(self, result, dt):
@@ -273,7 +281,13 @@ class Retraction:
         None when the solve was abandoned because its contact edges strayed beyond what the
         step control accepts (:meth:`~hpcgfmd.solvers.stepping.AdaptiveSteps.edge_limit`).
         """
-        self.substrate.history(self.fft, self.u, self.substrate_traction, dt, self.history)
+        # the quadratic step spans the step before, which must lie in the same segment: the
+        # drive's kink at a segment's start is not a curvature (the linear step is exact there)
+        before = self._step_before = (
+            self.dt_previous if self.quadratic_history
+            and self.step_index > self.schedule.start_step else None)
+        self.substrate.history(self.fft, self.u, self.substrate_traction, dt, self.history,
+                               before)
         gap_before = np.subtract(self.wall, self.u, out=self._gap_before)
         contact = np.less_equal(gap_before, 0.0, out=self._contact_before)
         self.step_index += 1
@@ -289,7 +303,7 @@ class Retraction:
             self.indenter = self.spring.guess(indenter_before, dt)
         else:
             self.indenter = self.drive
-        ops = self.substrate.operators(dt)
+        ops = self.substrate.operators(dt, before)
         np.add(self.profile, self.indenter, out=self.wall)
         if self.solver.starts_from_prediction:
             ratio = 1.0 if self.dt_previous is None else dt / self.dt_previous
@@ -300,7 +314,7 @@ class Retraction:
                 self.edges.current, self.edges.previous,
                 lambda v, k_v=None: self.solver.energy(v, self.wall, ops, self.history,
                                                        stiffness_u=k_v),
-                self.substrate.state_elastic_traction(dt, self._stiffness_u))
+                self.substrate.state_elastic_traction(dt, self._stiffness_u, before))
         if self.spring is not None:
             return self.spring.balance(self, ops, dt)
         return self._equilibrate(ops, dt, self.solver, self.edge_watch(dt))
@@ -388,7 +402,8 @@ class Retraction:
         self.u[:] = fields["u"]
         self.substrate_traction[:] = fields["substrate_traction"]
         self.traction[:] = fields["traction"]
-        self.substrate.restore(fields, self.fft, self.u)
+        self.substrate.restore(fields, self.fft, self.u,
+                               fields["u_previous"] if attrs.get("has_previous") else None)
         self.time = float(attrs["time"])
         self.indenter = float(attrs["indenter"])
         # (absent from checkpoints before the compliant drive: displacement control)
