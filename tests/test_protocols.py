@@ -268,17 +268,20 @@ protocol = [{approach = 0.03}, {dwell = 2.0}, {retract = inf}]
 def test_a_segment_starts_with_the_linear_step():
     """The quadratic step (M46) spans the step before: across a segment's start the drive's
     kink is no curvature, so each segment's first step is the linear one (M8), exact for a
-    drive linear within the step."""
+    drive linear within the step, and the history estimate's window does not span the kink
+    either (no estimate, no correction on a segment's first step)."""
     case = parse_case(case_text("nx = 1024", modulus_ratio=0.5, velocity=1.0) + CYCLE)
     sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
     try:
-        segments, quadratic = [sim.preload().segment], [False]
+        segments, quadratic, estimated = [sim.preload().segment], [False], [False]
         while not sim.finished():
             segments.append(sim.step().segment)
             quadratic.append(sim.substrate.last_step_quadratic)
+            estimated.append(sim.history_window.error.has_previous)
     finally:
         sim.close()
-    first = [i for i in range(1, len(segments)) if i == 1 or segments[i] != segments[i - 1]]
+    steps = range(1, len(segments))
+    first = [i for i in steps if i == 1 or segments[i] != segments[i - 1]]
     assert [segments[i] for i in first] == [0, 1, 2]
-    assert not any(quadratic[i] for i in first)
-    assert all(quadratic[i] for i in range(1, len(segments)) if i not in first)
+    assert not any(quadratic[i] or estimated[i] for i in first)
+    assert all(quadratic[i] and estimated[i] for i in steps if i not in first)

@@ -40,7 +40,7 @@ dwell = 0.3
 [[protocol]]
 retract = inf
 """
-STOP_CYCLE = 279  # the approach's last step (measured: 660 steps, the dwell 280-310)
+STOP_CYCLE = 235  # the approach's last step (measured: 571 steps, the dwell 236-265)
 # Load control: the applied load is the drive
 LOAD_CONTROL = case_text("nx = 1024", "", modulus_ratio=1.0, drive_stiffness=0) + """
 [[protocol]]

@@ -11,10 +11,11 @@ a = exp(-dt/tau), phi = tau (1 - a) / dt and Eeff = E0 + (Einf - E0) phi:
 
 so each time step is an elastic problem of stiffness (|q|/2) Eeff plus a known history
 traction. The quadratic step (docs/model.md, (M46)) takes u quadratic in time through
-u_{n-1}, u_n and u_{n+1} instead: it adds (|q|/2) R c, R = (Einf - E0) F(dt) (M8's curvature
-integral) and c = ((u_{n+1} - u_n) / dt - (u_n - u_{n-1}) / h) / (dt + h) (h the step
-before), which is linear in u_{n+1}, so the step stays an elastic problem, of modulus
-Eeff + R / (dt (dt + h)). All moduli are plane-strain effective moduli E* = E / (1 - nu^2).
+u_{n-1}, u_n and u_{n+1} instead: it adds (|q|/2) R c, R = (Einf - E0) F(dt) (F the
+curvature integral of (M46), :func:`curvature_integral`) and c = ((u_{n+1} - u_n) / dt -
+(u_n - u_{n-1}) / h) / (dt + h) (h the step before), which is linear in u_{n+1}, so the step
+stays an elastic problem, of modulus Eeff + R / (dt (dt + h)). All moduli are plane-strain
+effective moduli E* = E / (1 - nu^2).
 Pure numpy: it acts on whatever block of modes the caller owns (in any order).
 """
 from __future__ import annotations
@@ -194,7 +195,8 @@ def quadratic_terms(material, dt, step_before):
 class ViscoelasticHalfSpace:
     """Per-mode SLS time stepping of the periodic half-space (docs/model.md, "Substrate").
 
-    Holds the operators of a step length (recomputed only when dt changes) and forms the
+    Holds the operators of a step (recomputed only when dt or the step before changes;
+    the last few kept) and forms the
     history traction H = a p_n + (|q|/2)(E0 (1 - a) - Eeff) u_n from the previous state.
     After the step's equilibrium u_{n+1}, the substrate traction is p_{n+1} = K u_{n+1} + H.
 

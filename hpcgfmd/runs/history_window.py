@@ -81,6 +81,17 @@ class HistoryWindow:
         self._older = (self._older[0], float(time_before), float(indenter_before))
         self._states = self._attempt_states or (None, None)
 
+    def restart(self):
+        """A protocol segment begins (the drive's rate changes): forget the older state, the
+        previous correction and the smooth curvature, so that no window spans the drive's
+        kink. The segment's first step then has no estimate (as the first step after the
+        preload), its second one a window within the segment."""
+        self._older = None
+        self._states = (None, None)
+        self._attempt_states = None
+        self.error.has_previous = False
+        self.error.curvature_age = math.inf
+
     def _state_at(self, u, indenter):
         """Each node's interaction state for displacement u under the indenter at
         ``indenter`` (int8)."""

@@ -282,10 +282,13 @@ class Retraction:
         step control accepts (:meth:`~hpcgfmd.solvers.stepping.AdaptiveSteps.edge_limit`).
         """
         # the quadratic step spans the step before, which must lie in the same segment: the
-        # drive's kink at a segment's start is not a curvature (the linear step is exact there)
+        # drive's kink at a segment's start is not a curvature (the linear step is exact
+        # there), and neither is the history estimate's window across it
+        first_of_segment = 0 < self.step_index == self.schedule.start_step
+        if first_of_segment and self.history_window is not None:
+            self.history_window.restart()
         before = self._step_before = (
-            self.dt_previous if self.quadratic_history
-            and self.step_index > self.schedule.start_step else None)
+            self.dt_previous if self.quadratic_history and not first_of_segment else None)
         self.substrate.history(self.fft, self.u, self.substrate_traction, dt, self.history,
                                before)
         gap_before = np.subtract(self.wall, self.u, out=self._gap_before)
@@ -402,8 +405,12 @@ class Retraction:
         self.u[:] = fields["u"]
         self.substrate_traction[:] = fields["substrate_traction"]
         self.traction[:] = fields["traction"]
-        self.substrate.restore(fields, self.fft, self.u,
-                               fields["u_previous"] if attrs.get("has_previous") else None)
+        # (G_{n-1} of checkpoints written before it was kept: from u_{n-1}, the predictor's
+        # or the history window's)
+        u_before = (fields["u_previous"] if attrs.get("has_previous")
+                    else fields.get("u_older")
+                    if not math.isnan(float(attrs.get("time_older", math.nan))) else None)
+        self.substrate.restore(fields, self.fft, self.u, u_before)
         self.time = float(attrs["time"])
         self.indenter = float(attrs["indenter"])
         # (absent from checkpoints before the compliant drive: displacement control)

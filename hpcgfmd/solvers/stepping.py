@@ -2,29 +2,30 @@
 
 Where the time discretisation errs (docs/model.md, "Substrate" and "Protocol"):
 
-- The SLS is integrated exactly over a step for a displacement varying linearly in time
-  (fixed steps, (M8); error O(dt^2 u_tt)) or quadratically through the last two accepted
-  states (adaptive steps after the first, (M46); error O(dt^3 u_ttt)), so the material
-  history is accurate wherever u(x, t) is smooth in t. Near a moving contact edge u_tt is
-  concentrated: a node that leaves the wall changes its velocity abruptly, so the history
-  integral of the nodes the edge crosses within one step errs by O(dt) each. The edge criterion bounds the nodes (the distance) crossed per step:
-  the contact edges may move by at most ``edge_fraction`` of the relaxed cohesive-zone width
-  w = pi E0 dmax / (4 sigma_a) per step (docs/model.md, "Scales"; the narrowest zone of the SLS).
+- The SLS is integrated exactly over a step for a displacement varying linearly in time (fixed
+  steps, (M8); error O(dt^2 u_tt)) or quadratically through the last two accepted states
+  (adaptive steps after a segment's first, (M46); error O(dt^3 u_ttt)), so the material history is
+  accurate wherever u(x, t) is smooth in t. Near a moving contact edge u_tt is concentrated: a
+  node that leaves the wall changes its velocity abruptly, so the history integral of the nodes
+  the edge crosses within one step errs by O(dt) each. The edge criterion bounds the nodes (the
+  distance) crossed per step: the contact edges may move by at most ``edge_fraction`` of the
+  relaxed cohesive-zone width w = pi E0 dmax / (4 sigma_a) per step (docs/model.md, "Scales";
+  the narrowest zone of the SLS).
 - The observables are sampled at the steps: the pull-off load is the most tensile SAMPLE of
   a smooth load curve L(t), which a coarse step misses by up to L'' dt^2 / 8 (the paper's
   "early pull-off" of coarse steps). The load criterion bounds the deviation of each new load
   from the straight line through the two before, e = |L_n+1 - L_pred| ~ L'' dt (dt + dt_prev)
   / 2, to ``load_tolerance`` load scales (R dgamma0^2 E0)^(1/3): the sampled minimum is then
-  within about load_tolerance / 8 load scales of the curve's, and the same curvature bound
-  controls the O(dt^2 u_tt) history error of the smooth parts.
-- The history's own errors: the smooth part's, estimated from the curvature in time of u
-  (:class:`HistoryError`), and the tip's lag, the rate the step's linear history gives the
-  nodes a moving edge passes (:func:`tip_lag_error`), both bounded through
+  within about load_tolerance / 8 load scales of the curve's.
+- The history's own errors: the smooth part's, estimated from the change of the curvature in
+  time of u (:class:`HistoryError`), and the tip's lag, the rate error the step's history
+  gives the nodes a moving edge passes (:func:`tip_lag_error`), both bounded through
   ``time_tolerance``.
 
 Controller. After each step the error ratios e_edge = |da|max / (edge_fraction w) and e_lag
-(first order in dt), e_load (second order) and e_history (third order for steps short
-against tau, first to second for long ones: its square root is between) give the next step
+(first order in dt), e_load (second order) and e_history (third order for the linear step's
+own error when steps are short against tau, higher for the quadratic step's, first to
+second for long ones: its square root is between) give the next step
 dt * clip(0.9 / max(e_edge, e_lag, sqrt(e_load), sqrt(e_history)), 1/4, 2), rounded down to
 the grid dt_min 2^(j/4) within [dt_min, dt_max]. A step with e_edge > 2, e_load > 4,
 e_history > 4 or e_lag > 4 is rejected and repeated with that shorter step (the state is
@@ -393,8 +394,10 @@ class HistoryError:
     added and the step's error is the correction's (:meth:`estimate`). Cost: one
     FFT pair per step (docs/numerics.md and docs/results.md have the measured errors).
 
-    Crossings. A node that changes its state switches its traction on or off and moves every
-    node near it by a jump of the discrete solution, which the quadratic reads as a curvature
+    Crossings (the linear step's correction; a quadratic step has put the window's own
+    curvature in its traction, and the estimate after it reads the smooth curvature only
+    for its size). A node that changes its state switches its traction on or off and moves
+    every node near it by a jump of the discrete solution, which the quadratic reads as a curvature
     of size jump / dt^2: in a window that holds a crossing the estimate does not fall with
     dt, and on coarse grids (the edge takes several steps per node) the step control would
     shrink the steps without end. u_tt is smooth in time, so such a window takes the
