@@ -181,15 +181,15 @@ def quadratic_terms(material, dt, step_before):
 
     Returns
     -------
-    (float, float, float) or None
-        (R / (dt (dt + h)), R / (h (dt + h)), R) with R = curvature_response(dt) (stress
-        time^2): the modulus added to Eeff, the weight of G_n - G_{n-1} in the history, and R.
+    (float, float) or None
+        (R / (dt (dt + h)), R / (h (dt + h))) with R = curvature_response(dt) (stress
+        time^2): the modulus added to Eeff and the weight of G_n - G_{n-1} in the history.
     """
     if step_before is None or not math.isfinite(dt):
         return None
     response = material.curvature_response(dt)
     return (response / (dt * (dt + step_before)),
-            response / (step_before * (dt + step_before)), response)
+            response / (step_before * (dt + step_before)))
 
 
 class ViscoelasticHalfSpace:
@@ -232,7 +232,7 @@ class ViscoelasticHalfSpace:
         self._relaxed_start = np.zeros(local_n)  # G_n of the step being solved
         self.last_step_quadratic = False  # the last update's step was the quadratic one
         self._key = None
-        self._kept = {}  # (dt, h) -> (operators, decay, e_history, e_eff, terms), LRU first
+        self._kept = {}  # (dt, h) -> (operators, decay, e_history, modulus, terms), LRU first
 
     def operators(self, dt: float, step_before=None) -> StepOperators:
         """Stiffness (|q|/2) Eeff(dt) (Eeff' for the quadratic step) and its preconditioner;
@@ -260,7 +260,7 @@ class ViscoelasticHalfSpace:
         np.multiply(self.relaxed_traction, self._e_history, out=out)
         out += self._decay * substrate_traction
         if self._terms is not None:
-            added, weight, _ = self._terms
+            added, weight = self._terms
             out -= (added + weight) * self.relaxed_traction
             out += weight * self.relaxed_before
         return out

@@ -233,7 +233,7 @@ class MaxwellHalfSpace:
             if decay > 0.0:
                 out += decay * branch
         if self._terms is not None:
-            added, weight, _ = self._terms
+            added, weight = self._terms
             out -= (added + weight) * self.relaxed_traction
             out += weight * self.relaxed_before
         return out
