@@ -1,4 +1,4 @@
-"""Speed against error: fast solver vs the paper's method (see hpcgfmd/benchmark.py).
+"""Speed against error: fast solver vs the paper's method (see hpcgfmd/studies/benchmark.py).
 
 Same as ``python -m hpcgfmd bench``; run under mpirun for several ranks, e.g.
 ``python scripts/speed_vs_error.py --out /tmp/sve`` or

@@ -10,11 +10,16 @@ the next step: the edge motion, the load's deviation (its square root), the hist
 square root: own error or the kept errors' signed sum against what is left of their
 allowance) or the tip's lag (the module docstring of :mod:`hpcgfmd.solvers.stepping`).
 Prints, for the accepted steps of each tenth of the retraction's time, their number, mean
-length and the count set by each criterion, and the rejected steps by criterion.
+length and the count set by each criterion, and the rejected steps by criterion. Last, the
+load criterion against node crossings: the median load-deviation ratio (deviation over
+``load_tolerance``) of the accepted steps in which the number of nodes on the wall changed
+and of the others (a crossing moves the load by a jump of the discrete solution, which no
+shorter step removes).
 """
 import collections
 import math
 import os
+import statistics
 import sys
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
@@ -47,13 +52,21 @@ def main(argv):
 
     def recorded(dt, time, *args, **kwargs):
         decision = judge(dt, time, *args, **kwargs)
-        verdicts.append((time, dt, decision.accepted, binding(decision)))
+        verdicts.append((time, dt, decision.accepted, binding(decision), decision.load_error))
         return decision
+
+    def on_wall():
+        return sim.domain.sum(float((sim.wall - sim.u <= 0.0).sum()))
 
     sim.steps.judge = recorded
     sim.preload()
+    crossing, smooth = [], []
+    nodes = on_wall()
     while not sim.detached():
         sim.step()
+        now = on_wall()
+        (crossing if now != nodes else smooth).append(verdicts[-1][4])
+        nodes = now
     sim.close()
     accepted = [v for v in verdicts if v[2]]
     end = accepted[-1][0]
@@ -68,6 +81,10 @@ def main(argv):
                   f" set by {counts}")
     rejected = collections.Counter(v[3] for v in verdicts if not v[2])
     print(f"rejected, by the criterion that shortened them: {dict(rejected)}")
+    for label, ratios in (("with", crossing), ("without", smooth)):
+        if ratios:
+            print(f"{len(ratios)} steps {label} a node crossing onto or off the wall: median load"
+                  f" deviation {statistics.median(ratios):.3g} of load_tolerance")
 
 
 if __name__ == "__main__":

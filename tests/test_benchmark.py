@@ -37,6 +37,12 @@ def bench(tmp_path, ranks, *extra):
     with open(f"{out}.csv") as fh:
         rows = list(csv.DictReader(fh))
     assert os.path.getsize(f"{out}.png") > 10000
+    with open(f"{out}.md") as fh:  # the docs' table: a header, then one line per row
+        table = fh.read().splitlines()
+    assert len(table) == len(rows) + 2
+    assert all(line.count("|") == 13 for line in table)
+    assert [line.split(" | ")[4] for line in table[2:]] == [
+        f"{row['steps']}" for row in rows]
     return rows
 
 
@@ -89,6 +95,24 @@ def test_each_accuracy_is_reached_and_costs_more_when_finer(serial):
     # numerics.md); measured 2.4e-4
     coarse, fine = (float(rows[label]["pulloff_Lbar"]) for label in ("nx=1024", "accuracy=5e-3"))
     assert 1e-5 < abs(coarse - fine) / abs(fine) < 0.056 * 1.5 ** -2.2
+
+
+@pytest.mark.slow
+def test_rows_with_the_grid_from_the_accuracy(serial):
+    # As a user runs it: accuracy alone, nx chosen by the knob. The small case's grids are
+    # 2048, 3072 and 6144 nodes for 1e-2, 5e-3 and 1e-3; only the first is not finer than
+    # the reference's 2048, so the other two are skipped (their error cannot be measured).
+    auto = [row for row in serial if row["solver"] == "cg-auto"]
+    assert [row["label"] for row in auto] == ["accuracy=1e-2, nx from the accuracy"]
+    row = auto[0]
+    case = hpcgfmd.Case(**GROUPS, numerics={"accuracy": 1e-2})
+    assert int(row["nx"]) == case.numerics.nx == 2048
+    assert float(row["accuracy"]) == 1e-2
+    # the same run through the API, without nx
+    value = hpcgfmd.run(case).pull_off().lbar
+    assert float(row["pulloff_Lbar"]) == pytest.approx(value, rel=1e-6)
+    assert float(row["iterations_per_step"]) * int(row["steps"]) == pytest.approx(
+        int(row["iterations"]))
 
 
 @pytest.mark.slow
