@@ -115,6 +115,21 @@ def test_rows_with_the_grid_from_the_accuracy(serial):
         int(row["iterations"]))
 
 
+def test_grid_from_the_accuracy_is_the_knobs_and_no_nx_is_given():
+    from hpcgfmd.model.case import parse_case
+    from hpcgfmd.studies.benchmark import auto_grid_cases
+
+    geometry = {k: GROUPS[k] for k in ("modulus_ratio", "depth", "cell", "adhesion")}
+    cases = auto_grid_cases(3.5, 1.0, geometry)
+    assert [(label, nx) for label, _, nx in cases] == [("1e-2", 2048), ("5e-3", 3072),
+                                                       ("1e-3", 6144)]
+    for (label, text, nx), accuracy in zip(cases, (1e-2, 5e-3, 1e-3)):
+        case = parse_case(text)
+        assert case.numerics.nx_automatic  # the grid is left to the knob
+        assert case.numerics.accuracy == accuracy
+        assert nx == hpcgfmd.Case(**GROUPS, numerics={"accuracy": accuracy}).numerics.nx
+
+
 @pytest.mark.slow
 def test_paper_method_extrapolation_against_a_full_run(serial):
     # The benchmark runs the paper's method for 2 steps and extrapolates its cost to the

@@ -280,6 +280,15 @@ SCALARS = ("wall_s", "cpu_s", "setup_s", "retraction_s", "retraction_iterations"
            "iterations", "fft_pairs")
 
 
+def auto_grid_cases(lambda0, vz, geometry, auto_grid=AUTO_GRID):
+    """(label, case text without nx, the grid the accuracy knob chooses) per accuracy."""
+    cases = []
+    for label, accuracy in auto_grid:
+        text = case_text(lambda0, vz, {"accuracy": accuracy}, geometry)
+        cases.append((label, text, parse_case(text).numerics.nx))
+    return cases
+
+
 def bench_case(key, comm, nxs, sweep, equilibrations, paper_steps, geometry, say,
                cache_prefix=None, paper_time_steps=PAPER_TIME_STEPS, auto_grid=AUTO_GRID):
     lambda0, vz = (float(v) for v in key.split(":"))
@@ -306,9 +315,7 @@ def bench_case(key, comm, nxs, sweep, equilibrations, paper_steps, geometry, say
             continue
         rows.append(_row(f"nx={nx} (default)", run(text, comm), reference))
         say(_line(rows[-1]))
-    for label, accuracy in auto_grid:
-        text = case_text(lambda0, vz, {"accuracy": accuracy}, geometry)
-        nx = parse_case(text).numerics.nx
+    for label, text, nx in auto_grid_cases(lambda0, vz, geometry, auto_grid):
         if nx > top:
             say(f"  cg-auto accuracy={label}: skipped, its grid nx={nx} is finer than the"
                 f" reference's {top}")
