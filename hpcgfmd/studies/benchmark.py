@@ -352,13 +352,11 @@ def markdown(rows):
         return "" if value is None or value != value else format(value, form)
 
     for r in rows:
-        solver = {"cg": "fast", "cg-auto": "fast, nx chosen", "paper": "paper",
-                  "paper-time": "paper's steps", "reference": "reference"}.get(r["solver"],
-                                                                           r["solver"])
+        kind = {"cg": "fast: ", "cg-auto": "fast, nx chosen: ", "paper": "paper: ",
+                "paper-time": "paper's steps: "}.get(r["solver"], "")
         lam, vz = r["case"].split(":")
         lines.append(
-            f"| {lam}, {vz} |"
-            f" {r['label'] if r['solver'] == 'reference' else solver + ': ' + r['label']} |"
+            f"| {lam}, {vz} | {kind}{r['label']} |"
             f" {number(r['accuracy'], 'g') if r['solver'] in ('cg', 'cg-auto') else ''} |"
             f" {grid_label(int(r['nx']))} | {int(r['steps'])} |"
             f" {number(r['iterations_per_step'], '.1f')} |"
