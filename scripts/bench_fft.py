@@ -1,15 +1,17 @@
-"""Time ``apply_diagonal`` of the serial and the transposed real FFT in one run.
+"""Time ``apply_diagonal`` of the serial, the transposed and the halved real FFT in one run.
 
     python scripts/bench_fft.py --n 17 20 22
     mpirun -n 2 python scripts/bench_fft.py --n 17 20 22
     python scripts/bench_fft.py --sizes 65536 73728 98304 131072   # any even lengths
 
-For each n = 2**e three transforms are timed, interleaved round by round so that a change of
-the machine's load hits all of them alike:
+For each n = 2**e up to four transforms are timed, interleaved round by round so that a
+change of the machine's load hits all of them alike:
 
 * ``serial``: :class:`hpcgfmd.parallel.SerialRealFFT` on rank 0 alone;
 * ``T x 1``: :class:`hpcgfmd.parallel.TransposedRealFFT` on ``COMM_SELF`` of rank 0 alone;
-* ``T x P``: :class:`hpcgfmd.parallel.TransposedRealFFT` on ``COMM_WORLD`` (only when P > 1).
+* ``T x P``: :class:`hpcgfmd.parallel.TransposedRealFFT` on ``COMM_WORLD`` (only when P > 1);
+* ``H x 2``: :class:`hpcgfmd.parallel.HalvedRealFFT` on ``COMM_WORLD`` (only when P = 2 and
+  4 divides n): the transform two-rank runs use.
 
 While rank 0 plans or runs alone the other ranks sleep in a polled ``Ibarrier`` (they do not
 spin, so rank 0 has a core to itself as in a one-rank run). A call's time is the wall time on
@@ -34,7 +36,8 @@ from mpi4py import MPI  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 from hpcgfmd.model.grid import grid_label  # noqa: E402
-from hpcgfmd.parallel.fft import SerialRealFFT, TransposedRealFFT  # noqa: E402
+from hpcgfmd.parallel.fft import HalvedRealFFT, SerialRealFFT, TransposedRealFFT  # noqa: E402
+from hpcgfmd.parallel.fft_halved import fits  # noqa: E402
 from hpcgfmd.parallel.fft_transposed import TRANSPORTS  # noqa: E402
 
 
@@ -86,15 +89,21 @@ def bench(comm, n, rounds, calls, effort, transport):
         release(comm)
     else:
         idle(comm)
-    wide = None
+    makers = {}
     if size > 1:
+        makers[wide_name] = lambda: TransposedRealFFT(comm, n, effort, transport=transport)
+    if fits(size, n):
+        makers["H x 2"] = lambda: HalvedRealFFT(comm, n, effort, transport=transport)
+    wide = {}
+    for name, make in makers.items():
         start = time.perf_counter()
-        wide = TransposedRealFFT(comm, n, effort, transport=transport)
-        result["plan " + wide_name] = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
-        result["transport"] = wide.transport
-        wide_args = inputs(wide, n, rng)
-    samples = {"serial": [], "T x 1": [], wide_name: []}
-    communication = wall = 0.0
+        fft = make()
+        result["plan " + name] = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
+        result["transport"] = fft.transport
+        wide[name] = (fft, *inputs(fft, n, rng))
+    samples = {name: [] for name in ["serial", "T x 1", *makers]}
+    communication = dict.fromkeys(wide, 0.0)
+    wall = dict.fromkeys(wide, 0.0)
     for round_ in range(rounds + 1):  # round 0 warms up and is not counted
         block = {}
         if rank == 0:
@@ -103,24 +112,24 @@ def bench(comm, n, rounds, calls, effort, transport):
             release(comm)
         else:
             idle(comm)
-        if wide is not None:
-            before = wide.communication_time
-            times = timed_calls(wide, *wide_args, calls, comm)
+        for name, (fft, *args) in wide.items():
+            before = fft.communication_time
+            times = timed_calls(fft, *args, calls, comm)
             worst = np.empty_like(times)
             comm.Allreduce(times, worst, op=MPI.MAX)
-            block[wide_name] = worst
+            block[name] = worst
             if round_:
-                communication += wide.communication_time - before
-                wall += times.sum()
+                communication[name] += fft.communication_time - before
+                wall[name] += times.sum()
         if round_:
             for name, times in block.items():
                 samples[name].extend(times)
     for name, times in samples.items():
         if times:
             result[name] = float(np.median(times))
-    if wide is not None:
-        result["comm share"] = comm.allreduce(communication / wall, op=MPI.MAX)
-        wide.close()
+    for name, (fft, *_) in wide.items():
+        result["comm " + name] = comm.allreduce(communication[name] / wall[name], op=MPI.MAX)
+        fft.close()
     return result
 
 
@@ -148,24 +157,27 @@ def main():
     if comm.Get_rank() != 0:
         return
     load = os.getloadavg()
-    wide = f"T x {size}"
+    wides = [name for name in (f"T x {size}", "H x 2") if any(name in r for r in rows)]
     title = f"# {size} rank(s), {args.rounds} rounds, {args.effort}"
     if size > 1:
         title += f", transport {rows[0]['transport']}"
     print(title + f", load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
     header = f"{'n':>7} {'serial ms':>10} {'ns/node':>7} {'T x 1 ms':>9} {'/serial':>7}"
-    if size > 1:
-        header += f" {wide + ' ms':>9} {'/serial':>7} {'comm':>5}"
-    print(header + "   plan s (serial, T x 1" + (f", {wide})" if size > 1 else ")"))
+    for name in wides:
+        header += f" {name + ' ms':>9} {'/serial':>7} {'comm':>5}"
+    print(header + "   plan s (" + ", ".join(["serial", "T x 1", *wides]) + ")")
     for r in rows:
         line = (f"{grid_label(r['n']):>7} {1e3 * r['serial']:10.3f} "
                 f"{1e9 * r['serial'] / r['n']:7.2f} "
                 f"{1e3 * r['T x 1']:9.3f} {r['T x 1'] / r['serial']:7.2f}")
         plans = [r["plan serial"], r["plan T x 1"]]
-        if size > 1:
-            line += (f" {1e3 * r[wide]:9.3f} {r[wide] / r['serial']:7.2f} "
-                     f"{r['comm share']:5.0%}")
-            plans.append(r["plan " + wide])
+        for name in wides:
+            if name in r:
+                line += (f" {1e3 * r[name]:9.3f} {r[name] / r['serial']:7.2f} "
+                         f"{r['comm ' + name]:5.0%}")
+                plans.append(r["plan " + name])
+            else:
+                line += f" {'-':>9} {'-':>7} {'-':>5}"
         print(line + "   " + ", ".join(f"{p:.2f}" for p in plans))
 
 

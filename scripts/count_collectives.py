@@ -5,7 +5,8 @@
 Counts ``Domain.messages`` (reductions, ghost-node exchanges, edge segments) and FFT pairs
 over ``--steps`` retraction steps of the tests' small case (after 5 steps), divided by the CG
 iterations of those steps: the per-step work (predictor energies, contact edges, step
-control) is included. The distributed transform adds its own 4 synchronisations per pair.
+control) is included. The distributed transform adds its own synchronisations: 2 per pair on
+two ranks (the halved transform), 4 on other rank counts.
 """
 import argparse
 import os

@@ -16,12 +16,17 @@ split the pair: ``forward(field, spectrum_out)`` and ``inverse(spectrum, field_o
 buffer of ``spectrum_shape`` to pass to them.
 
 * :class:`SerialRealFFT`: one rank, a pyfftw rfft/irfft pair of length n.
+* :class:`HalvedRealFFT`: a single length-n transform split over two ranks by one radix-2
+  step, each rank transforming half (:mod:`hpcgfmd.parallel.fft_halved`); for 2 ranks when 4
+  divides n.
 * :class:`TransposedRealFFT`: a single length-n transform split over the P ranks of ``comm``
-  with the four-step (transposed) algorithm (:mod:`hpcgfmd.parallel.fft_transposed`).
+  with the four-step (transposed) algorithm (:mod:`hpcgfmd.parallel.fft_transposed`); the
+  other rank counts and lengths.
 """
 from __future__ import annotations
 
 from . import wisdom
+from .fft_halved import HalvedRealFFT, fits
 from .fft_serial import SerialRealFFT, aligned_empty
 from .fft_transposed import TransposedRealFFT
 
@@ -42,23 +47,26 @@ def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
     planner_effort : str
         FFTW planner flag, e.g. ``"FFTW_MEASURE"`` or ``"FFTW_ESTIMATE"`` (tests).
     transposed : bool or None
-        ``None``: serial on one rank, transposed otherwise. ``True`` forces the transposed
-        class (also on one rank, for testing). ``False`` demands the serial class and is an
-        error on more than one rank.
+        ``None``: serial on one rank, halved on two (when 4 divides n), transposed otherwise.
+        ``True`` forces the transposed class (also on one or two ranks, for testing).
+        ``False`` demands the serial class and is an error on more than one rank.
 
     Returns
     -------
-    SerialRealFFT or TransposedRealFFT
+    SerialRealFFT, HalvedRealFFT or TransposedRealFFT
     """
     size = comm.Get_size()
+    halved = transposed is None and fits(size, n)
     if transposed is None:
-        transposed = size > 1
-    if not transposed and size > 1:
+        transposed = size > 1 and not halved
+    if not transposed and size > 1 and not halved:
         raise ValueError(f"a serial FFT cannot be spread over {size} ranks")
     cached = planner_effort in ("FFTW_MEASURE", "FFTW_PATIENT", "FFTW_EXHAUSTIVE")
     path = wisdom.cache_path() if cached else None
     known = wisdom.load(path)
-    if transposed:
+    if halved:
+        fft = HalvedRealFFT(comm, n, planner_effort)
+    elif transposed:
         fft = TransposedRealFFT(comm, n, planner_effort)
     else:
         fft = SerialRealFFT(n, planner_effort, comm=comm)
@@ -66,4 +74,4 @@ def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
     return fft
 
 
-__all__ = ["SerialRealFFT", "TransposedRealFFT", "aligned_empty", "plan_real_fft"]
+__all__ = ["HalvedRealFFT", "SerialRealFFT", "TransposedRealFFT", "aligned_empty", "plan_real_fft"]

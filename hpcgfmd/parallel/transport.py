@@ -205,6 +205,12 @@ class StageBuffers:
                                 [receive.flat, (receive.counts, receive.displacements),
                                  receive.mpi_type])
 
+    def barrier(self):
+        """Collective: with the shared window, wait until every rank has read what it read
+        before (messages need no wait: each rank reads its own receive buffer)."""
+        if self.transport == "shared":
+            self._synchronise()
+
     def free(self):
         """Collective: release the shared window (the buffers are unusable afterwards)."""
         if self._window is not None:

@@ -1,4 +1,5 @@
-"""MPI check of TransposedRealFFT against numpy on the global array.
+"""MPI check of TransposedRealFFT and (on two ranks) HalvedRealFFT against numpy on the
+global array.
 
 Run under mpirun with any number of ranks, e.g.::
 
@@ -6,8 +7,10 @@ Run under mpirun with any number of ranks, e.g.::
 
 Every rank builds the same global field and even multiplier (same seed), applies the
 distributed operator to its own block and compares with numpy, with each transport (the
-automatic choice, shared memory on one node, and ``Alltoallw`` messages); the transports only
-move data, so their results must agree bitwise. Exit status 0 on every rank when all checks
+automatic choice, shared memory on one node, and ``Alltoallv`` messages); the transports only
+move data, so their results must agree bitwise. On two ranks the halved transform is checked
+the same way, and its forward and inverse halves too (spectrum against numpy's at the local
+wavenumbers, calls of one half twice in a row). Exit status 0 on every rank when all checks
 pass; on failure rank 0 prints the reasons and all ranks exit with 1.
 """
 import os
@@ -18,19 +21,20 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
-from hpcgfmd.parallel.fft import TransposedRealFFT  # noqa: E402
+from hpcgfmd.parallel.fft import HalvedRealFFT, TransposedRealFFT, plan_real_fft  # noqa: E402
+from hpcgfmd.parallel.fft_halved import fits  # noqa: E402
 
 DEFAULT_SIZES = (2, 16, 30, 64, 96, 1000, 4096)
 TRANSPORTS = ("auto", "messages")
 
 
-def check(comm, n, transport="auto", results=None):
+def check(comm, n, transport="auto", results=None, kind=TransposedRealFFT):
     """Return a list of failure messages for length n (empty when all is well).
 
     ``results`` (dict) collects the output per transport to compare them bitwise.
     """
     errors = []
-    fft = TransposedRealFFT(comm, n, planner_effort="FFTW_ESTIMATE", transport=transport)
+    fft = kind(comm, n, planner_effort="FFTW_ESTIMATE", transport=transport)
     expected_transport = "none" if comm.Get_size() == 1 else transport
     if transport != "auto" and fft.transport != expected_transport:
         errors.append(f"n={n}: transport {fft.transport!r}, asked for {transport!r}")
@@ -71,7 +75,27 @@ def check(comm, n, transport="auto", results=None):
         errors.append(f"n={n}: out is field differs on rank {comm.Get_rank()}")
     if fft.pairs != 2:
         errors.append(f"n={n}: pairs = {fft.pairs}")
+    if kind is HalvedRealFFT:
+        errors += check_halves(fft, field[block], diagonal, out, np.fft.rfft(field), n)
     fft.close()
+    return errors
+
+
+def check_halves(fft, field, diagonal, applied, spectrum, n):
+    """Failures of forward and inverse (each called twice in a row) on this rank."""
+    errors = []
+    local = np.empty(fft.spectrum_shape, dtype=np.complex128)
+    for _ in range(2):
+        fft.forward(field, local)
+    error = np.abs(local - spectrum[fft.wavenumber]).max() / np.abs(spectrum).max()
+    if error > 1e-12:
+        errors.append(f"n={n}: forward off numpy's by {error:.3e} on rank {fft.comm.rank}")
+    back = np.empty_like(field)
+    for _ in range(2):
+        fft.inverse(diagonal * local, back)
+    error = np.abs(back - applied).max() / max(np.abs(applied).max(), 1e-300)
+    if error > 1e-12:
+        errors.append(f"n={n}: inverse(d forward) off apply_diagonal by {error:.3e}")
     return errors
 
 
@@ -79,11 +103,19 @@ def main():
     comm = MPI.COMM_WORLD
     sizes = [int(a) for a in sys.argv[1:]] or DEFAULT_SIZES
     errors = []
+    halved = 0
     for n in sizes:
-        results = {}
+        kinds = [TransposedRealFFT] + ([HalvedRealFFT] if fits(comm.Get_size(), n) else [])
+        halved += len(kinds) - 1
+        chosen = plan_real_fft(comm, n, "FFTW_ESTIMATE")
+        if type(chosen) is not kinds[-1]:  # the halved one wherever it fits
+            errors.append(f"n={n}: plan_real_fft chose {type(chosen).__name__}")
+        chosen.close()
         try:
-            for transport in TRANSPORTS:
-                errors += check(comm, n, transport, results)
+            for kind in kinds:
+                results = {}
+                for transport in TRANSPORTS:
+                    errors += check(comm, n, transport, results, kind)
         except Exception as exc:  # the other ranks may hang in a collective: abort them all
             print(f"FAIL n={n}: {type(exc).__name__}: {exc} on rank {comm.Get_rank()}",
                   file=sys.stderr, flush=True)
@@ -95,7 +127,7 @@ def main():
             print("FAIL", message, flush=True)
         if not failed:
             print(f"ok: {len(sizes)} sizes x {len(TRANSPORTS)} transports on "
-                  f"{comm.Get_size()} ranks", flush=True)
+                  f"{comm.Get_size()} ranks ({halved} of the sizes halved too)", flush=True)
     return 1 if failed else 0
 
 
