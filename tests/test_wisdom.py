@@ -83,13 +83,16 @@ def test_cache_off_writes_nothing(tmp_path):
 
 
 @pytest.mark.mpi
-def test_transposed_plans_of_two_ranks_are_merged(tmp_path):
-    # each rank plans its own strips (n1 x n2 stages): both ranks' wisdom lands in the file
+@pytest.mark.parametrize("n", [1 << 14, 2 * 3 ** 8])
+def test_plans_of_two_ranks_are_merged(tmp_path, n):
+    # each rank plans transforms of its own: the halved transform (4 divides 2^14) an rfft of
+    # n/2 on rank 0 and a complex FFT of n/4 on rank 1, the four-step one (2 * 3^8) its
+    # strips; both ranks' wisdom lands in the file
     path = tmp_path / "wisdom.json"
-    done = python(PLAN, 1 << 14, path=path, launcher=MPI2)
+    done = python(PLAN, n, path=path, launcher=MPI2)
     assert done.returncode == 0, done.stderr
     before = path.read_text()
-    again = python(PLAN, 1 << 14, path=path, launcher=MPI2)
+    again = python(PLAN, n, path=path, launcher=MPI2)
     assert again.returncode == 0, again.stderr
     assert json.loads(path.read_text()) == json.loads(before)  # nothing new to add
 

@@ -7,10 +7,10 @@ the SLS history are all of that form. The multiplier is real and even in the mod
 into it, so an application is one forward transform, one multiply and one unnormalised
 backward transform. Plans are made once on aligned buffers and nothing is allocated per call.
 
-Two classes share one interface (``comm``, ``n``, ``x_start``, ``x_stop``, ``x_blocks``,
+Three classes share one interface (``comm``, ``n``, ``x_start``, ``x_stop``, ``x_blocks``,
 ``spectrum_shape``, ``wavenumber``, ``apply_diagonal``, ``pairs``, ``communication_time``);
 :func:`plan_real_fft` picks one for a communicator. For solvers that must keep or combine
-spectra between transforms (the damped-dynamics baseline, :mod:`hpcgfmd.solvers.verlet`), both also
+spectra between transforms (the damped-dynamics baseline, :mod:`hpcgfmd.solvers.verlet`), all also
 split the pair: ``forward(field, spectrum_out)`` and ``inverse(spectrum, field_out)``, with
 ``inverse(d * forward(f))`` equal to ``apply_diagonal(f, d)``, and a persistent ``spectrum``
 buffer of ``spectrum_shape`` to pass to them.
@@ -18,7 +18,7 @@ buffer of ``spectrum_shape`` to pass to them.
 * :class:`SerialRealFFT`: one rank, a pyfftw rfft/irfft pair of length n.
 * :class:`HalvedRealFFT`: a single length-n transform split over two ranks by one radix-2
   step, each rank transforming half (:mod:`hpcgfmd.parallel.fft_halved`); for 2 ranks when 4
-  divides n.
+  divides n (n >= 8).
 * :class:`TransposedRealFFT`: a single length-n transform split over the P ranks of ``comm``
   with the four-step (transposed) algorithm (:mod:`hpcgfmd.parallel.fft_transposed`); the
   other rank counts and lengths.
@@ -47,7 +47,8 @@ def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
     planner_effort : str
         FFTW planner flag, e.g. ``"FFTW_MEASURE"`` or ``"FFTW_ESTIMATE"`` (tests).
     transposed : bool or None
-        ``None``: serial on one rank, halved on two (when 4 divides n), transposed otherwise.
+        ``None``: serial on one rank, halved on two (when 4 divides n, n >= 8), transposed
+        otherwise.
         ``True`` forces the transposed class (also on one or two ranks, for testing).
         ``False`` demands the serial class and is an error on more than one rank.
 

@@ -1,7 +1,8 @@
 """Real FFT of the whole surface on one rank: a pyfftw rfft/irfft pair on aligned buffers.
 
-Same interface as :class:`hpcgfmd.parallel.fft_transposed.TransposedRealFFT` (see
-:mod:`hpcgfmd.parallel.fft` for what the solvers use of it). Plans are made once; nothing is
+Same interface as the distributed classes (:mod:`hpcgfmd.parallel.fft_halved`,
+:mod:`hpcgfmd.parallel.fft_transposed`; see :mod:`hpcgfmd.parallel.fft` for what the solvers
+use of it). Plans are made once; nothing is
 allocated per call. The transforms read the caller's field and write the caller's output in
 place whenever those are aligned as the plans' buffers are (:func:`aligned_empty` makes such
 arrays): the copies in and out of the transform's own buffers would cost two more passes
@@ -12,6 +13,10 @@ from __future__ import annotations
 import numpy as np
 import pyfftw
 from mpi4py import MPI
+
+from .fft_kernels import scale
+
+DIRECT_MEMORY = 8  # arrays remembered as aligned by SerialRealFFT._direct
 
 
 def aligned_empty(shape):
@@ -71,6 +76,7 @@ class SerialRealFFT:
         self._backward = pyfftw.FFTW(self.spectrum, self.real, direction="FFTW_BACKWARD",
                                      flags=(planner_effort, "FFTW_DESTROY_INPUT"), threads=1)
         self._alignment = self._forward.input_alignment
+        self._direct_arrays = ()  # arrays found aligned, newest first (see _direct)
         self.pairs = 0
         self.communication_time = 0.0
 
@@ -93,15 +99,23 @@ class SerialRealFFT:
         out : ndarray
         """
         self._transform_from(field)
-        self.spectrum *= diagonal
+        scale(self.spectrum, diagonal)
         self._transform_to(out)
         self.pairs += 1
         return out
 
     def _direct(self, array):
-        """True when ``array`` can be the plans' real array without a copy."""
-        return (array.ctypes.data % self._alignment == 0 and array.flags.c_contiguous
-                and array.shape == (self.n,) and array.dtype == np.float64)
+        """True when ``array`` can be the plans' real array without a copy (the last few
+        such arrays are remembered: the solvers pass the same buffers again and again, and
+        reading an array's address costs about 10 us)."""
+        for known in self._direct_arrays:
+            if array is known:
+                return True
+        direct = (array.ctypes.data % self._alignment == 0 and array.flags.c_contiguous
+                  and array.shape == (self.n,) and array.dtype == np.float64)
+        if direct:
+            self._direct_arrays = (array,) + self._direct_arrays[:DIRECT_MEMORY - 1]
+        return direct
 
     def _transform_from(self, field):
         """self.spectrum = rfft(field), reading ``field`` in place when aligned."""
@@ -171,4 +185,4 @@ class SerialRealFFT:
         return field_out
 
     def close(self):
-        """Nothing to release (the transposed class frees its shared window here)."""
+        """Nothing to release (the distributed classes free their shared windows here)."""

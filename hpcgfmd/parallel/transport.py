@@ -1,7 +1,8 @@
-"""How the ranks of the transposed FFT see each other's blocks: a shared-memory window on one
-node, or ``Alltoallv`` messages across nodes (:mod:`hpcgfmd.parallel.fft_transposed`).
+"""How the ranks of a distributed FFT see each other's blocks: a shared-memory window on one
+node, or ``Alltoallv`` messages across nodes (:mod:`hpcgfmd.parallel.fft_transposed`,
+:mod:`hpcgfmd.parallel.fft_halved`).
 
-Each stage of the four-step transform writes one block per destination rank, padded so that
+Each stage of a transform writes one block per destination rank, padded so that
 every block is a whole number of cache lines; the destination reads it in place from the
 shared window (``"shared"``) or from its receive buffer after an ``Alltoallv``
 (``"messages"``). Both give bitwise equal results.

@@ -29,7 +29,7 @@ class HistoryWindow:
     ----------
     substrate : ViscoelasticHalfSpace or MaxwellHalfSpace
         The substrate whose history is estimated.
-    fft : SerialRealFFT or TransposedRealFFT
+    fft : SerialRealFFT, HalvedRealFFT or TransposedRealFFT
         The case's transform (the estimate's one pair per step).
     domain : hpcgfmd.parallel.domain.Domain
         This rank's block of the surface.

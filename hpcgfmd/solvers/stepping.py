@@ -410,7 +410,7 @@ class HistoryError:
     Parameters
     ----------
     substrate : hpcgfmd.model.material.ViscoelasticHalfSpace
-    fft : SerialRealFFT or TransposedRealFFT
+    fft : SerialRealFFT, HalvedRealFFT or TransposedRealFFT
     domain : hpcgfmd.parallel.domain.Domain
     """
 

@@ -219,7 +219,7 @@ class DampedVerletGFMD(EquilibriumSolver):
     ----------
     domain : hpcgfmd.parallel.domain.Domain
         This rank's block of nodes and the collectives.
-    fft : SerialRealFFT or TransposedRealFFT
+    fft : SerialRealFFT, HalvedRealFFT or TransposedRealFFT
         Planned transforms (same block layout as ``domain``).
     law : DugdaleMaugis
         Cohesive law.

@@ -15,16 +15,18 @@ pass; on failure rank 0 prints the reasons and all ranks exit with 1.
 """
 import os
 import sys
+import time
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
-from hpcgfmd.parallel.fft import HalvedRealFFT, TransposedRealFFT, plan_real_fft  # noqa: E402
+from hpcgfmd.parallel.fft import (HalvedRealFFT, SerialRealFFT, TransposedRealFFT,  # noqa: E402
+                                  plan_real_fft)
 from hpcgfmd.parallel.fft_halved import fits  # noqa: E402
 
-DEFAULT_SIZES = (2, 16, 30, 64, 96, 1000, 4096)
+DEFAULT_SIZES = (2, 12, 16, 30, 36, 64, 96, 1000, 4096)  # 12, 36: n/4 odd
 TRANSPORTS = ("auto", "messages")
 
 
@@ -82,20 +84,46 @@ def check(comm, n, transport="auto", results=None, kind=TransposedRealFFT):
 
 
 def check_halves(fft, field, diagonal, applied, spectrum, n):
-    """Failures of forward and inverse (each called twice in a row) on this rank."""
+    """Failures of forward and inverse on this rank, in every order of calls that makes the
+    halved transform wait for its peer (forward after forward or before an application,
+    inverse after inverse or after an application), each rank in turn pausing after every
+    synchronisation before it reads the peer's block (a missing wait would let the peer
+    overwrite that block first)."""
     errors = []
-    local = np.empty(fft.spectrum_shape, dtype=np.complex128)
-    for _ in range(2):
+    rank = fft.comm.Get_rank()
+    local, negated = (np.empty(fft.spectrum_shape, dtype=np.complex128) for _ in range(2))
+    back, negated_back, again = (np.empty_like(field) for _ in range(3))
+    exchange = fft._exchange
+    for slow in (0, 1):
+        pause = 5e-3 if rank == slow else 0.0
+
+        def slowed(stage):
+            exchange(stage)
+            time.sleep(pause)
+
+        # each call's input differs from the one before, so a block overwritten too early
+        # changes a result
+        fft._exchange = slowed
         fft.forward(field, local)
-    error = np.abs(local - spectrum[fft.wavenumber]).max() / np.abs(spectrum).max()
-    if error > 1e-12:
-        errors.append(f"n={n}: forward off numpy's by {error:.3e} on rank {fft.comm.rank}")
-    back = np.empty_like(field)
-    for _ in range(2):
-        fft.inverse(diagonal * local, back)
-    error = np.abs(back - applied).max() / max(np.abs(applied).max(), 1e-300)
-    if error > 1e-12:
-        errors.append(f"n={n}: inverse(d forward) off apply_diagonal by {error:.3e}")
+        fft.forward(-field, negated)                      # forward, forward
+        fft.apply_diagonal(2.0 * field, diagonal, again)  # forward, apply
+        fft.inverse(diagonal * local, back)               # apply, inverse
+        fft.inverse(diagonal * negated, negated_back)     # inverse, inverse
+        scale = np.abs(spectrum).max()
+        for name, result, sign in (("forward", local, 1.0), ("forward of -f", negated, -1.0)):
+            error = np.abs(result - sign * spectrum[fft.wavenumber]).max() / scale
+            if error > 1e-12:
+                errors.append(f"n={n}: {name} off numpy's by {error:.3e} on rank {rank}")
+        scale = max(np.abs(applied).max(), 1e-300)
+        for name, result, factor in (("inverse(d forward)", back, 1.0),
+                                     ("inverse(d forward(-f))", negated_back, -1.0),
+                                     ("apply to 2 f after forward", again, 2.0)):
+            error = np.abs(result - factor * applied).max() / scale
+            if error > 1e-12:
+                errors.append(f"n={n}: {name} off apply_diagonal by {error:.3e} on rank {rank}")
+    fft._exchange = exchange
+    if fft.pairs != 8:  # the two of check() and three per round
+        errors.append(f"n={n}: pairs = {fft.pairs}")
     return errors
 
 
@@ -107,11 +135,12 @@ def main():
     for n in sizes:
         kinds = [TransposedRealFFT] + ([HalvedRealFFT] if fits(comm.Get_size(), n) else [])
         halved += len(kinds) - 1
-        chosen = plan_real_fft(comm, n, "FFTW_ESTIMATE")
-        if type(chosen) is not kinds[-1]:  # the halved one wherever it fits
-            errors.append(f"n={n}: plan_real_fft chose {type(chosen).__name__}")
-        chosen.close()
+        expected = SerialRealFFT if comm.Get_size() == 1 else kinds[-1]
         try:
+            chosen = plan_real_fft(comm, n, "FFTW_ESTIMATE")
+            if type(chosen) is not expected:  # the halved one wherever it fits
+                errors.append(f"n={n}: plan_real_fft chose {type(chosen).__name__}")
+            chosen.close()
             for kind in kinds:
                 results = {}
                 for transport in TRANSPORTS:

@@ -18,7 +18,7 @@ class StepEnergy:
     Parameters
     ----------
     domain : hpcgfmd.parallel.domain.Domain
-    fft : SerialRealFFT or TransposedRealFFT
+    fft : SerialRealFFT, HalvedRealFFT or TransposedRealFFT
     law : hpcgfmd.model.interface.DugdaleMaugis
     """
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ...parallel import fft_halved
+from ...parallel import fft_kernels
 from .. import step_kernels
 from ..step_kernels import FAST
 
@@ -341,10 +341,10 @@ def dot(a, b):
 
 def compile_all():
     """Compile every kernel for this machine into numba's cache (scripts/setup.sh calls it),
-    those of the per-step work (:mod:`hpcgfmd.solvers.step_kernels`) and of the two-rank
-    transform (:mod:`hpcgfmd.parallel.fft_halved`) too."""
+    those of the per-step work (:mod:`hpcgfmd.solvers.step_kernels`) and of the transforms
+    (:mod:`hpcgfmd.parallel.fft_kernels`) too."""
     step_kernels.compile_all()
-    fft_halved.compile_all()
+    fft_kernels.compile_all()
     m = 8
     gap_ext = np.linspace(0.0, 2.0, m + 2)
     a, b, c, d = (np.linspace(-1.0, 1.0, m) for _ in range(4))

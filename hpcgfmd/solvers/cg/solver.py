@@ -94,7 +94,7 @@ class ConstrainedCG(EquilibriumSolver):
     ----------
     domain : hpcgfmd.parallel.domain.Domain
         This rank's block of nodes and the collectives.
-    fft : SerialRealFFT or TransposedRealFFT
+    fft : SerialRealFFT, HalvedRealFFT or TransposedRealFFT
         Planned transforms of the grid (same block layout as ``domain``).
     law : hpcgfmd.model.interface.DugdaleMaugis
         Cohesive law.

@@ -24,7 +24,7 @@ class WallSteps:
     Parameters
     ----------
     domain : hpcgfmd.parallel.domain.Domain
-    fft : SerialRealFFT or TransposedRealFFT
+    fft : SerialRealFFT, HalvedRealFFT or TransposedRealFFT
     energy : StepEnergy
         The step's energy (the projected steps are accepted only if it drops).
 
