@@ -31,6 +31,30 @@ except RuntimeError:
     sys.exit(3)
 """
 
+# The halved transform's plans of rank 0 (rfft of n/2) and rank 1 (in-place complex FFT of n/4
+# and its inverse out of place), with FFTW_WISDOM_ONLY after importing the cache.
+HALVED_RANK_0 = """
+import sys, pyfftw
+from hpcgfmd.parallel import wisdom
+wisdom.load(wisdom.cache_path())
+half = int(sys.argv[1]) // 2
+a, b = pyfftw.empty_aligned(half), pyfftw.empty_aligned(half // 2 + 1, dtype="complex128")
+try:
+    pyfftw.FFTW(a, b, flags=("FFTW_MEASURE", "FFTW_WISDOM_ONLY"), threads=1)
+except RuntimeError:
+    sys.exit(3)
+"""
+HALVED_RANK_1 = """
+import sys, pyfftw
+from hpcgfmd.parallel import wisdom
+wisdom.load(wisdom.cache_path())
+v = pyfftw.empty_aligned(int(sys.argv[1]) // 4, dtype="complex128")
+try:
+    pyfftw.FFTW(v, v, flags=("FFTW_MEASURE", "FFTW_WISDOM_ONLY"), threads=1)
+except RuntimeError:
+    sys.exit(3)
+"""
+
 
 def python(code, *args, path, launcher=(), **env_vars):
     env = dict(os.environ, HPCGFMD_WISDOM=str(path), OMP_NUM_THREADS="1",
@@ -95,6 +119,10 @@ def test_plans_of_two_ranks_are_merged(tmp_path, n):
     again = python(PLAN, n, path=path, launcher=MPI2)
     assert again.returncode == 0, again.stderr
     assert json.loads(path.read_text()) == json.loads(before)  # nothing new to add
+    if n % 4 == 0:  # a fresh process plans each rank's transforms from the file alone
+        for code in (HALVED_RANK_0, HALVED_RANK_1):
+            known = python(code, n, path=path)
+            assert known.returncode == 0, known.stderr
 
 
 def test_unwritable_cache_costs_a_warning_not_the_run(tmp_path):

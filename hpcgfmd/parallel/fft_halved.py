@@ -236,8 +236,7 @@ class HalvedRealFFT:
         """
         self._check("diagonal", diagonal, self.spectrum_shape)
         self._check("out", out, self._field_shape)
-        self._transform_field(field)
-        self._write("h")
+        self._transform_field(field)  # its synchronisation frees the "h" blocks
         if self.rank == 0:
             scale(self.spectrum, diagonal)
         else:
