@@ -80,6 +80,24 @@ def contact_sums(a, b, state):
 
 
 @njit(cache=True)
+def below_wall(u, shift, wall, out):
+    """out = numpy's minimum(u - shift, wall) (NaN propagates; of two equal values the
+    wall's); returns the number of nodes with u - shift < wall (the free nodes)."""
+    free = 0
+    for i in range(u.shape[0]):
+        v = u[i] - shift
+        w = wall[i]
+        if v < w:
+            out[i] = v
+            free += 1
+        elif v != v:
+            out[i] = v
+        else:
+            out[i] = w
+    return free
+
+
+@njit(cache=True)
 def all_beyond(wall, u, level):
     """True when every gap wall - u exceeds ``level`` (stops at the first that does not)."""
     for i in range(u.shape[0]):
@@ -100,3 +118,4 @@ def compile_all():
     curvature(a, b, c, 0.5, 0.5, states[0], states[1], states[2], d)
     contact_sums(a, b, states[0])
     all_beyond(a, b, 0.5)
+    below_wall(a, 0.1, b, c)

@@ -416,8 +416,7 @@ class DampedVerletGFMD(EquilibriumSolver):
             if adhesive:
                 v += traction
             if exact:
-                s = project_feasible(dom, v, wall, u, work=free, wall_scale=wall_scale,
-                                     shift=s)
+                s = project_feasible(dom, v, wall, u, wall_scale=wall_scale, shift=s)
             else:
                 minimum(u, wall, out=u)  # the hard wall
                 np.less(u, wall, out=free)

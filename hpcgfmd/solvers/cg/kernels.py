@@ -4,10 +4,14 @@ The CG iteration (:mod:`.solver`) alternates elementwise work on this rank's blo
 global reductions and transforms. Each kernel here does the whole stretch of elementwise work
 between two of them in one loop (numba, compiled once per machine and cached next to this
 file), so an iteration makes a dozen calls instead of hundreds of numpy calls. The kernels
-are local (no MPI). Sums, maxima and minima may be reassociated (``FAST``: LLVM vectorises
-them, as numpy's own SIMD sums do), which makes them depend on the machine's vector width
-but not on the run: the same block gives the same bits every time. Loops over a whole block
-are split into branch-free segments around the contact span so that they vectorise.
+are local (no MPI). Sums may be reassociated (``FAST``: LLVM vectorises them, as numpy's
+own SIMD sums do), which makes them depend on the machine's vector width but not on the
+run: the same block gives the same bits every time. Maxima and minima over a block run in
+four independent lanes (:func:`_max_min`): LLVM vectorises them only when NaN may be
+assumed away, and one running maximum waits a compare-and-select per node (three times
+slower measured); the extreme of a set does not depend on the order, so the lanes give the
+same value. Loops over a whole block are split into branch-free segments around the
+contact span so that they vectorise.
 
 Index conventions: a block of m nodes; ``gap_ext`` holds its gaps with one ghost node each
 side (node i is ``gap_ext[i + 1]``); spans are half-open node ranges [lo, hi).
@@ -124,13 +128,8 @@ def dot_and_entry(d, kd, gap, lo, hi, level, margin):
     total = 0.0
     for i in range(m):  # separate loops vectorise, one fused loop does not
         total += d[i] * kd[i]
-    room, rise = np.inf, 0.0
-    for i in range(a):
-        room = min(room, gap[i])
-        rise = max(rise, d[i])
-    for i in range(b, m):
-        room = min(room, gap[i])
-        rise = max(rise, d[i])
+    rise, room = _max_min(d, gap, 0, a, 0.0, np.inf)
+    rise, room = _max_min(d, gap, b, m, rise, room)
     entry = (room - level) / rise if rise > 0.0 else np.inf
     entry = _entry_exact(d, gap, level, a, lo, entry)
     return total, _entry_exact(d, gap, level, hi, b, entry)
@@ -210,17 +209,32 @@ def span_dot(a, b, p, q):
     return total
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(cache=True)
+def _max_min(a, b, first, last, high, low):
+    """(max(high, max a[first:last]), min(low, min b[first:last])) in four lanes.
+
+    NaN entries are passed over, as by one running ``max``/``min`` from a number.
+    """
+    h0 = h1 = h2 = h3 = high
+    l0 = l1 = l2 = l3 = low
+    i = first
+    while i + 4 <= last:  # four independent compare-and-selects per round
+        h0, h1 = max(h0, a[i]), max(h1, a[i + 1])
+        h2, h3 = max(h2, a[i + 2]), max(h3, a[i + 3])
+        l0, l1 = min(l0, b[i]), min(l1, b[i + 1])
+        l2, l3 = min(l2, b[i + 2]), min(l3, b[i + 3])
+        i += 4
+    while i < last:
+        h0, l0 = max(h0, a[i]), min(l0, b[i])
+        i += 1
+    return max(max(h0, h1), max(h2, h3)), min(min(l0, l1), min(l2, l3))
+
+
+@njit(cache=True)
 def _extremes(r, lo, hi):
     """max and min of r outside [lo, hi) (-inf, +inf when that is empty)."""
-    high, low = -np.inf, np.inf
-    for i in range(lo):
-        high = max(high, r[i])
-        low = min(low, r[i])
-    for i in range(hi, r.shape[0]):
-        high = max(high, r[i])
-        low = min(low, r[i])
-    return high, low
+    high, low = _max_min(r, r, 0, lo, -np.inf, np.inf)
+    return _max_min(r, r, hi, r.shape[0], high, low)
 
 
 @njit(cache=True, fastmath=FAST)

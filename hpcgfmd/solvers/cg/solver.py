@@ -233,8 +233,7 @@ class ConstrainedCG(EquilibriumSolver):
         """
         dom = self.domain
         self._wall_scale = dom.max_abs(wall)
-        project_feasible(dom, u, wall, self._start, work=self._mask,
-                         wall_scale=self._wall_scale)
+        project_feasible(dom, u, wall, self._start, wall_scale=self._wall_scale)
         np.copyto(u, self._start)
         linear = history if applied is None else np.subtract(history, applied, out=self._linear)
         if self._energy.recall(u, ops.stiffness, self._k_u):

@@ -63,8 +63,7 @@ class WallSteps:
             step = alpha * 0.125**trial
             np.multiply(d, step, out=spare)
             spare += u
-            project_feasible(dom, spare, wall, self._projected, work=self._mask,
-                             wall_scale=wall_scale)
+            project_feasible(dom, spare, wall, self._projected, wall_scale=wall_scale)
             fft.apply_diagonal(self._projected, ops.stiffness, self._k_projected)
             if self.energy.energy_linear(self._projected, self._k_projected, wall,
                                          linear) < energy:
