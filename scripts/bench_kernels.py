@@ -16,8 +16,8 @@ import os
 import sys
 import time
 
-sys.path.insert(0, os.environ.get("PYTHONPATH", "").split(os.pathsep)[0]
-                or os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+if not os.environ.get("PYTHONPATH"):  # else the checkout it names is the one timed
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 import numpy as np  # noqa: E402
 
