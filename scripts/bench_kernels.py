@@ -2,9 +2,10 @@
 
     taskset -c 0 python scripts/bench_kernels.py --n 73728 98304 131072
 
-For each block size: random data in the solver's dozen vectors (so that, as in a solve, they
-do not all fit in L2), a contact span of 600 nodes in the middle; each kernel called
-``--repeats`` times in a row, the best of five such rounds, in milliseconds per call.
+For each block size: random data in a dozen vectors as the solver's, a contact span of 600
+nodes in the middle; each kernel called ``--repeats`` times in a row, the best of five such
+rounds, in milliseconds per call. A kernel called in a loop keeps its own arrays in cache,
+so these are lower bounds of its cost within a solve, whose vectors together exceed L2.
 The kernels are :mod:`hpcgfmd.solvers.cg.kernels`' (``_extremes``, ``residual``,
 ``dot_and_entry``, ``update_and_residual``, ``project_direction``) and ``below_wall`` of
 :mod:`hpcgfmd.solvers.step_kernels`; ``dot`` is the floor of a pass that reads two arrays.

@@ -1,9 +1,11 @@
 """The CG kernels' extremes against numpy: every length (the four lanes and their tail),
 every span, NaN passed over as by one running max/min, and the entry bound of
-``dot_and_entry`` against its definition node by node."""
+``dot_and_entry`` against its definition node by node; the projection's compiled pass
+against numpy's minimum to the bit."""
 import numpy as np
 import pytest
 
+from hpcgfmd.solvers import step_kernels
 from hpcgfmd.solvers.cg import kernels
 
 
@@ -68,3 +70,16 @@ def test_entry_bound_below_every_node_outside(m, lo, hi, margin):
     bound = (gap[far].min() - level) / rise if rise > 0.0 else np.inf
     near_exact = ((gap[near] - level) / d[near]).min() if near.size else np.inf
     assert entry == min(bound, near_exact)
+
+
+def test_below_wall_is_numpys_minimum_to_the_bit():
+    """min(u - shift, wall) with NaN on either side and zeros of both signs, and the free
+    count u - shift < wall (NaN never free)."""
+    u = np.array([1.0, -0.0, 0.0, np.nan, 2.0, 3.0, 0.5, -1.0, np.inf])
+    wall = np.array([2.0, 0.0, -0.0, 1.0, np.nan, 3.0, 0.25, -1.0, 1.0])
+    for shift in (0.0, 0.25):
+        out = np.empty_like(u)
+        free = step_kernels.below_wall(u, shift, wall, out)
+        expected = np.minimum(u - shift, wall)
+        assert out.tobytes() == expected.tobytes()
+        assert free == np.count_nonzero(u - shift < wall)
