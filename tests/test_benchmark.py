@@ -100,7 +100,7 @@ def test_each_accuracy_is_reached_and_costs_more_when_finer(serial):
 @pytest.mark.slow
 def test_rows_with_the_grid_from_the_accuracy(serial):
     # As a user runs it: accuracy alone, nx chosen by the knob. The small case's grids are
-    # 2048, 3072 and 6144 nodes for 1e-2, 5e-3 and 1e-3; only the first is not finer than
+    # 2048, 3072 and 16384 nodes for 1e-2, 5e-3 and 1e-3; only the first is not finer than
     # the reference's 2048, so the other two are skipped (their error cannot be measured).
     auto = [row for row in serial if row["solver"] == "cg-auto"]
     assert [row["label"] for row in auto] == ["accuracy=1e-2, nx from the accuracy"]
@@ -120,7 +120,7 @@ def test_grid_from_the_accuracy_is_the_knobs_and_no_nx_is_given():
     geometry = {k: GROUPS[k] for k in ("modulus_ratio", "depth", "cell", "adhesion")}
     cases = auto_grid_cases(3.5, 1.0, geometry)
     assert [(label, nx) for label, _, nx in cases] == [("1e-2", 2048), ("5e-3", 3072),
-                                                       ("1e-3", 6144)]
+                                                       ("1e-3", 16384)]
     for (label, text, nx), accuracy in zip(cases, (1e-2, 5e-3, 1e-3)):
         case = parse_case(text)
         assert case.numerics.nx_automatic  # the grid is left to the knob

@@ -1,7 +1,8 @@
 """One accuracy knob: the numerics a case needs for a relative error of its pull-off load and
 load-area curve (``[numerics] accuracy``; docs/numerics.md, "The accuracy knob").
 
-The error is split into shares: the grid (the cohesive zone's resolution), the time steps
+The error is split into shares: the grid (the cohesive zone's resolution, and the contact's
+for the load-area curve's contact width), the time steps
 (the edge motion per step, the sampling of the load curve, the SLS history's integration)
 and the equilibrium solver's tolerance. Each share follows from a measured law below; the
 absolute load errors are in units of the relaxed 2D pull-off, 1.74 load scales (the
@@ -26,6 +27,12 @@ EDGE_FRACTION_RANGE = (0.25, 4.0)
 # two loads before misses the curve's minimum by about e / 8.
 SAMPLING = 8.0
 SOLVER_SHARE, SOLVER_RANGE = 0.2, (1e-8, 1e-3)
+# Contact width: a contact edge between nodes is held by the node on the wall and then
+# jumps (lattice trapping), so the load-area curve's half-width a_c moves in a staircase
+# about CONTACT_ERROR dx / a_geo off the converged curve, a_geo = sqrt(2 R h0) the geometric
+# contact half-width (measured up to 1.3 on lambda0 = 1, where the zone's grid is coarse
+# against the contact), held to CONTACT_SHARE of the accuracy.
+CONTACT_ERROR, CONTACT_SHARE = 1.3, 0.75
 SOLVER_SHARE_COMPLIANT, SOLVER_RANGE_COMPLIANT = 0.02, (1e-8, 1e-4)
 
 
@@ -51,6 +58,20 @@ def zone_points(accuracy, chi_ve=math.inf, k=1.0, lambda0=math.inf, widen=True):
     """
     points = (GRID_ERROR / (GRID_SHARE * accuracy)) ** (1.0 / GRID_ORDER) * creep_factor(chi_ve, k)
     return points / fast_widening(chi_ve, k, lambda0) if widen else points
+
+
+def contact_points(accuracy):
+    """Grid points across the geometric contact half-width sqrt(2 R h0) for the load-area
+    curve: CONTACT_ERROR / (CONTACT_SHARE accuracy).
+
+    The curve error is a distance in units of the initial contact half-width, and a pinned
+    edge puts a_c up to about CONTACT_ERROR dx / sqrt(2 R h0) off it (first order in dx: the
+    edge is located between nodes by (M36), but the discrete edge itself sticks to a node
+    and jumps). It binds where the cohesive zone is wide against the contact (lambda0 about
+    1), whose zone grid leaves 20-40 nodes across a_c; elsewhere the zone's grid is finer.
+    The measurements are in docs/results.md ("The accuracy knob").
+    """
+    return CONTACT_ERROR / (CONTACT_SHARE * accuracy)
 
 
 def fast_widening(chi_ve, k, lambda0):

@@ -119,22 +119,38 @@ def resolve_numerics(case, num: dict) -> Numerics:
         equilibration_steps=equilibration)
 
 
+def automatic_nx(case, accuracy, widen=True):
+    """The grid ``accuracy`` asks for: the smallest size f 2^a, f in {1, 3, 9}
+    (:func:`~hpcgfmd.model.grid.smallest_grid`), with both the zone points
+    :func:`~hpcgfmd.model.accuracy.zone_points` (of the retraction's rate; ``widen``: with
+    the fast widening) across the relaxed cohesive zone (:attr:`zone_width`) and the
+    contact points :func:`~hpcgfmd.model.accuracy.contact_points` across the geometric
+    contact half-width sqrt(2 R h0).
+
+    Raises
+    ------
+    CaseError
+        When the grid is beyond the floating-point range (a subnormal accuracy).
+    """
+    try:
+        points = knob.zone_points(accuracy, case.chi_ve, case.k, case.lambda0, widen)
+        across_contact = knob.contact_points(accuracy)
+    except ZeroDivisionError:  # a subnormal accuracy underflows to 0
+        points = across_contact = math.inf
+    if not (math.isfinite(points) and math.isfinite(across_contact)):
+        raise CaseError(f"[numerics] accuracy = {accuracy:g}: the grid it needs is out of"
+                        " the floating-point range; expected a relative error in (0, 0.1)"
+                        " of a size a grid can reach")
+    return smallest_grid(max(_log2_ratio(points, case.cell, case.zone_width),
+                             _log2_ratio(across_contact, case.cell,
+                                         math.sqrt(2.0 * case.depth))))
+
+
 def _grid(case, num, accuracy):
-    """(nx, chosen automatically): given and checked, or the smallest grid size
-    (:func:`~hpcgfmd.model.grid.smallest_grid`: f 2^a, f in {1, 3, 9}) with the zone
-    points :func:`~hpcgfmd.model.accuracy.zone_points` of ``accuracy`` (and of the
-    retraction's rate) across the relaxed cohesive zone (:attr:`zone_width`)."""
+    """(nx, chosen automatically): given and checked, or :func:`automatic_nx`."""
     width = case.zone_width
     if "nx" not in num:
-        try:
-            points = knob.zone_points(accuracy, case.chi_ve, case.k, case.lambda0)
-        except ZeroDivisionError:  # a subnormal accuracy underflows to 0
-            points = math.inf
-        if not math.isfinite(points):
-            raise CaseError(f"[numerics] accuracy = {accuracy:g}: the grid it needs is out of"
-                            " the floating-point range; expected a relative error in (0, 0.1)"
-                            " of a size a grid can reach")
-        nx = smallest_grid(_log2_ratio(points, case.cell, width))
+        nx = automatic_nx(case, accuracy)
         _check_memory(nx, True, len(case.relaxation_moduli))
         return nx, True
     nx = num["nx"]

@@ -26,8 +26,8 @@ import sys
 
 from ..errors import CaseError
 from ..model.case import parse_case
-from ..model import accuracy as knob
-from ..model.grid import grid_label, smallest_grid
+from ..model.grid import grid_label
+from ..model.numerics import automatic_nx
 from . import benchmark
 
 ACCURACIES = (1e-2, 5e-3, 1e-3)
@@ -51,10 +51,10 @@ def case_text(spec, accuracy, cell, alpha):
 def reference_text(spec, accuracy, cell, alpha):
     """:func:`case_text` of the converged reference: the grid of ``accuracy`` without the
     fast retraction's widening (:func:`~hpcgfmd.model.accuracy.fast_widening`), so that a
-    reference never shares the grid rule it validates."""
+    reference never shares the grid rule it validates (its contact points are the rule's, at
+    the reference's finer accuracy)."""
     case = parse_case(case_text(spec, accuracy, cell, alpha))
-    points = knob.zone_points(accuracy, case.chi_ve, case.k, case.lambda0, widen=False)
-    nx = smallest_grid(math.log2(points * case.cell / case.zone_width))
+    nx = automatic_nx(case, accuracy, widen=False)
     lambda0, k, vz, depth = spec
     geometry = {"modulus_ratio": k, "depth": depth, "cell": case.cell, "adhesion": alpha}
     return benchmark.case_text(lambda0, vz, {"accuracy": accuracy, "nx": nx}, geometry)
