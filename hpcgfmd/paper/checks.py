@@ -94,15 +94,18 @@ def baney_hui_distance(curve: curves.Retraction):
         minimum up (before the tail of the complete withdrawal, paper Sec. 4).
     """
     lam, cell = curve.groups["lambda0"], curve.groups["cell"]
-    grid = np.linspace(curve.abar[0], 0.2 * curve.abar[curve.pull_off], 800)
+    end = curve.pull_off + 1
+    # Baney-Hui from beyond our widest contact: where the load rises steeply with the width
+    # (the preload, 20 times the pull-off load), a curve cut at our first point's width
+    # would measure that point's distance along the load alone
+    grid = np.linspace(1.05 * curve.abar[:end].max(), 0.2 * curve.abar[curve.pull_off], 800)
     bh = np.array([theory.maugis_dugdale(a, lam)[0] for a in grid])
     periodic = bh * theory.periodic_load_factor(grid * curve.beta, cell)
     a_scale, l_scale = curve.abar[0], abs(periodic.min())
-    end = curve.pull_off + 1
     ours = polyline_distances(
         np.stack([curve.abar[:end] / a_scale, curve.lbar[:end] / l_scale], 1),
         np.stack([grid / a_scale, periodic / l_scale], 1))
-    upper = grid >= grid[np.argmin(bh)]
+    upper = (grid >= grid[np.argmin(bh)]) & (grid <= curve.abar[0])
     jkr = polyline_distances(
         np.stack([grid[upper] / a_scale, theory.jkr_load(grid[upper]) / l_scale], 1),
         np.stack([grid / a_scale, bh / l_scale], 1))
