@@ -27,13 +27,13 @@ EDGE_FRACTION_RANGE = (0.25, 4.0)
 # two loads before misses the curve's minimum by about e / 8.
 SAMPLING = 8.0
 SOLVER_SHARE, SOLVER_RANGE = 0.2, (1e-8, 1e-3)
+SOLVER_SHARE_COMPLIANT, SOLVER_RANGE_COMPLIANT = 0.02, (1e-8, 1e-4)
 # Contact width: a contact edge between nodes is held by the node on the wall and then
 # jumps (lattice trapping), so the load-area curve's half-width a_c moves in a staircase
 # about CONTACT_ERROR dx / a_geo off the converged curve, a_geo = sqrt(2 R h0) the geometric
 # contact half-width (measured up to 1.3 on lambda0 = 1, where the zone's grid is coarse
 # against the contact), held to CONTACT_SHARE of the accuracy.
 CONTACT_ERROR, CONTACT_SHARE = 1.3, 0.75
-SOLVER_SHARE_COMPLIANT, SOLVER_RANGE_COMPLIANT = 0.02, (1e-8, 1e-4)
 
 
 # Creeping retractions: below chi_ve / k = CREEP_RATE the grid needs (CREEP_RATE k /
@@ -68,7 +68,8 @@ def contact_points(accuracy):
     edge puts a_c up to about CONTACT_ERROR dx / sqrt(2 R h0) off it (first order in dx: the
     edge is located between nodes by (M36), but the discrete edge itself sticks to a node
     and jumps). It binds where the cohesive zone is wide against the contact (lambda0 about
-    1), whose zone grid leaves 20-40 nodes across a_c; elsewhere the zone's grid is finer.
+    1), whose zone grid left as few as 32 nodes across sqrt(2 R h0) at 1e-2; elsewhere the
+    zone's grid is finer.
     The measurements are in docs/results.md ("The accuracy knob").
     """
     return CONTACT_ERROR / (CONTACT_SHARE * accuracy)

@@ -127,6 +127,20 @@ def automatic_nx(case, accuracy, widen=True):
     contact points :func:`~hpcgfmd.model.accuracy.contact_points` across the geometric
     contact half-width sqrt(2 R h0).
 
+    Parameters
+    ----------
+    case : hpcgfmd.model.case.Case
+        Its groups (lambda0, k, chi_ve), cell L/R, depth h0/R and zone width w (R).
+    accuracy : float
+        The relative error asked for.
+    widen : bool
+        Divide the zone points by the fast widening (False: the accuracy study's references).
+
+    Returns
+    -------
+    int
+        Grid nodes.
+
     Raises
     ------
     CaseError
