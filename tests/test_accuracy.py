@@ -57,8 +57,8 @@ def test_creeping_grid_resolves_the_zone_by_the_creep_factor():
 
 
 def test_grid_resolves_the_contact_where_the_zone_is_wide():
-    # lambda0 = 1 at h0/R = 0.02: w is a sixth of the contact half-width, and the zone's
-    # grid (3 points across w at 1e-2) leaves 27 nodes across it
+    # lambda0 = 1 at h0/R = 0.02: w is a seventh of sqrt(2 R h0), and the zone's grid (2^8
+    # nodes for its 3.8 points across w at 1e-2) leaves 32 nodes across it
     case = parse_case(case_text("accuracy = 1e-2", maugis=1.0, modulus_ratio=0.1,
                                 velocity=1.0, depth=0.02, cell=1.6, adhesion=5e-5))
     across = math.sqrt(2.0 * case.depth) / case.dx
@@ -74,7 +74,7 @@ def test_grid_resolves_the_contact_where_the_zone_is_wide():
 
 def test_load_area_curve_meets_the_accuracy_where_the_contact_sets_the_grid():
     # The curve error (docs/numerics.md, "The accuracy knob") of the case above at 1e-2
-    # against a run at 1e-3 (16 times the nodes; its own curve error 1.1e-4 against a 2e-4
+    # against a run at 1e-3 (10.7 times the nodes; its own curve error 1.1e-4 against a 2e-4
     # run, docs/results.md): measured 1.2e-3 on the knob's grid, 3.0e-2 on the zone's
     # grid alone (2^8 nodes), where the contact edge sticks to a node and then jumps one.
     from mpi4py import MPI
@@ -88,6 +88,7 @@ def test_load_area_curve_meets_the_accuracy_where_the_contact_sets_the_grid():
     reference = curve("accuracy = 1e-3")
     assert benchmark.curve_error(reference, curve("accuracy = 1e-2")) <= 1e-2 / 4
     assert benchmark.curve_error(reference, curve("accuracy = 1e-2\nnx = 256")) > 2e-2
+
 
 @pytest.mark.slow
 def test_creeping_retraction_meets_the_default_accuracy():

@@ -68,8 +68,11 @@ def contact_points(accuracy):
     edge puts a_c up to about CONTACT_ERROR dx / sqrt(2 R h0) off it (first order in dx: the
     edge is located between nodes by (M36), but the discrete edge itself sticks to a node
     and jumps). It binds where the cohesive zone is wide against the contact (lambda0 about
-    1), whose zone grid left as few as 32 nodes across sqrt(2 R h0) at 1e-2; elsewhere the
-    zone's grid is finer.
+    1, shallow contacts, fine accuracies), where the zone's grid would leave a few tens of
+    nodes across sqrt(2 R h0); elsewhere the zone's grid is finer. The coefficient is the
+    largest measured where this staircase is the curve's error (it falls as dx); larger
+    ratios of curve error to dx / sqrt(2 R h0) on zone-set grids are the zone's error,
+    which falls faster.
     The measurements are in docs/results.md ("The accuracy knob").
     """
     return CONTACT_ERROR / (CONTACT_SHARE * accuracy)

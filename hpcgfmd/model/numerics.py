@@ -132,7 +132,7 @@ def automatic_nx(case, accuracy, widen=True):
     case : hpcgfmd.model.case.Case
         Its groups (lambda0, k, chi_ve), cell L/R, depth h0/R and zone width w (R).
     accuracy : float
-        The relative error asked for.
+        The relative error asked for, in (0, 0.1).
     widen : bool
         Divide the zone points by the fast widening (False: the accuracy study's references).
 

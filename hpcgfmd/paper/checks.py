@@ -88,10 +88,12 @@ def baney_hui_distance(curve: curves.Retraction):
     ours : float
         Largest :func:`curves.point_distances` of our points up to the pull-off from the
         Baney-Hui curve of the same lambda (Eqs. 12-13) with the periodic cell's factor
-        (docs/model.md (M29)).
+        (docs/model.md (M29)), drawn from 5 % beyond our widest contact down to a fifth of
+        our pull-off's width.
     jkr : float
         The same distance of the JKR curve (Eq. 10) from Baney-Hui's, from Baney-Hui's load
-        minimum up (before the tail of the complete withdrawal, paper Sec. 4).
+        minimum (before the tail of the complete withdrawal, paper Sec. 4) up to our first
+        point's width; NaN when that range is empty.
     """
     lam, cell = curve.groups["lambda0"], curve.groups["cell"]
     end = curve.pull_off + 1
@@ -109,7 +111,7 @@ def baney_hui_distance(curve: curves.Retraction):
     jkr = polyline_distances(
         np.stack([grid[upper] / a_scale, theory.jkr_load(grid[upper]) / l_scale], 1),
         np.stack([grid / a_scale, bh / l_scale], 1))
-    return float(np.max(ours)), float(np.max(jkr))
+    return float(np.max(ours)), float(np.max(jkr)) if len(jkr) else np.nan
 
 
 def check_fig4(runs, accuracy):

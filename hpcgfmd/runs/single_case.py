@@ -75,7 +75,8 @@ def describe(case: Case) -> str:
     u = case.units
     num = case.numerics
     auto = (f" (from accuracy {num.accuracy:g}: the smallest f 2^a, f in {{1, 3, 9}}, with"
-            f" {knob.zone_points(num.accuracy, case.chi_ve, case.k):.2g} points across w)"
+            f" {knob.zone_points(num.accuracy, case.chi_ve, case.k, case.lambda0):.2g} points"
+            f" across w and {knob.contact_points(num.accuracy):.3g} across sqrt(2 R h0))"
             if num.nx_automatic
             else "")
     if num.step_control == "fixed":

@@ -51,8 +51,8 @@ def case_text(spec, accuracy, cell, alpha):
 def reference_text(spec, accuracy, cell, alpha):
     """:func:`case_text` of the converged reference: the grid of ``accuracy`` without the
     fast retraction's widening (:func:`~hpcgfmd.model.accuracy.fast_widening`), so that a
-    reference never shares the grid rule it validates (its contact points are the rule's, at
-    the reference's finer accuracy)."""
+    reference never shares that rule, which it validates; it has the contact points
+    (:func:`~hpcgfmd.model.accuracy.contact_points`) of its own, finer accuracy."""
     case = parse_case(case_text(spec, accuracy, cell, alpha))
     nx = automatic_nx(case, accuracy, widen=False)
     lambda0, k, vz, depth = spec
