@@ -151,6 +151,26 @@ def elastic_run(maugis):
     return curves.Retraction.from_series(Series(attrs=attrs, **column))
 
 
+def test_baney_hui_distance_of_a_curve_beside_it_is_its_offset():
+    # Points on Baney-Hui (lambda = 1.5, with the cell's factor), every contact width 1e-3
+    # too small: their distance is about 1e-3 of abar_c(0). Measured along the load alone at
+    # the first point (a Baney-Hui curve cut at that point's width), it was 49 times that:
+    # the preload's load rises steeply with the width.
+    lam, cell, beta, offset = 1.5, 10.0, 0.0368, 1e-3
+    abar = np.linspace(7.45, 0.7, 120)
+    lbar = np.array([theory.maugis_dugdale(a, lam)[0] for a in abar])
+    lbar *= theory.periodic_load_factor(abar * beta, cell)
+    pull_off = int(np.argmin(lbar))
+    shifted = abar * (1.0 - offset)
+    zeros = np.zeros_like(abar)
+    curve = curves.Retraction(time=zeros, abar=shifted, lbar=lbar, x=zeros, y=zeros,
+                              rhodot=zeros, pull_off=pull_off,
+                              groups={"lambda0": lam, "cell": cell}, beta=beta)
+    ours, jkr = checks.baney_hui_distance(curve)
+    assert 0.5 * offset < ours < 1.5 * offset
+    assert jkr > 0.0
+
+
 @pytest.mark.parametrize("maugis", [1.5, 3.5])
 def test_elastic_retraction_lies_on_baney_hui_and_its_work_is_theirs(maugis):
     curve = elastic_run(maugis)
