@@ -67,10 +67,10 @@ def test_a_soft_spring_jumps_where_its_line_touches_the_curve(displacement_curve
     # moves the adaptive steps near the jump
     accuracy = parse_case(case_text(NUMERICS)).numerics.accuracy
     assert abs(run[last, 2] - predicted) * stiffness < accuracy * abs(load.min())
-    # the spring holds past the curve's minimum load: its pull-off is the minimum's
-    # (within the curve's sampling, 2e-3 measured at k_s = 0.1)
+    # the spring holds past the curve's minimum load: its pull-off is the minimum's, within
+    # the accuracy (measured 2.0e-3 to 3.6e-3 at k_s = 0.1 over the FFT plans' round-off)
     assert run[last, 1] > z[np.argmin(load)]
-    assert abs(run[:, 3].min() / load.min() - 1.0) < 3e-3
+    assert abs(run[:, 3].min() / load.min() - 1.0) < accuracy
 
 
 @pytest.mark.slow
