@@ -132,10 +132,32 @@ def test_study_references_skip_the_widening_and_runs_are_reused_by_their_code_on
 
     monkeypatch.setattr(benchmark, "run", fake_run)
     text = accuracy_study.case_text(spec, 5e-3, None, 5e-5)
-    monkeypatch.setattr(benchmark, "code_identity", lambda: "one code")
-    accuracy_study._cached(text, MPI.COMM_SELF, str(tmp_path))
-    accuracy_study._cached(text, MPI.COMM_SELF, str(tmp_path))  # saved: reused
+    accuracy_study._cached(text, MPI.COMM_SELF, str(tmp_path), "one code")
+    accuracy_study._cached(text, MPI.COMM_SELF, str(tmp_path), "one code")  # saved: reused
     assert len(made) == 1
-    monkeypatch.setattr(benchmark, "code_identity", lambda: "another code")
-    accuracy_study._cached(text, MPI.COMM_SELF, str(tmp_path))  # other code: run anew
+    accuracy_study._cached(text, MPI.COMM_SELF, str(tmp_path), "another code")  # run anew
     assert len(made) == 2
+
+
+def test_a_study_keys_its_runs_by_the_code_it_started_with(tmp_path, monkeypatch):
+    # the sources change while a study runs (every identity asked for differs): each run is
+    # still made once, and the table is assembled from those runs, not from new ones
+    import numpy as np
+    from mpi4py import MPI
+
+    from hpcgfmd.studies import accuracy_study, benchmark
+
+    made = []
+
+    def fake_run(text, comm, progress=None):
+        made.append(text)
+        return {"time": np.array([0.0, 1.0]), "lbar": np.array([-1.0, -2.0]),
+                "abar": np.array([2.0, 1.0]), "dt": np.ones(2),
+                **{key: 0.0 for key in benchmark.SCALARS}}
+
+    versions = iter(range(100))
+    monkeypatch.setattr(benchmark, "run", fake_run)
+    monkeypatch.setattr(benchmark, "code_identity", lambda: f"code {next(versions)}")
+    argv = ["--out", str(tmp_path / "study"), "--cases", "1:0.1:1:0.02", "--accuracies", "1e-2"]
+    assert accuracy_study.main(MPI.COMM_SELF, argv) == 0
+    assert len(made) == 2  # the reference and the run at 1e-2

@@ -8,7 +8,8 @@ distance of its pull-off load to the converged one, and the largest distance of 
 load-area points to the converged curve (:func:`hpcgfmd.studies.benchmark.curve_error`);
 both must be at most the requested accuracy. The runs are shared out over the ranks (one
 run per rank at a time, each on its own communicator); a run is saved by its case text and
-the code's identity, and reused by a later call of the same code.
+the code's identity as the study starts (sources edited meanwhile do not make it run again),
+and reused by a later call of the same code.
 
     mpirun -n 2 python scripts/accuracy_study.py --out docs/figures/accuracy \\
         --cases 1:0.1:1:0.02 3.5:0.2:0.01:0.1 --accuracies 1e-2 5e-3 1e-3
@@ -60,9 +61,10 @@ def reference_text(spec, accuracy, cell, alpha):
     return benchmark.case_text(lambda0, vz, {"accuracy": accuracy, "nx": nx}, geometry)
 
 
-def _cached(text, comm, folder):
-    """The run of ``text``, reused from ``folder`` when this code made it before."""
-    key = hashlib.sha256((benchmark.code_identity() + text).encode()).hexdigest()[:16]
+def _cached(text, comm, folder, identity):
+    """The run of ``text``, reused from ``folder`` when the code of ``identity``
+    (:func:`~hpcgfmd.studies.benchmark.code_identity`) made it before."""
+    key = hashlib.sha256((identity + text).encode()).hexdigest()[:16]
     return benchmark.cached_run(text, comm, os.path.join(folder, key + ".npz"))
 
 
@@ -145,22 +147,24 @@ def main(comm, argv=None):
     folder = f"{args.out}-runs"
     if comm.Get_rank() == 0:
         os.makedirs(folder, exist_ok=True)
-    comm.Barrier()
+    # the code's identity once, on one rank: the runs of this study are keyed by the code it
+    # started with, even if the sources change while it runs
+    identity = comm.bcast(benchmark.code_identity() if comm.Get_rank() == 0 else None, root=0)
     runs = [(spec, a) for spec in specs for a in (args.reference_accuracy, *args.accuracies)]
     # references first, so that the ranks share them out too; each run on one rank
     mine = runs[comm.Get_rank()::comm.Get_size()]
     for spec, accuracy in mine:
         text = (reference_text if accuracy == args.reference_accuracy else case_text)
-        _cached(text(spec, accuracy, args.cell, args.alpha), MPI.COMM_SELF, folder)
+        _cached(text(spec, accuracy, args.cell, args.alpha), MPI.COMM_SELF, folder, identity)
     comm.Barrier()
     rows = []
     if comm.Get_rank() == 0:
         for spec in specs:
             reference = _cached(reference_text(spec, args.reference_accuracy, args.cell,
-                                               args.alpha), MPI.COMM_SELF, folder)
+                                               args.alpha), MPI.COMM_SELF, folder, identity)
             for accuracy in args.accuracies:
                 result = _cached(case_text(spec, accuracy, args.cell, args.alpha),
-                                 MPI.COMM_SELF, folder)
+                                 MPI.COMM_SELF, folder, identity)
                 rows.append(_row(spec, accuracy, result, reference))
         benchmark.write_csv(rows, f"{args.out}.csv", COLUMNS)
         tmp = f"{args.out}.md.tmp"
