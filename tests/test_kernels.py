@@ -83,3 +83,66 @@ def test_below_wall_is_numpys_minimum_to_the_bit():
         expected = np.minimum(u - shift, wall)
         assert out.tobytes() == expected.tobytes()
         assert free == np.count_nonzero(u - shift < wall)
+
+
+def _gaps(rng, m, dmax):
+    """Gaps of m nodes and two ghosts: beyond the range, a zone with straddling elements,
+    and nodes on the wall (gap 0)."""
+    gap_ext = rng.uniform(1.05 * dmax, 3.0 * dmax, m + 2)
+    if m:
+        a = int(rng.integers(0, m + 2))
+        b = int(rng.integers(a, m + 3))
+        gap_ext[a:b] = rng.uniform(0.0, dmax, b - a)
+        gap_ext[a + (b - a) // 3:a + (b - a) // 2] = 0.0
+    return gap_ext
+
+
+@pytest.mark.parametrize("m", [0, 1, 2, 3, 7, 40])
+def test_cohesive_energy_is_the_laws(m):
+    """The compiled sum of the elements' ramp means against the numpy law (the law's energy
+    with sigma_a = dx = 1 is minus the sum), zone anywhere, ghosts included, or no zone."""
+    from hpcgfmd.model.interface import DugdaleMaugis
+
+    rng = np.random.default_rng(40 + m)
+    dmax = 0.3
+    law = DugdaleMaugis(1.0, dmax)
+    for _ in range(60):
+        gap_ext = _gaps(rng, m, dmax)
+        assert kernels.cohesive_energy(gap_ext, dmax) == pytest.approx(
+            -law.energy(gap_ext, 1.0), rel=1e-13, abs=1e-15)
+    assert kernels.cohesive_energy(np.full(m + 2, 2.0 * dmax), dmax) == 0.0
+    everywhere = np.full(m + 2, 0.25 * dmax)
+    assert kernels.cohesive_energy(everywhere, dmax) == pytest.approx(0.75 * dmax * m)
+
+
+@pytest.mark.parametrize("sigma_a", [0.0, 0.8])
+def test_interface_traction_is_the_law_and_the_reaction(grid_factory, sigma_a):
+    """The solver's interface traction against its definition on every node: the numpy
+    law's cohesive traction, and on the wall (gap <= 0) K u + H + mu - applied."""
+    from hpcgfmd.model.interface import DugdaleMaugis
+
+    grid = grid_factory(64, 4.0)
+    dmax = 0.3
+    solver = grid.solver(sigma_a=sigma_a, dmax=dmax)
+    rng = np.random.default_rng(7)
+    for applied in (None, rng.standard_normal(grid.n)):
+        gap_ext = _gaps(rng, grid.n, dmax)
+        gap_ext[21:25] = 0.0  # a contact within its zone, whatever the random zone
+        gap_ext[18:21] = gap_ext[25:28] = 0.5 * dmax
+        gap_ext[0], gap_ext[-1] = gap_ext[-2], gap_ext[1]  # periodic ghosts
+        u = rng.standard_normal(grid.n)
+        wall = u + gap_ext[1:-1]
+        wall[gap_ext[1:-1] == 0.0] = u[gap_ext[1:-1] == 0.0]  # on the wall exactly
+        history = rng.standard_normal(grid.n)
+        solver.elastic_traction()[:] = rng.standard_normal(grid.n)
+        out = np.full(grid.n, np.nan)
+        solver.interface_traction(u, wall, history, 0.37, out, applied)
+        expected = DugdaleMaugis(sigma_a, dmax).traction(np.r_[(wall - u)[-1], wall - u,
+                                                               (wall - u)[0]])
+        balance = solver.elastic_traction() + history + 0.37
+        if applied is not None:
+            balance -= applied
+        on_wall = wall - u <= 0.0
+        expected[on_wall] = balance[on_wall]
+        assert on_wall.any()
+        np.testing.assert_allclose(out, expected, rtol=1e-14, atol=1e-15)

@@ -16,7 +16,8 @@ curvature integral of (M46), :func:`curvature_integral`) and c = ((u_{n+1} - u_n
 (u_n - u_{n-1}) / h) / (dt + h) (h the step before), which is linear in u_{n+1}, so the step
 stays an elastic problem, of modulus Eeff + R / (dt (dt + h)). All moduli are plane-strain
 effective moduli E* = E / (1 - nu^2).
-Pure numpy: it acts on whatever block of modes the caller owns (in any order).
+Numpy and one compiled loop (:mod:`.history_kernels`): it acts on whatever block of modes
+the caller owns (in any order).
 """
 from __future__ import annotations
 
@@ -24,6 +25,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from .history_kernels import sls_history
 
 KEPT_LENGTHS = 6  # (step, step before) pairs whose operators a substrate keeps (2 spectra each)
 
@@ -256,13 +259,10 @@ class ViscoelasticHalfSpace:
         once: the compliant drive's search).
         """
         self._prepare(dt, step_before)
-        self._relaxed_start[:] = self.relaxed_traction
-        np.multiply(self.relaxed_traction, self._e_history, out=out)
-        out += self._decay * substrate_traction
-        if self._terms is not None:
-            added, weight = self._terms
-            out -= (added + weight) * self.relaxed_traction
-            out += weight * self.relaxed_before
+        added, weight = self._terms if self._terms is not None else (0.0, 0.0)
+        sls_history(self.relaxed_traction, substrate_traction, self.relaxed_before,
+                    self._e_history, self._decay, added, weight, self._terms is not None,
+                    out, self._relaxed_start)
         return out
 
     def state_elastic_traction(self, dt, out, step_before=None):

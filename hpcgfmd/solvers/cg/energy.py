@@ -10,6 +10,7 @@ import numpy as np
 
 from ...parallel.fft import aligned_empty
 from ..step_kernels import energy_terms
+from . import kernels
 
 
 class StepEnergy:
@@ -72,10 +73,15 @@ class StepEnergy:
         return energy_terms(u, k_u, linear, wall, self._gap_ext[1:-1])
 
     def _interface_energy(self, value):
-        """Collective: ``value`` plus the cohesive energy of the gaps in the buffer, summed."""
+        """Collective: ``value`` plus the cohesive energy of the gaps in the buffer, summed
+        (the law's :meth:`~hpcgfmd.model.interface.DugdaleMaugis.energy` with dx = 1, in one
+        compiled loop over the zone)."""
         gap_ext = self._gap_ext
         self.domain.fill_halo(gap_ext)
-        return self.domain.sum(value + self.law.energy(gap_ext, 1.0))
+        law = self.law
+        if law.sigma_a > 0.0 and gap_ext.shape[0] > 2:
+            value -= law.sigma_a * kernels.cohesive_energy(gap_ext, law.dmax)
+        return self.domain.sum(value)
 
     def forget(self):
         """Drop the kept vector: the memory lives within one step (see :meth:`recall`)."""

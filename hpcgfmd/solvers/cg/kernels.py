@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ...model import history_kernels
 from ...parallel import fft_kernels
 from .. import step_kernels
 from ..step_kernels import FAST
@@ -59,6 +60,47 @@ def cohesive_traction(gap_ext, out, p, q, dmax, sigma_a):
         if in0 != in1:  # element i - 1: node i is its right end
             t += _element(g0, g1, dmax, sigma_a)[1]
         out[i] = t
+
+
+@njit(cache=True)
+def cohesive_energy(gap_ext, dmax):
+    """Sum of M_e over the block's elements, M_e the mean of the ramp max(dmax - g, 0) over
+    element e of the piecewise-linear gap (docs/model.md, (M35)); the interface energy is
+    -sigma_a dx times it (:meth:`hpcgfmd.model.interface.DugdaleMaugis.energy`, same terms).
+
+    Element e joins ``gap_ext[e + 1]`` and ``gap_ext[e + 2]``: the block owns the elements
+    from each of its nodes to the next one (the last to the right ghost). Only elements with
+    an end in the zone (g < dmax) contribute; two scans from the block's ends find them and
+    stop there, so the nodes beyond the zone are compared once and nothing is allocated.
+    """
+    n = gap_ext.shape[0] - 1  # the block's nodes and the right ghost
+    first = 0
+    while first < n and not gap_ext[first + 1] < dmax:
+        first += 1
+    if first == n:
+        return 0.0
+    last = n - 1
+    while not gap_ext[last + 1] < dmax:
+        last -= 1
+    total = 0.0
+    for e in range(max(first - 1, 0), min(last, n - 2) + 1):
+        ga, gb = gap_ext[e + 1], gap_ext[e + 2]
+        ra = max(dmax - ga, 0.0)
+        rb = max(dmax - gb, 0.0)
+        if (ra > 0.0) != (rb > 0.0):  # straddling: the exact mean of the cut ramp
+            total += (ra * ra - rb * rb) / (2.0 * (gb - ga))
+        else:
+            total += 0.5 * (ra + rb)
+    return total
+
+
+@njit(cache=True)
+def contact_reaction(gap, lo, hi, k_u, history, mean, out):
+    """out = k_u + history + mean on the nodes of [lo, hi) on the wall (gap <= 0): the
+    reaction that balances the substrate there."""
+    for i in range(lo, hi):
+        if gap[i] <= 0.0:
+            out[i] = k_u[i] + history[i] + mean
 
 
 @njit(cache=True)
@@ -355,15 +397,19 @@ def dot(a, b):
 
 def compile_all():
     """Compile every kernel for this machine into numba's cache (scripts/setup.sh calls it),
-    those of the per-step work (:mod:`hpcgfmd.solvers.step_kernels`) and of the transforms
-    (:mod:`hpcgfmd.parallel.fft_kernels`) too."""
+    those of the per-step work (:mod:`hpcgfmd.solvers.step_kernels`), of the transforms
+    (:mod:`hpcgfmd.parallel.fft_kernels`) and of the SLS history
+    (:mod:`hpcgfmd.model.history_kernels`) too."""
     step_kernels.compile_all()
     fft_kernels.compile_all()
+    history_kernels.compile_all()
     m = 8
     gap_ext = np.linspace(0.0, 2.0, m + 2)
     a, b, c, d = (np.linspace(-1.0, 1.0, m) for _ in range(4))
     flags, flags2 = np.zeros(m, dtype=np.bool_), np.zeros(m, dtype=np.bool_)
     cohesive_traction(gap_ext, a, 0, m, 1.0, 1.0)
+    cohesive_energy(gap_ext, 1.0)
+    contact_reaction(a, 0, m, b, c, 0.1, d)
     first, last, smallest = shifted_gaps(b, c, 0.5, a, 1.0)
     shifted_window(b, c, 0.5, a, 1.0, 2, 6)
     dot_and_entry(a, b, c, 2, 6, 1.0, 1)

@@ -134,8 +134,6 @@ class ConstrainedCG(EquilibriumSolver):
         self._start = np.empty(n)
         self._scratch = np.empty(n)
         self._gap_ext = np.empty(n + 2)
-        self._work = np.empty((3, n + 2), dtype=bool)
-        self._mask = np.empty(n, dtype=bool)
         self._wall_scale = 0.0
         self.recalled = 0    # transforms saved by StepEnergy.recall
         self.abandoned = 0   # solves stopped by their edge watch
@@ -404,19 +402,31 @@ class ConstrainedCG(EquilibriumSolver):
         """Collective: traction of the indenter on the surface at equilibrium (stress, upward).
 
         Cohesive traction on free nodes; on the wall the total reaction
-        K u + H + mean_traction - applied, which balances the substrate.
+        K u + H + mean_traction - applied, which balances the substrate. One pass forms the
+        gaps and finds the span of nodes within the interaction range; the law and the
+        reaction are evaluated on that span (:mod:`.points`), the rest of ``out`` is zero.
         """
         gap_ext = self._gap_ext
         gap = gap_ext[1:-1]
-        np.subtract(wall, u, out=gap)
+        law = self.law
+        # gap < level: in the zone, or on the wall (a contact node's gap is 0 exactly)
+        level = law.dmax if law.sigma_a > 0.0 else np.nextafter(0.0, 1.0)
+        first, last, _ = kernels.shifted_gaps(wall, u, 1.0, gap, level)  # wall - 1.0 u
         self.domain.fill_halo(gap_ext)
-        self.law.traction(gap_ext, out=out, work=self._work)
-        contact = np.less_equal(gap, 0.0, out=self._mask)
-        balance = np.add(self._k_u, history, out=self._scratch)
-        balance += mean_traction
+        lo = hi = p = q = 0
+        if self._n:
+            lo, hi, p, q = kernels.spans(first, last, self._n, gap_ext[0] < level,
+                                         gap_ext[-1] < level)
+        out[:p] = 0.0
+        out[q:] = 0.0
+        if law.sigma_a > 0.0:
+            kernels.cohesive_traction(gap_ext, out, p, q, law.dmax, law.sigma_a)
+        else:
+            out[p:q] = 0.0
+        kernels.contact_reaction(gap, lo, hi, self._k_u, history, mean_traction, out)
         if applied is not None:
-            balance -= applied
-        np.copyto(out, balance, where=contact)
+            on_wall = np.less_equal(gap[lo:hi], 0.0)
+            out[lo:hi][on_wall] -= applied[lo:hi][on_wall]
         return out
 
     def statistics(self) -> dict:
