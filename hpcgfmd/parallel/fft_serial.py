@@ -107,7 +107,8 @@ class SerialRealFFT:
     def _direct(self, array):
         """True when ``array`` can be the plans' real array without a copy (the last few
         such arrays are remembered: the solvers pass the same buffers again and again, and
-        reading an array's address costs about 10 us)."""
+        a remembered array is found in about 0.07 us, the checks of a new one take about
+        1.4 us, most of it reading its address)."""
         for known in self._direct_arrays:
             if array is known:
                 return True
