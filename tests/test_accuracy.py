@@ -6,6 +6,7 @@ import pytest
 
 from hpcgfmd.model import accuracy
 from hpcgfmd.model.grid import grid_label, smallest_grid
+from hpcgfmd.errors import CaseError
 from hpcgfmd.model.case import parse_case
 
 from cases import case_text, pull_off_run
@@ -28,7 +29,8 @@ def test_fast_widening_resolves_a_glassy_tip_s_wider_zone():
     assert accuracy.fast_widening(1.5, 0.1, 7.0) == 1.0  # creeping: chi_ve / k = 15
     # the default case, chi_ve / k = 220.5: (220.5 / 20)^(1/3)
     assert accuracy.fast_widening(22.05, 0.1, 7.0) == pytest.approx(11.025 ** (1 / 3))
-    assert accuracy.fast_widening(441.0, 0.1, 7.0) == 3.0  # V_z = 9: capped
+    assert accuracy.fast_widening(441.0, 0.1, 7.0) == pytest.approx(220.5 ** (1 / 3))  # V_z = 9
+    assert accuracy.fast_widening(1e5, 0.1, 7.0) == 10.0  # the glassy w / k
     assert accuracy.fast_widening(1e4, 0.5, 7.0) == 2.0  # never wider than the glassy w / k
     # a DMT-like glassy tip (lambda0 k^(2/3) = 0.16 and 0.046): the relaxed zone
     assert accuracy.fast_widening(122.5, 0.01, 3.5) == 1.0
@@ -36,14 +38,31 @@ def test_fast_widening_resolves_a_glassy_tip_s_wider_zone():
 
 
 def test_fast_grid_resolves_the_zone_over_the_widening():
-    # lambda0 = 7, V_z = 4.5: a third of the elastic law's points across w (9x2^13 before)
+    # lambda0 = 7, V_z = 4.5: (220.5 / 2)^(1/3) = 4.79 times fewer points across w than the
+    # elastic law's (9x2^13 without the widening)
     case = parse_case(case_text("accuracy = 5e-3", maugis=7.0, modulus_ratio=0.1,
                                 velocity=4.5, depth=0.1, cell=10.0, adhesion=5e-5))
     points = case.zone_width / case.dx
-    want = accuracy.zone_points(5e-3) / 3.0
-    assert want <= points < 2 * want and case.numerics.nx == 24576
+    want = accuracy.zone_points(5e-3) / 110.25 ** (1 / 3)
+    assert want <= points < 2 * want and case.numerics.nx == 16384
     assert accuracy.zone_points(5e-3, case.chi_ve, case.k, case.lambda0,
                                 widen=False) == accuracy.zone_points(5e-3)
+
+
+def test_a_given_grid_must_resolve_the_widened_zone():
+    # lambda0 = 14, V_z = 0.9 (widening 4.45): the knob's 2^16 nodes hold 0.96 points
+    # across the relaxed w, 4.3 across the widened zone; a given nx is held to one point
+    # across the latter, as the knob's grids resolve it
+    groups = dict(maugis=14.0, modulus_ratio=0.1, velocity=0.9, depth=0.1, cell=10.0,
+                  adhesion=5e-5)
+    chosen = parse_case(case_text("accuracy = 5e-3", **groups))
+    assert chosen.numerics.nx == 65536 and 0.9 < chosen.zone_width / chosen.dx < 1.0
+    assert parse_case(case_text("nx = 65536", **groups)).dx == chosen.dx
+    widened = chosen.zone_width * accuracy.fast_widening(chosen.chi_ve, 0.1, 14.0)
+    floor = 2 * math.ceil(10.0 / widened / 2)
+    parse_case(case_text(f"nx = {floor}", **groups))
+    with pytest.raises(CaseError, match=f"nx = {floor - 2}: .* at least 1 .*nx >= {floor}"):
+        parse_case(case_text(f"nx = {floor - 2}", **groups))
 
 
 def test_creeping_grid_resolves_the_zone_by_the_creep_factor():

@@ -425,8 +425,9 @@ def test_pseudo_steps_grow_like_sqrt_n(grid_factory):
 @pytest.mark.mpi
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="mpirun not found")
 @pytest.mark.parametrize("ranks", [2, 3])
-def test_transforms_and_gfmd_under_mpirun(ranks):
-    script = Path(__file__).parent / "mpi" / "check_gfmd.py"
+@pytest.mark.parametrize("check", ["check_gfmd.py", "check_crossings.py"])
+def test_transforms_and_gfmd_under_mpirun(ranks, check):
+    script = Path(__file__).parent / "mpi" / check
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
                OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
     command = ["mpirun", "--oversubscribe", "-n", str(ranks), sys.executable, str(script)]

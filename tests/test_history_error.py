@@ -7,7 +7,9 @@ cos(2 pi x / L) (docs/model.md, "Substrate"). The stepping is the protocol's: th
 traction H of the step, p_{n+1} = K u_{n+1} + H, then the estimate's correction. The
 "contact" is where cos > 0, so the contact sums of the mode's traction are not zero.
 """
+import importlib.util
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,7 +27,7 @@ N, CELL, E0, EINF, TAU = 64, 1.0, 1.0, 10.0, 1.0
 class Mode:
     """The stepped and the exact traction of u = g(t) cos(2 pi x / L)."""
 
-    def __init__(self, g, dg):
+    def __init__(self, g, dg, crossing_reach=0.0):
         self.g, self.dg = g, dg
         self.fft = plan_real_fft(MPI.COMM_SELF, N, planner_effort="FFTW_ESTIMATE")
         self.domain = Domain(MPI.COMM_SELF, N, CELL, self.fft.x_blocks)
@@ -33,7 +35,7 @@ class Mode:
         half_q = np.pi * np.abs(self.fft.wavenumber) / CELL
         self.half_q_mode = np.pi / CELL  # |q|/2 of the mode
         self.substrate = ViscoelasticHalfSpace(StandardLinearSolid(E0, EINF, TAU), half_q, N)
-        self.estimator = HistoryError(self.substrate, self.fft, self.domain)
+        self.estimator = HistoryError(self.substrate, self.fft, self.domain, crossing_reach)
         self.state = np.where(self.shape > 0, 2, 0).astype(np.int8)
         self.contact_weight = self.shape[self.state == 2].sum() * self.domain.dx
 
@@ -143,8 +145,8 @@ def test_a_crossing_window_takes_the_last_smooth_curvature():
     jump[14:18] = 4e-3  # nodes near the crossing node 15, the contact's last
     crossed = lambda state: np.where(np.arange(N) == 15, 1, state).astype(np.int8)
 
-    def third_estimate(with_jump, age=None, elapsed=None):
-        mode = Mode(lambda t: t * t, lambda t: 2 * t)
+    def third_estimate(with_jump, age=None, elapsed=None, reach=0.0, crossing=None):
+        mode = Mode(lambda t: t * t, lambda t: 2 * t, reach * CELL / N)
         mode.run(h, 2)  # two smooth windows: the second leaves its curvature
         if age is not None:
             mode.estimator.curvature_age = age
@@ -154,6 +156,7 @@ def test_a_crossing_window_takes_the_last_smooth_curvature():
         state_after = mode.state
         if with_jump:
             after += jump
+        if with_jump if crossing is None else crossing:
             state_after = crossed(mode.state)
         e, kept = mode.estimator.estimate(older, 3 * h, mode.state, before, 4 * h, mode.state,
                                           after, 5 * h, state_after)
@@ -172,3 +175,20 @@ def test_a_crossing_window_takes_the_last_smooth_curvature():
     for stale in (dict(age=CURVATURE_AGE + 1), dict(elapsed=1.01 * CURVATURE_LIFETIME * TAU)):
         raw, _ = third_estimate(with_jump=True, **stale)
         assert abs(raw - smooth) > smooth
+    # With the curvature not read within the crossing's reach (2 nodes: 13-17 hold the
+    # jump), the stale window's estimate is the one of the same crossing without the jump:
+    # the quadratic's, less what the five cleared nodes of the contact's 32 held.
+    for stale in (dict(age=CURVATURE_AGE + 1), dict(elapsed=1.01 * CURVATURE_LIFETIME * TAU)):
+        masked, _ = third_estimate(with_jump=True, reach=2, **stale)
+        jumpless, _ = third_estimate(with_jump=False, crossing=True, reach=2, **stale)
+        assert masked == pytest.approx(jumpless, rel=1e-12)
+        assert abs(masked - smooth) < 0.3 * smooth
+
+
+def test_crossing_mask_matches_the_whole_grid_on_one_rank():
+    """tests/mpi/check_crossings.py on one rank (under mpirun in test_gfmd.py)."""
+    path = Path(__file__).parent / "mpi" / "check_crossings.py"
+    spec = importlib.util.spec_from_file_location("check_crossings", path)
+    check = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(check)
+    assert check.check(MPI.COMM_SELF) == []

@@ -15,7 +15,7 @@ from .keys import choice, integer, number, shown, unknown_keys
 
 # Cohesive-zone resolution w/dx (w: relaxed zone width pi E0 dmax / (4 sigma_a)); the
 # accuracy it buys is measured in docs/results.md ("Grid and time-step convergence").
-MIN_ZONE_POINTS = 1.0      # below this nx is rejected
+MIN_ZONE_POINTS = 1.0      # below this (across w times the fast widening) nx is rejected
 DEFAULT_STEP_PER_RANGE = 0.25  # fixed steps: the indenter moves this fraction of dmax per step
 # The iteration cap of a solve: this many, plus the nodes across the geometric contact width
 # 2 sqrt(2 R h0) (contact_nodes): an active-set solve lets about one node per contact edge
@@ -171,6 +171,9 @@ def _grid(case, num, accuracy):
     if isinstance(nx, bool) or not isinstance(nx, int) or nx < 64 or nx % 2:
         raise CaseError(f"[numerics] nx = {shown(nx)}: expected an even integer >= 64")
     _check_memory(nx, False, len(case.relaxation_moduli))  # first: nx may exceed floats
+    # the zone the retraction's tip has: the relaxed w, wider for a fast one (the knob's
+    # grids resolve it alike)
+    width *= knob.fast_widening(case.chi_ve, case.k, case.lambda0)
     points = width / (case.cell / nx)
     if points < MIN_ZONE_POINTS:
         ratio = MIN_ZONE_POINTS * case.cell / width  # inf when beyond the float range

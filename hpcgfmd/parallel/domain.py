@@ -28,6 +28,8 @@ import time
 import numpy as np
 from mpi4py import MPI
 
+NONE_MARKED = 2**60  # Domain.marks_around's distance to a marked node when there is none
+
 
 class Domain:
     """Real-space block of this rank and the collectives over ``comm``.
@@ -167,6 +169,32 @@ class Domain:
         self.communication_time += time.perf_counter() - started
         self.messages += 1
         return values
+
+    def marks_around(self, count, first, last):
+        """Collective: the number of marked nodes over all blocks, and how far before this
+        block's first node and after its last the nearest marked node outside it lies.
+
+        ``count``, ``first``, ``last``: this block's marked nodes, the first's and last's
+        local index (-1 for none). The distances are in nodes, periodic (this block's own
+        marks count across the wrap), at most n, and ``NONE_MARKED`` (2^60) when nothing is
+        marked.
+        One message of 1 + 2 size numbers.
+        """
+        ends = np.zeros(1 + 2 * self.size)
+        ends[0] = count
+        if first >= 0:  # global index + 1 (0: none)
+            ends[1 + 2 * self.rank] = first + self.x_start + 1
+            ends[2 + 2 * self.rank] = last + self.x_start + 1
+        if not self.serial:
+            ends = self._allreduce(ends, MPI.SUM)
+        marked = ends[1:][ends[1:] > 0.0].astype(np.int64) - 1
+        left = right = NONE_MARKED
+        if self.local_n and marked.size:
+            before = (self.x_start - marked) % self.n
+            after = (marked - (self.x_stop - 1)) % self.n
+            left = int(np.where(before == 0, self.n, before).min())
+            right = int(np.where(after == 0, self.n, after).min())
+        return int(ends[0]), left, right
 
     def index_extent(self, mask):
         """Collective: (first, last) global node index where ``mask`` is True, or None."""

@@ -37,13 +37,16 @@ class HistoryWindow:
         The indenter's profile h(x) on this rank's nodes (length, R = 1).
     dmax : float
         The interaction range (length).
+    crossing_reach : float, optional
+        Distance from a crossing within which the estimate reads no curvature (length;
+        :class:`HistoryError`).
     """
 
     #: the checkpoint's fields of the window (zeros when it holds none yet)
     FIELDS = ("u_older", "history_curvature", "history_correction")
 
-    def __init__(self, substrate, fft, domain, profile, dmax):
-        self.error = HistoryError(substrate, fft, domain)
+    def __init__(self, substrate, fft, domain, profile, dmax, crossing_reach=0.0):
+        self.error = HistoryError(substrate, fft, domain, crossing_reach)
         self.profile, self.dmax = profile, dmax
         self._older = None  # (u, time, indenter) of the accepted state before the last
         # interaction states of u_{n-1} and u_n when known, and of the last attempt's two

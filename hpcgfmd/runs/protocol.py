@@ -122,8 +122,10 @@ class Retraction:
         self.steps = make_step_control(case)
         self.predictor = Predictor(self.domain, 4.0 * case.zone_width / case.k)
         # the history's time error, estimated where the step control uses it
+        # (crossings: half the glassy zone width, w / (2 k), HistoryError's docstring)
         self.history_window = (HistoryWindow(self.substrate, self.fft, self.domain,
-                                             self.profile, case.dmax)
+                                             self.profile, case.dmax,
+                                             0.5 * case.zone_width / case.k)
                                if self.steps.adaptive and case.k < 1.0 else None)
         n = self.domain.local_n  # from here on: this rank's block
         # (aligned: the serial transform reads u and writes the history in place)

@@ -56,16 +56,42 @@ def interaction_state(profile, indenter, u, dmax, out):
 def curvature(older, before, after, h0, h1, state_older, state_before, state, out):
     """out = ((after - before) / h1 - (before - older) / h0) / (h1 + h0), the u_tt / 2 of the
     quadratic through three states, and 0 on the nodes whose interaction state changed;
-    returns the number of such nodes."""
+    returns (the number of such nodes, the first's index, the last's; -1, -1 for none)."""
     inv0, inv1, inv = 1.0 / h0, 1.0 / h1, 1.0 / (h1 + h0)
-    kinks = 0
+    kinks, first, last = 0, -1, -1
     for i in range(out.shape[0]):
         if state_older[i] != state_before[i] or state_before[i] != state[i]:
             out[i] = 0.0
             kinks += 1
+            if first < 0:
+                first = i
+            last = i
         else:
             out[i] = ((after[i] - before[i]) * inv1 - (before[i] - older[i]) * inv0) * inv
-    return kinks
+    return kinks, first, last
+
+
+@njit(cache=True)
+def clear_near_crossings(state_older, state_before, state, reach, left, right, out):
+    """out = 0 on every node within ``reach`` nodes of a node whose interaction state changed.
+
+    ``left``: how many nodes before this block's first node the nearest changed node outside
+    it lies (>= 1; large for none), ``right`` the same after its last node: the changed nodes
+    of the neighbouring blocks (periodic) clear this block's ends too.
+    """
+    n = out.shape[0]
+    last = -left  # index of the nearest changed node at or before i
+    for i in range(n):
+        if state_older[i] != state_before[i] or state_before[i] != state[i]:
+            last = i
+        if i - last <= reach:
+            out[i] = 0.0
+    following = n - 1 + right  # ... at or after i
+    for i in range(n - 1, -1, -1):
+        if state_older[i] != state_before[i] or state_before[i] != state[i]:
+            following = i
+        if following - i <= reach:
+            out[i] = 0.0
 
 
 @njit(cache=True, fastmath=FAST)
@@ -116,6 +142,7 @@ def compile_all():
     energy_terms(a, b, c, d, d.copy())
     interaction_state(a, 0.1, b, 0.5, states[0])
     curvature(a, b, c, 0.5, 0.5, states[0], states[1], states[2], d)
+    clear_near_crossings(states[0], states[1], states[2], 2, 3, 3, d)
     contact_sums(a, b, states[0])
     all_beyond(a, b, 0.5)
     below_wall(a, 0.1, b, c)

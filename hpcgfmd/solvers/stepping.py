@@ -50,7 +50,7 @@ import numpy as np
 
 from ..model.accuracy import PULL_OFF_SCALE
 from ..parallel.fft import aligned_empty
-from .step_kernels import contact_sums, curvature
+from .step_kernels import clear_near_crossings, contact_sums, curvature
 
 GROWTH_LIMIT = 2.0     # largest factor between consecutive steps
 SHRINK_LIMIT = 0.25    # smallest factor (also the retry factor bound after a rejection)
@@ -405,17 +405,30 @@ class HistoryError:
     accepted steps and ``CURVATURE_LIFETIME`` relaxation times old, for its estimate and its
     correction. On fine grids, where nearly every step crosses nodes, the window's own
     curvature is used: there the jumps are small. On creeping retractions, whose steps are a
-    good part of tau, the kept curvature is stale and the window's own is used too.
+    good part of tau, the kept curvature is stale and the window's own is used too. Where
+    the window's own curvature is used in a window with a crossing, it is set to 0 on every
+    node within ``crossing_reach`` of a node that changed its state, not only on those
+    nodes: the jump spreads over the zone of the passing tip (up to the glassy w / k), and
+    read as curvature it gives errors of either sign, 20-80 times a smooth window's, whose
+    signed sum walks to the kept errors' allowance on grids of a few nodes per zone and
+    holds the steps at a small fraction of tau (docs/results.md, "Crossings in the
+    history's estimate").
 
     Parameters
     ----------
     substrate : hpcgfmd.model.material.ViscoelasticHalfSpace
     fft : SerialRealFFT, HalvedRealFFT or TransposedRealFFT
     domain : hpcgfmd.parallel.domain.Domain
+    crossing_reach : float, optional
+        Distance from a node that changed its state within which the window's curvature is
+        not read (length; the package uses w / (2 k), half the glassy zone width; 0: the
+        changed nodes only).
     """
 
-    def __init__(self, substrate, fft, domain):
+    def __init__(self, substrate, fft, domain, crossing_reach=0.0):
         self.substrate, self.fft, self.domain = substrate, fft, domain
+        # in nodes, at least the changed node itself
+        self.reach = min(domain.n, max(0, math.ceil(crossing_reach / domain.dx - 1e-9)))
         n = domain.local_n
         self._curvature = aligned_empty(n)
         self._traction = aligned_empty(n)
@@ -466,10 +479,14 @@ class HistoryError:
         """
         h1, h0 = time_after - time_before, time_before - time_older
         c = self._curvature
-        kinks = curvature(older, before, after, h0, h1, state_older, state_before, state, c)
-        self._smooth = self.domain.sum(kinks) == 0
+        kinks, first, last = curvature(older, before, after, h0, h1, state_older,
+                                       state_before, state, c)
+        crossings, left, right = self.domain.marks_around(kinks, first, last)
+        self._smooth = crossings == 0
         reuse = (not self._smooth and self.curvature_age <= CURVATURE_AGE
                  and time_after - self.curvature_time <= self._lifetime)
+        if not self._smooth and not reuse and self.reach > 0:
+            clear_near_crossings(state_older, state_before, state, self.reach, left, right, c)
         self._time = time_after
         # the missed traction (|q|/2) response c per mode (one FFT pair)
         self._response = self.substrate.material.curvature_response(h1)
