@@ -427,7 +427,7 @@ class HistoryError:
 
     def __init__(self, substrate, fft, domain, crossing_reach=0.0):
         self.substrate, self.fft, self.domain = substrate, fft, domain
-        # in nodes, at least the changed node itself
+        # in nodes (0: the changed nodes alone)
         self.reach = min(domain.n, max(0, math.ceil(crossing_reach / domain.dx - 1e-9)))
         n = domain.local_n
         self._curvature = aligned_empty(n)
