@@ -79,21 +79,13 @@ def check(comm, cases=300):
 
 
 def main():
+    from report import abort, report  # (beside this script; check() runs without it)
     comm = MPI.COMM_WORLD
-    rank = comm.Get_rank()
     try:
         errors = check(comm)
-    except Exception as exc:  # the other ranks may hang in a collective: abort them all
-        print(f"FAIL: {type(exc).__name__}: {exc} on rank {rank}", file=sys.stderr, flush=True)
-        comm.Abort(2)
-    all_errors = comm.gather(errors, root=0)
-    failed = comm.allreduce(bool(errors), op=MPI.LOR)
-    if rank == 0:
-        for message in (m for rank_errors in all_errors for m in rank_errors):
-            print("FAIL", message, flush=True)
-        if not failed:
-            print(f"ok: crossing mask on {comm.Get_size()} ranks", flush=True)
-    return 1 if failed else 0
+    except Exception as exc:
+        abort(comm, exc)
+    return report(comm, errors, f"ok: crossing mask on {comm.Get_size()} ranks")
 
 
 if __name__ == "__main__":

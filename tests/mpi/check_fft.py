@@ -25,6 +25,7 @@ from mpi4py import MPI  # noqa: E402
 from hpcgfmd.parallel.fft import (HalvedRealFFT, SerialRealFFT, TransposedRealFFT,  # noqa: E402
                                   plan_real_fft)
 from hpcgfmd.parallel.fft_halved import fits  # noqa: E402
+from report import abort, report  # noqa: E402
 
 DEFAULT_SIZES = (2, 12, 16, 30, 36, 64, 96, 1000, 4096)  # 12, 36: n/4 odd
 TRANSPORTS = ("auto", "messages")
@@ -145,19 +146,10 @@ def main():
                 results = {}
                 for transport in TRANSPORTS:
                     errors += check(comm, n, transport, results, kind)
-        except Exception as exc:  # the other ranks may hang in a collective: abort them all
-            print(f"FAIL n={n}: {type(exc).__name__}: {exc} on rank {comm.Get_rank()}",
-                  file=sys.stderr, flush=True)
-            comm.Abort(2)
-    all_errors = comm.gather(errors, root=0)
-    failed = comm.allreduce(bool(errors), op=MPI.LOR)
-    if comm.Get_rank() == 0:
-        for message in (m for rank_errors in all_errors for m in rank_errors):
-            print("FAIL", message, flush=True)
-        if not failed:
-            print(f"ok: {len(sizes)} sizes x {len(TRANSPORTS)} transports on "
-                  f"{comm.Get_size()} ranks ({halved} of the sizes halved too)", flush=True)
-    return 1 if failed else 0
+        except Exception as exc:
+            abort(comm, exc, f" n={n}")
+    return report(comm, errors, f"ok: {len(sizes)} sizes x {len(TRANSPORTS)} transports on "
+                  f"{comm.Get_size()} ranks ({halved} of the sizes halved too)")
 
 
 if __name__ == "__main__":

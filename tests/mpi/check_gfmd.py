@@ -31,6 +31,7 @@ from hpcgfmd.parallel.fft_halved import fits  # noqa: E402
 from hpcgfmd.solvers.verlet import DampedVerletGFMD  # noqa: E402
 from hpcgfmd.model.interface import DugdaleMaugis  # noqa: E402
 from hpcgfmd.model.material import StepOperators  # noqa: E402
+from report import abort, report  # noqa: E402
 
 SIZES = (2, 16, 30, 96, 1000, 4096)
 
@@ -122,17 +123,9 @@ def main():
             h_all = comm.allgather(h)
             if len(set(h_all)) != 1:
                 errors.append(f"{name}: ranks disagree on the pseudo step: {h_all}")
-    except Exception as exc:  # the other ranks may hang in a collective: abort them all
-        print(f"FAIL: {type(exc).__name__}: {exc} on rank {rank}", file=sys.stderr, flush=True)
-        comm.Abort(2)
-    all_errors = comm.gather(errors, root=0)
-    failed = comm.allreduce(bool(errors), op=MPI.LOR)
-    if rank == 0:
-        for message in (m for rank_errors in all_errors for m in rank_errors):
-            print("FAIL", message, flush=True)
-        if not failed:
-            print(f"ok: transforms and GFMD on {comm.Get_size()} ranks", flush=True)
-    return 1 if failed else 0
+    except Exception as exc:
+        abort(comm, exc)
+    return report(comm, errors, f"ok: transforms and GFMD on {comm.Get_size()} ranks")
 
 
 if __name__ == "__main__":
