@@ -307,3 +307,16 @@ def test_abandoned_solves_change_nothing_but_the_cost(monkeypatch):
     assert sim.rejected_steps == plain.rejected_steps > 0
     assert sim.solver.abandoned > 0 == plain.solver.abandoned
     assert sim.total_iterations < plain.total_iterations
+
+
+def test_history_estimate_skips_half_the_glassy_zone_around_a_crossing():
+    # The retraction gives the history's estimate the reach w / (2 k) (HistoryError's
+    # docstring, "Crossings"): lambda0 = 3.5, k = 0.1 on 2048 nodes of L/R = 2, w/dx = 3.05,
+    # so 5 w / dx = 15.2 -> 16 nodes around each node that changed its state.
+    case = parse_case(case_text("nx = 2048"))
+    sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
+    try:
+        points = case.zone_width / case.dx
+        assert sim.history_window.error.reach == math.ceil(5.0 * points) == 16
+    finally:
+        sim.close()

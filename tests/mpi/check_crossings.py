@@ -72,7 +72,8 @@ def check(comm, cases=300):
             errors.append(f"case {case}: {count} crossings counted, {changed.sum()} present")
         smooth = ((u[2] - u[1]) / 0.25 - (u[1] - u[0]) / 0.5) / 0.75
         if not (np.array_equal(out == 0.0, expected)
-                and np.allclose(out[~expected], smooth[block][~expected], rtol=1e-12, atol=1e-12)):
+                and np.allclose(out[~expected], smooth[block][~expected], rtol=1e-12,
+                                atol=1e-12)):
             errors.append(f"case {case} (n {n}, reach {reach}, blocks {blocks}): the mask "
                           f"differs on rank {comm.Get_rank()}")
     return errors
