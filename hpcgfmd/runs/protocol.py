@@ -98,7 +98,8 @@ class Retraction:
         FFTW planner flag (FFTW_MEASURE for runs, FFTW_ESTIMATE for quick tests).
     """
 
-    FIELDS = ("u", "u_previous", "substrate_traction", "traction") + HistoryWindow.FIELDS
+    FIELDS = ("u", "u_previous", "u_before_previous", "substrate_traction",
+              "traction") + HistoryWindow.FIELDS
 
     def __init__(self, case: Case, comm, planner_effort="FFTW_MEASURE"):
         self.case = case
@@ -152,8 +153,8 @@ class Retraction:
         self.quadratic_history = self.steps.adaptive and case.k < 1.0
         self._step_before = None  # the step before of the step being solved (None: linear)
         self.edges = ContactEdges()  # of the last two steps
-        self._reverted = ("u", "u_previous", "substrate_traction", "traction",
-                          *self.substrate.field_names())
+        self._reverted = ("u", "u_previous", "u_before_previous", "substrate_traction",
+                          "traction", *self.substrate.field_names())
         self._saved = {name: np.empty(n) for name in self._reverted}
         self._absent = np.zeros(n)  # a field the state does not have yet (read only)
         self._stiffness_u = np.empty(n)  # K u_n under a step's stiffness (the predictor's)
@@ -377,10 +378,10 @@ class Retraction:
         contact edges of the last two steps, the predictor's, the step control's and the
         solver's state.
         """
-        u_previous, attrs = self.predictor.state(self.u)
+        predicted, attrs = self.predictor.state(self.u)
         window = self.history_window
         fields = {"u": self.u, "substrate_traction": self.substrate_traction,
-                  "traction": self.traction, "u_previous": u_previous,
+                  "traction": self.traction, **predicted,
                   **(window.fields(self._absent) if window
                      else dict.fromkeys(HistoryWindow.FIELDS, self._absent))}
         fields.update(self.substrate.fields())
@@ -427,7 +428,7 @@ class Retraction:
             if self.history_window is not None:
                 self.history_window.restore(
                     fields, attrs, lambda t: -self.case.depth + self.case.indenter_speed * t)
-            self.predictor.restore(fields["u_previous"], attrs)
+            self.predictor.restore(fields, attrs)
             self.total_iterations = int(attrs["total_iterations"])
             self.fft.pairs = int(attrs["fft_pairs"])
             self.rejected_steps = int(attrs["rejected_steps"])
@@ -435,9 +436,9 @@ class Retraction:
             self.dt_previous = None if math.isnan(dt_previous) else dt_previous
             self.solver.restore_statistics(attrs)
             self.steps.restore(attrs)
-        else:  # the predictor's u_{n-1} goes back too, its counters stay
+        else:  # the predictor's u_{n-1} and u_{n-2} go back too, its counters stay
             choices, rejected = self.predictor.choices, self.predictor.rejected
-            self.predictor.restore(fields["u_previous"], attrs)
+            self.predictor.restore(fields, attrs)
             self.predictor.choices, self.predictor.rejected = choices, rejected
         np.add(self.profile, self.indenter, out=self.wall)
 

@@ -4,14 +4,18 @@ The path is defined by descent from the previous equilibrium u_n (feasible for t
 the wall having risen); a guess replaces it only if its energy is lower, so the solve still
 ends on the branch the previous step was on:
 
-- linear extrapolation u_n + r (u_n - u_{n-1}) (r = dt_{n+1} / dt_n), with the contact nodes
+- extrapolation in time, quadratic through u_{n-2}, u_{n-1}, u_n once three accepted states
+  are known (Lagrange weights of the unequal steps, error O(dt^3 u_ttt) where u is smooth in
+  time), linear u_n + r (u_n - u_{n-1}) (r = dt_{n+1} / dt_n) before, with the contact nodes
   of step n put exactly on the new wall (extrapolation lands there only to round-off, and a
   gap of 1e-18 would free the whole patch);
-- the same with the gap profile around each contact edge translated by the edge's last
-  displacement (a peeling edge moves with its shape), which frees the nodes the edge will
-  pass instead of leaving the solver to unzip them one by one.
+- the linear extrapolation with the gap profile around each contact edge translated by the
+  edge's last displacement (a peeling edge moves with its shape), which frees the nodes the
+  edge will pass instead of leaving the solver to unzip them one by one (a quadratic base
+  here lets more guesses lose to the first, measured in docs/results.md).
 
-After the preload, u_{n-1} is taken as u_n with the contact lowered by the rise.
+After the preload, u_{n-1} is taken as u_n with the contact lowered by the rise (not a
+state: the quadratic guess waits for three accepted ones).
 """
 from __future__ import annotations
 
@@ -19,7 +23,7 @@ import numpy as np
 
 from ..parallel.fft import aligned_empty
 from .projection import project_feasible
-from .step_kernels import linear_guess
+from .step_kernels import linear_guess, quadratic_guess
 
 
 class Predictor:
@@ -36,8 +40,12 @@ class Predictor:
     ----------
     u_previous : ndarray or None
         u_{n-1}, None right after the preload.
+    u_before_previous : ndarray or None
+        u_{n-2}, None until three accepted states are known.
+    ratio_previous : float
+        dt_n / dt_{n-1}, the step length ratio of the last start (NaN: none).
     choices : list of int
-        Steps started from the (linear, moving-edge) guess.
+        Steps started from the (extrapolated, moving-edge) guess.
     rejected : int
         Steps started from u_n itself (no guess had a lower energy).
     """
@@ -46,12 +54,16 @@ class Predictor:
         self.domain = domain
         self.window = window
         self.u_previous = None
+        self.u_before_previous = None
+        self.ratio_previous = np.nan
+        self._previous_is_state = False  # u_previous is an accepted state, not the preload's stand-in
         self.choices = [0, 0]
         self.rejected = 0
         n = domain.local_n
         # the guesses, their feasible projections (aligned: the energy transforms them in
         # place) and the moving edges' gap: nothing of the block's size is allocated per step
         self._linear = np.empty(n)
+        self._extrapolated = np.empty(n)
         self._moved = np.empty(n)
         self._gap = np.empty(n)
         self._starts = (aligned_empty(n), aligned_empty(n))
@@ -84,11 +96,18 @@ class Predictor:
         """
         if self.u_previous is None:
             self.u_previous = u - rise * contact
+            self._previous_is_state = False
             ratio = 1.0
         linear = self._linear
         linear_guess(u, self.u_previous, ratio, wall, contact, linear)
-        guesses = (linear, self._moving_edges(linear, wall, gap_before, ratio, edges,
-                                              edges_previous))
+        extrapolated = linear
+        if self.u_before_previous is not None and np.isfinite(self.ratio_previous):
+            extrapolated = self._extrapolated
+            quadratic_guess(u, self.u_previous, self.u_before_previous,
+                            *lagrange_weights(ratio, self.ratio_previous), wall, contact,
+                            extrapolated)
+        guesses = (extrapolated, self._moving_edges(linear, wall, gap_before, ratio, edges,
+                                                    edges_previous))
         candidates = {}
         for kind, guess in enumerate(guesses):
             if guess is None:
@@ -99,7 +118,7 @@ class Predictor:
             except FloatingPointError:  # no feasible point of that form (tiny grids): skip it
                 continue
             candidates[kind] = start
-        self.u_previous[:] = u
+        self._shift(u, ratio)
         energies = {kind: energy(c) for kind, c in candidates.items()}
         best = min(energies, key=energies.get) if energies else None
         if best is not None and energies[best] <= energy(u, stiffness_u):
@@ -107,6 +126,16 @@ class Predictor:
             self.choices[best] += 1
         else:
             self.rejected += 1
+
+    def _shift(self, u, ratio):
+        """u_n becomes u_{n-1} (and u_{n-1} u_{n-2} when it was a state); r is kept."""
+        if self._previous_is_state:
+            if self.u_before_previous is None:
+                self.u_before_previous = np.empty_like(u)
+            self.u_before_previous[:] = self.u_previous
+        self.u_previous[:] = u
+        self._previous_is_state = True
+        self.ratio_previous = ratio
 
     def _moving_edges(self, linear, wall, gap_before, ratio, edges, edges_previous):
         """Guess with the gap near each contact edge translated by the edge's last motion."""
@@ -139,13 +168,38 @@ class Predictor:
         return np.subtract(wall, gap, out=self._moved)
 
     def state(self, u):
-        """(field, attrs) for a checkpoint: u_{n-1} (zeros when unknown) and the counters."""
-        field = self.u_previous if self.u_previous is not None else np.zeros_like(u)
-        return field, {"has_previous": self.u_previous is not None,
-                       "rejected_predictions": self.rejected,
-                       "predictor_choice": np.array(self.choices)}
+        """(fields, attrs) for a checkpoint: u_{n-1} and u_{n-2} (zeros when unknown), the
+        last step ratio and the counters."""
+        absent = np.zeros_like(u)
+        fields = {"u_previous": self.u_previous if self.u_previous is not None else absent,
+                  "u_before_previous": (self.u_before_previous
+                                        if self.u_before_previous is not None else absent)}
+        return fields, {"has_previous": self.u_previous is not None,
+                        "previous_is_state": self._previous_is_state,
+                        "has_before_previous": self.u_before_previous is not None,
+                        "ratio_previous": self.ratio_previous,
+                        "rejected_predictions": self.rejected,
+                        "predictor_choice": np.array(self.choices)}
 
-    def restore(self, field, attrs):
-        self.u_previous = field.copy() if attrs["has_previous"] else None
+    def restore(self, fields, attrs):
+        """Continue from :meth:`state` (checkpoints without u_{n-2} start linear)."""
+        self.u_previous = fields["u_previous"].copy() if attrs["has_previous"] else None
+        self._previous_is_state = bool(attrs.get("previous_is_state", attrs["has_previous"]))
+        self.u_before_previous = (fields["u_before_previous"].copy()
+                                  if attrs.get("has_before_previous", False) else None)
+        self.ratio_previous = float(attrs.get("ratio_previous", np.nan))
         self.rejected = int(attrs["rejected_predictions"])
         self.choices = [int(v) for v in attrs["predictor_choice"]]
+
+
+def lagrange_weights(ratio, ratio_previous):
+    """Weights (w0, w1, w2) of u_n, u_{n-1}, u_{n-2} in the quadratic through them at
+    t_n + dt_{n+1}, for ratio = dt_{n+1} / dt_n and ratio_previous = dt_n / dt_{n-1}.
+
+    With times in units of dt_n (t_n = 0, t_{n-1} = -1, t_{n-2} = -1 - b, b = 1 /
+    ratio_previous) and s = ratio: w0 = (s + 1)(s + 1 + b) / (1 + b), w1 = -s (s + 1 + b) / b,
+    w2 = s (s + 1) / ((1 + b) b); they sum to 1 and reproduce t and t^2 exactly.
+    """
+    s, b = ratio, 1.0 / ratio_previous
+    return ((s + 1.0) * (s + 1.0 + b) / (1.0 + b), -s * (s + 1.0 + b) / b,
+            s * (s + 1.0) / ((1.0 + b) * b))

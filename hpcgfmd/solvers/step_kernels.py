@@ -26,6 +26,17 @@ def linear_guess(u, u_previous, ratio, wall, contact, out):
             out[i] = u[i] + ratio * (u[i] - u_previous[i])
 
 
+@njit(cache=True)
+def quadratic_guess(u, u_previous, u_before_previous, w0, w1, w2, wall, contact, out):
+    """out = w0 u + w1 u_previous + w2 u_before_previous, exactly on the wall on the
+    ``contact`` nodes (the weights: :func:`hpcgfmd.solvers.predictor.lagrange_weights`)."""
+    for i in range(u.shape[0]):
+        if contact[i]:
+            out[i] = wall[i]
+        else:
+            out[i] = w0 * u[i] + w1 * u_previous[i] + w2 * u_before_previous[i]
+
+
 @njit(cache=True, fastmath=FAST)
 def energy_terms(u, k_u, linear, wall, gap):
     """gap = wall - u; returns 1/2 u.k_u + linear.u (the quadratic and linear energy terms)."""

@@ -1,0 +1,93 @@
+"""The predictor's extrapolation in time (hpcgfmd/solvers/predictor.py): Lagrange weights
+exact for quadratics, the quadratic guess from three accepted states, and its state across
+a checkpoint and a rejected attempt."""
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from hpcgfmd.parallel.domain import Domain
+from hpcgfmd.solvers.predictor import Predictor, lagrange_weights
+from hpcgfmd.solvers.step_kernels import quadratic_guess
+
+N, CELL = 64, 4.0
+
+
+@pytest.mark.parametrize("ratio, ratio_previous", [(1.0, 1.0), (2.0, 0.25), (0.25, 2.0),
+                                                   (1.6818, 0.5946)])
+def test_lagrange_weights_reproduce_quadratics(ratio, ratio_previous):
+    # times in units of dt_n: t_{n-2} = -1 - 1/ratio_previous, t_{n-1} = -1, t_n = 0
+    times = np.array([0.0, -1.0, -1.0 - 1.0 / ratio_previous])
+    weights = np.array(lagrange_weights(ratio, ratio_previous))
+    for power in range(3):
+        assert weights @ times ** power == pytest.approx(ratio ** power, rel=1e-13, abs=1e-13)
+
+
+def test_quadratic_guess_puts_contact_on_the_wall():
+    rng = np.random.default_rng(1)
+    u, u1, u2, wall = (rng.standard_normal(N) for _ in range(4))
+    contact = rng.random(N) < 0.3
+    out = np.empty(N)
+    quadratic_guess(u, u1, u2, 1.5, -0.75, 0.25, wall, contact, out)
+    np.testing.assert_array_equal(out[contact], wall[contact])
+    np.testing.assert_allclose(out[~contact], (1.5 * u - 0.75 * u1 + 0.25 * u2)[~contact],
+                               rtol=1e-15, atol=1e-15)
+
+
+def _motion(t, x):
+    """A zero-mean displacement quadratic in time (no contact: the wall stays far above)."""
+    shape = np.cos(2.0 * np.pi * x / CELL)
+    return (0.01 + 0.03 * t - 0.02 * t ** 2) * shape
+
+
+def _start(predictor, u, wall, t, t_next, dt_before, exact):
+    """One start from u at t toward t_next, with an energy that is the distance to exact."""
+    ratio = 1.0 if dt_before is None else (t_next - t) / dt_before
+    gap = wall - u
+    energy = lambda v, k_v=None: float(np.sum((v - exact) ** 2))  # noqa: E731
+    predictor.start(u, wall, gap, np.zeros(N, dtype=bool), 0.0, ratio, (np.nan, np.nan),
+                    None, energy, None)
+
+
+def test_third_start_extrapolates_a_quadratic_motion_exactly():
+    domain = Domain(MPI.COMM_SELF, N, CELL, [(0, N)])
+    predictor = Predictor(domain, window=0.1)
+    wall = np.full(N, 10.0)
+    times = [0.0, 0.3, 0.45, 0.85, 1.05]  # unequal steps
+    errors = []
+    for i in range(1, len(times)):
+        u = _motion(times[i - 1], domain.x)
+        exact = _motion(times[i], domain.x)
+        dt_before = None if i == 1 else times[i - 1] - times[i - 2]
+        _start(predictor, u, wall, times[i - 1], times[i], dt_before, exact)
+        errors.append(np.max(np.abs(u - exact)))
+    # the first start knows u_0 only, the second extrapolates linearly, the later ones
+    # quadratically: exact to round-off
+    assert errors[1] > 1e-4
+    assert max(errors[2:]) < 1e-14
+
+
+def test_state_round_trip_keeps_the_quadratic():
+    domain = Domain(MPI.COMM_SELF, N, CELL, [(0, N)])
+    wall = np.full(N, 10.0)
+    times = [0.0, 0.2, 0.5, 0.6]
+    first = Predictor(domain, window=0.1)
+    for i in range(1, 3):
+        u = _motion(times[i - 1], domain.x)
+        _start(first, u, wall, times[i - 1], times[i],
+               None if i == 1 else times[i - 1] - times[i - 2], _motion(times[i], domain.x))
+    fields, attrs = first.state(np.zeros(N))
+    second = Predictor(domain, window=0.1)
+    second.restore({k: v.copy() for k, v in fields.items()}, attrs)
+    u = _motion(times[2], domain.x)
+    exact = _motion(times[3], domain.x)
+    _start(second, u, wall, times[2], times[3], times[2] - times[1], exact)
+    np.testing.assert_allclose(u, exact, rtol=0, atol=1e-14)
+    # a checkpoint without u_{n-2} (written before the quadratic guess) starts linear
+    old = Predictor(domain, window=0.1)
+    old.restore({"u_previous": fields["u_previous"].copy()},
+                {k: attrs[k] for k in ("has_previous", "rejected_predictions",
+                                       "predictor_choice")})
+    assert old.u_before_previous is None
+    u = _motion(times[2], domain.x)
+    _start(old, u, wall, times[2], times[3], times[2] - times[1], exact)
+    assert np.max(np.abs(u - exact)) > 1e-5
