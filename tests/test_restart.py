@@ -134,16 +134,22 @@ def test_the_identities_of_the_version_that_hashed_the_cap_are_owned():
     # this case under its default cap there (5000 + the contact's 251 nodes, today's
     # default too), under the default 5000 of the versions before 56eb886, and under a cap
     # of 30: a run of theirs stopped at a default cap continues under a raised one (20000),
-    # one with a cap of its own only under that cap
-    case = parse_case(case_text("nx = 1024", velocity=9.0))
-    raised = parse_case(case_text("nx = 1024\nmax_iterations = 20000", velocity=9.0))
-    capped = parse_case(case_text("nx = 1024\nmax_iterations = 30", velocity=9.0))
+    # one with a cap of its own only under that cap. Their default solver tolerance was
+    # 1e-3 at this accuracy (2.5e-3 now): their runs continue with that tolerance given,
+    # and a case left to today's default is another case
+    old = "nx = 1024\ntolerance = 1e-3"
+    case = parse_case(case_text(old, velocity=9.0))
+    raised = parse_case(case_text(old + "\nmax_iterations = 20000", velocity=9.0))
+    capped = parse_case(case_text(old + "\nmax_iterations = 30", velocity=9.0))
+    today = parse_case(case_text("nx = 1024", velocity=9.0))
+    assert today.numerics.tolerance == 2.5e-3
+    assert not today.owns_identity("dbd0e40dc01236e4")
     assert case.numerics.max_iterations == 5251
     for owner in (case, raised):
         assert owner.owns_identity(case.identity())
         assert owner.owns_identity("dbd0e40dc01236e4") and owner.owns_identity("2a3b33f48065b670")
         assert not owner.owns_identity("20ae078e533b8320")
     assert capped.owns_identity("20ae078e533b8320")
-    other = parse_case(case_text("nx = 1024", velocity=8.0))
+    other = parse_case(case_text(old, velocity=8.0))
     assert not other.owns_identity(case.identity())
     assert not other.owns_identity("dbd0e40dc01236e4")

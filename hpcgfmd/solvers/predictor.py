@@ -56,7 +56,6 @@ class Predictor:
         self.u_previous = None
         self.u_before_previous = None
         self.ratio_previous = np.nan
-        self._previous_is_state = False  # u_previous is an accepted state, not the preload's stand-in
         self.choices = [0, 0]
         self.rejected = 0
         n = domain.local_n
@@ -94,9 +93,9 @@ class Predictor:
         stiffness_u : ndarray
             K u_n under the new step's stiffness.
         """
-        if self.u_previous is None:
+        stand_in = self.u_previous is None  # right after the preload: not a state
+        if stand_in:
             self.u_previous = u - rise * contact
-            self._previous_is_state = False
             ratio = 1.0
         linear = self._linear
         linear_guess(u, self.u_previous, ratio, wall, contact, linear)
@@ -118,7 +117,7 @@ class Predictor:
             except FloatingPointError:  # no feasible point of that form (tiny grids): skip it
                 continue
             candidates[kind] = start
-        self._shift(u, ratio)
+        self._shift(u, ratio, keep_previous=not stand_in)
         energies = {kind: energy(c) for kind, c in candidates.items()}
         best = min(energies, key=energies.get) if energies else None
         if best is not None and energies[best] <= energy(u, stiffness_u):
@@ -127,14 +126,12 @@ class Predictor:
         else:
             self.rejected += 1
 
-    def _shift(self, u, ratio):
-        """u_n becomes u_{n-1} (and u_{n-1} u_{n-2} when it was a state); r is kept."""
-        if self._previous_is_state:
-            if self.u_before_previous is None:
-                self.u_before_previous = np.empty_like(u)
-            self.u_before_previous[:] = self.u_previous
+    def _shift(self, u, ratio, keep_previous):
+        """u_n becomes u_{n-1}, and u_{n-1} u_{n-2} when it is a state (``keep_previous``);
+        the step ratio r becomes the previous one."""
+        if keep_previous:
+            self.u_before_previous = _kept(self.u_before_previous, self.u_previous)
         self.u_previous[:] = u
-        self._previous_is_state = True
         self.ratio_previous = ratio
 
     def _moving_edges(self, linear, wall, gap_before, ratio, edges, edges_previous):
@@ -170,12 +167,14 @@ class Predictor:
     def state(self, u):
         """(fields, attrs) for a checkpoint: u_{n-1} and u_{n-2} (zeros when unknown), the
         last step ratio and the counters."""
-        absent = np.zeros_like(u)
-        fields = {"u_previous": self.u_previous if self.u_previous is not None else absent,
-                  "u_before_previous": (self.u_before_previous
-                                        if self.u_before_previous is not None else absent)}
+        absent = None  # zeros, made only when a state is missing (after the first steps)
+        fields = {}
+        for name in ("u_previous", "u_before_previous"):
+            kept = getattr(self, name)
+            if kept is None:
+                absent = np.zeros_like(u) if absent is None else absent
+            fields[name] = absent if kept is None else kept
         return fields, {"has_previous": self.u_previous is not None,
-                        "previous_is_state": self._previous_is_state,
                         "has_before_previous": self.u_before_previous is not None,
                         "ratio_previous": self.ratio_previous,
                         "rejected_predictions": self.rejected,
@@ -183,13 +182,21 @@ class Predictor:
 
     def restore(self, fields, attrs):
         """Continue from :meth:`state` (checkpoints without u_{n-2} start linear)."""
-        self.u_previous = fields["u_previous"].copy() if attrs["has_previous"] else None
-        self._previous_is_state = bool(attrs.get("previous_is_state", attrs["has_previous"]))
-        self.u_before_previous = (fields["u_before_previous"].copy()
+        self.u_previous = (_kept(self.u_previous, fields["u_previous"])
+                           if attrs["has_previous"] else None)
+        self.u_before_previous = (_kept(self.u_before_previous, fields["u_before_previous"])
                                   if attrs.get("has_before_previous", False) else None)
         self.ratio_previous = float(attrs.get("ratio_previous", np.nan))
         self.rejected = int(attrs["rejected_predictions"])
         self.choices = [int(v) for v in attrs["predictor_choice"]]
+
+
+def _kept(buffer, values):
+    """``values`` copied into ``buffer`` (a new array when there is none yet)."""
+    if buffer is None or buffer.shape != values.shape:
+        return values.copy()
+    buffer[:] = values
+    return buffer
 
 
 def lagrange_weights(ratio, ratio_previous):
