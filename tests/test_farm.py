@@ -38,10 +38,10 @@ def test_grid_times_cases_and_overrides():
 def test_a_file_of_the_same_case_under_another_cap_or_an_earlier_identity_is_its_own(tmp_path):
     # the farm's file states: a finished file of the case is skipped whatever the cap it ran
     # under, and so is one written by the version that hashed the cap (this case's identities
-    # there at its default cap and at that version's default 5000: tests/test_restart.py);
-    # another case's file is not touched
+    # there at its default cap and at that version's default 5000, its solver tolerance then
+    # the default, given here: tests/test_restart.py); another case's file is not touched
     from hpcgfmd.runs.farm import file_status
-    base = case_text("nx = 1024", prefix="base.", velocity=9.0)
+    base = case_text("nx = 1024\ntolerance = 1e-3", prefix="base.", velocity=9.0)
     capped = parse_sweep(base + "[grid]\nnumerics.max_iterations = [30, 20000]\n").cases
     default = parse_sweep(base + "[[cases]]\n").cases
     path = str(tmp_path / "case.h5")
