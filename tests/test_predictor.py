@@ -1,13 +1,19 @@
 """The predictor's extrapolation in time (hpcgfmd/solvers/predictor.py): Lagrange weights
 exact for quadratics, the quadratic guess from three accepted states, and its state across
 a checkpoint and a rejected attempt."""
+import dataclasses
+
 import numpy as np
 import pytest
 from mpi4py import MPI
 
+from hpcgfmd.model.case import parse_case
 from hpcgfmd.parallel.domain import Domain
+from hpcgfmd.runs.protocol import Retraction
 from hpcgfmd.solvers.predictor import Predictor, lagrange_weights
 from hpcgfmd.solvers.step_kernels import quadratic_guess
+
+from cases import case_text
 
 N, CELL = 64, 4.0
 
@@ -91,3 +97,34 @@ def test_state_round_trip_keeps_the_quadratic():
     u = _motion(times[2], domain.x)
     _start(old, u, wall, times[2], times[3], times[2] - times[1], exact)
     assert np.max(np.abs(u - exact)) > 1e-5
+
+
+def test_a_retried_step_starts_from_its_first_attempts_predictor_state(monkeypatch):
+    # a rejected attempt is undone: the retry's guess reads the same u_{n-1}, u_{n-2} and
+    # step ratio as the first attempt did (the attempt's shift of them is reverted)
+    sim = Retraction(parse_case(case_text("nx = 1024")), MPI.COMM_SELF,
+                     planner_effort="FFTW_ESTIMATE")
+    sim.preload()
+    for _ in range(4):
+        sim.step()
+    entries, start = [], sim.predictor.start
+
+    def recorded(*args, **kwargs):
+        p = sim.predictor
+        entries.append((p.u_previous.copy(), p.u_before_previous.copy(), p.ratio_previous))
+        return start(*args, **kwargs)
+
+    judge, verdicts = sim.steps.judge, []
+
+    def reject_first(*args, **kwargs):
+        verdicts.append(judge(*args, **kwargs))
+        return dataclasses.replace(verdicts[-1], accepted=len(verdicts) > 1)
+
+    monkeypatch.setattr(sim.predictor, "start", recorded)
+    monkeypatch.setattr(sim.steps, "judge", reject_first)
+    sim.step()
+    assert len(entries) == 2 and sim.rejected_steps == 1
+    (previous, before, ratio), (previous_retry, before_retry, ratio_retry) = entries
+    np.testing.assert_array_equal(previous_retry, previous)
+    np.testing.assert_array_equal(before_retry, before)
+    assert ratio_retry == ratio
