@@ -223,9 +223,10 @@ def test_default_adaptive_pull_off_and_cost(converged):
     reference, fine = converged
     # within the steps' share, half the accuracy (nx fixes the grid's share here), at the
     # default tolerance in fewer steps than the fixed ones take (217 steps, 7.7e-4), and solved
-    # as tightly as they are (tolerance 0.02 accuracy) too; measured at 5e-3: 162 steps,
-    # 3.3e-4, and tightly solved 217 steps, 4.4e-4 (the quadratic step; the linear one took
-    # 177 and 253 steps to 1.1e-3 and 9.8e-4).
+    # as tightly as they are (tolerance 0.02 accuracy) too; measured at 5e-3: 147 steps,
+    # 1.2e-3, and tightly solved 151 steps, 1.3e-3 (at 1e-2: 116 and 115 steps, 1.5e-3 and
+    # 1.7e-3; with the predictor's linear guess and a fifth of the accuracy as the default
+    # tolerance 162 and 217 steps, 3.3e-4 and 4.4e-4 at 5e-3).
     fixed_value, fixed = pull_off('nx = 2048\nstep_control = "fixed"\ntolerance = 1e-4')
     for accuracy in (5e-3, 1e-2):
         value, sim = pull_off(f"nx = 2048\naccuracy = {accuracy}")
