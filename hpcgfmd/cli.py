@@ -193,6 +193,7 @@ def cmd_plot(comm, args):
     except ImportError as err:
         raise UsageError(f"plot needs matplotlib ({err}); pip install 'hpcgfmd[plot]'") from None
     output = args.output or os.path.splitext(args.file)[0] + ".png"
+    _check_output_path(output, args.overwrite)
     try:
         plot_case(args.file, output)
     except (OSError, KeyError, ValueError) as err:
@@ -248,6 +249,7 @@ def build_parser():
                           help="PNG of the scaled load-area curve (paper Fig. 5a)")
     plot.add_argument("file")
     plot.add_argument("-o", "--output", default=None, help="PNG path (default: file name .png)")
+    plot.add_argument("--overwrite", action="store_true", help="replace an existing PNG")
     plot.set_defaults(func=cmd_plot)
     from .paper.command import add_parser as add_paper_parser
 

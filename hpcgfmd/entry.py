@@ -7,8 +7,10 @@ MPI ranks supply the parallelism.
 This is the only place that names ``MPI.COMM_WORLD``: the command line receives it as its
 communicator. Under MPI with more than one rank an uncaught exception on one rank aborts all
 of them (COMM_WORLD.Abort, non-zero status) instead of leaving the others waiting in a
-collective; SystemExit passes through. SIGTERM and SIGUSR1 are recorded from the first
-moment (:mod:`hpcgfmd.signals`) and handed to the run or the farm, which stop cleanly.
+collective; SystemExit passes through. Output to a reader that has gone away
+(``info out.h5 | head -1``) ends the process quietly with status 1. SIGTERM and SIGUSR1 are
+recorded from the first moment (:mod:`hpcgfmd.signals`) and handed to the run or the farm,
+which stop cleanly.
 """
 import os
 import sys
@@ -28,22 +30,38 @@ def _main(stop):
     from mpi4py import MPI
 
     from .cli import main as cli_main
+    from .errors import EXIT_FAILURE
 
     comm = MPI.COMM_WORLD
     try:
-        return cli_main(comm, stop=stop)
+        status = cli_main(comm, stop=stop)
+        sys.stdout.flush()  # here, where a reader gone away is handled below
+        return status
     except SystemExit:
         raise
+    except BrokenPipeError:
+        if comm.Get_size() > 1:  # the other ranks may wait in a collective
+            _abort(comm)
+        # the reader of stdout has gone (``info out.h5 | head -1``): what it read was
+        # printed; stop quietly, with stdout on /dev/null so that the interpreter's last
+        # flush does not raise again
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_FAILURE
     except BaseException:
         if comm.Get_size() > 1:
-            import traceback
-
-            traceback.print_exc()
-            sys.stderr.write(f"hpcgfmd: rank {comm.Get_rank()} failed; aborting all"
-                             f" {comm.Get_size()} ranks\n")
-            sys.stderr.flush()
-            comm.Abort(1)
+            _abort(comm)
         raise
+
+
+def _abort(comm):
+    """Print the exception being handled and abort every rank of ``comm`` (status 1)."""
+    import traceback
+
+    traceback.print_exc()
+    sys.stderr.write(f"hpcgfmd: rank {comm.Get_rank()} failed; aborting all"
+                     f" {comm.Get_size()} ranks\n")
+    sys.stderr.flush()
+    comm.Abort(1)
 
 
 def console():

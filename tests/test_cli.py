@@ -164,6 +164,20 @@ def test_run_info_plot_end_to_end(tmp_path):
     assert res.returncode == 0, res.stderr
     png = (tmp_path / "out.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20000
+    # an existing PNG is kept (one line, status 2) unless --overwrite; no temporary left
+    (tmp_path / "out.png").write_bytes(b"mine")
+    res = hpcgfmd("plot", "out.h5", cwd=tmp_path)
+    assert res.returncode == 2 and (tmp_path / "out.png").read_bytes() == b"mine"
+    assert res.stderr.count("\n") == 1 and "out.png" in res.stderr and "--overwrite" in res.stderr
+    assert hpcgfmd("plot", "out.h5", "--overwrite", cwd=tmp_path).returncode == 0
+    assert (tmp_path / "out.png").read_bytes() == png
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml", "out.h5", "out.png"]
+    # info into a reader that has already gone (| head -1): status 1, no traceback
+    proc = subprocess.Popen([sys.executable, "-m", "hpcgfmd", "info", "out.h5"], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()  # before the interpreter has started (about 0.5 s): info writes after
+    assert proc.wait(timeout=60) == 1
+    assert proc.stderr.read() == b""
 
 
 def test_physical_form_equals_case_form_in_si_units(tmp_path):

@@ -9,6 +9,7 @@
 - Every `python -m hpcgfmd ...` in a ```sh block uses a subcommand and options that the
   command's --help lists; every scripts/ and jobs/ path named there is tracked by git (so a
   clone has it; outside a git checkout: exists).
+- The Python examples of README.md and docs/api.md print what their comments state.
 """
 import math
 import re
@@ -56,6 +57,31 @@ def test_the_docs_exist_and_have_blocks():
 
 
 TOML = blocks("toml")
+
+
+def test_python_examples_print_what_their_comments_state():
+    # the first ```python block of README.md and of docs/api.md that makes a Case: one case,
+    # run once; each print(...) # value[, value] comment holds to the digits it states
+    import hpcgfmd
+    examples = []
+    for source in ("README.md", "docs/api.md"):
+        block = next(text for path, _, text in blocks("python")
+                     if str(path) == source and "hpcgfmd.Case(" in text)
+        case = re.search(r"^case = (hpcgfmd\.Case\(.*?\))\n", block, re.M | re.S).group(1)
+        prints = re.findall(r"^print\((.*)\)\s+# (.*)$", block, re.M)
+        assert prints, source
+        examples.append((source, case, prints))
+    assert len({case for _, case, _ in examples}) == 1, "the examples run different cases"
+    result = hpcgfmd.run(eval(examples[0][1], {"hpcgfmd": hpcgfmd}))
+    names = {"result": result, "p": result.pull_off()}
+    for source, _, prints in examples:
+        for expression, comment in prints:
+            values = eval(f"({expression},)", names)
+            stated = [text.strip() for text in comment.split(",")]
+            assert len(values) == len(stated), (source, expression)
+            for value, text in zip(values, stated):
+                digits = len(text.split(".")[1]) if "." in text else 0
+                assert round(value, digits) == float(text), (source, expression, value)
 
 
 @pytest.mark.parametrize("source, index, text", TOML, ids=[f"{s}#{i}" for s, i, _ in TOML])

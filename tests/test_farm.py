@@ -208,8 +208,27 @@ def test_dry_run_lists_cases_groups_and_cost(tmp_path):
     assert lines[0].startswith("3 cases")
     assert "chi_ve" in lines[1] and "cost" in lines[1]
     assert " 55.12 " in run.stdout  # chi_ve = V_z lambda0^2 = 4.5 * 3.5^2
+    # the total is the sum of the cases' costs in their 3 digits (small cases: not 0)
+    costs = [float(line.split()[8]) for line in lines[2:5]]
+    total = float(lines[5].split("estimated cost:")[1].split()[0])
+    assert total == pytest.approx(sum(costs), rel=2e-3) and total > 0
     assert not (tmp_path / "sweep").exists()  # nothing written
     assert run.stderr == ""  # no warning, no error
+
+
+def test_summary_text_columns_are_strings_without_failures(tmp_path):
+    # no case failed: the error column is empty text, not NaN; numbers stay numbers
+    from hpcgfmd.runs.farm import _write_tables
+    rows = [{"index": i, "name": f"velocity_{v}", "status": "finished", "error": "",
+             "file": f"velocity_{v}.h5", "case.velocity": v, "pull_off_load": -0.1 * i,
+             "steps": 10 + i, "ranks": 1} for i, v in enumerate((1.0, 2.0))]
+    _write_tables(str(tmp_path), rows, ["case.velocity"], "case")
+    with h5py.File(tmp_path / "summary.h5", "r") as f:
+        for column in ("name", "status", "error", "file"):
+            assert h5py.check_string_dtype(f[column].dtype), column
+        assert [v.decode() for v in f["error"][:]] == ["", ""]
+        np.testing.assert_array_equal(f["pull_off_load"][:], [0.0, -0.1])
+        np.testing.assert_array_equal(f["case.velocity"][:], [1.0, 2.0])
 
 
 @pytest.mark.mpi

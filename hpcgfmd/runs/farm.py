@@ -48,6 +48,8 @@ from .single_case import run_case
 from .sweep import ITERATIONS_PER_STEP, SECONDS_PER_NODE_ITERATION
 
 logger = logging.getLogger(__name__)
+# text whatever the rows hold (an error column with no failure is empty strings, not NaN)
+TEXT_COLUMNS = ("name", "status", "error", "file")
 SUMMARY_COLUMNS = ("index", "name", "status", "error", "lambda0", "lambda_inf", "k", "Vz",
                    "chi_ve", "alpha", "depth", "cell", "nx", "pull_off_load", "pull_off_lbar",
                    "pull_off_contact_half_width", "pull_off_abar", "detachment_indenter",
@@ -124,10 +126,10 @@ def plan_table(sweep, out_dir, groups):
                      f" {item.case.numerics.nx:>8} {item.cost():>8.3g}"
                      f"  {file_status(case_file(out_dir, item), item)}")
     total = sum(c.cost() for c in sweep.cases)
-    lines.append(f"estimated cost: {total:.0f} core-seconds (model:"
+    lines.append(f"estimated cost: {total:.3g} core-seconds (model:"
                  f" {SECONDS_PER_NODE_ITERATION * 2**17 * 1e3:.2g} ms per CG iteration at"
                  f" 2^17 nodes, {ITERATIONS_PER_STEP:g} iterations per step); about"
-                 f" {max(loads):.0f} s on {groups} group(s) of ranks, longest first")
+                 f" {max(loads):.3g} s on {groups} group(s) of ranks, longest first")
     return "\n".join(lines)
 
 
@@ -396,8 +398,9 @@ def _write_tables(out_dir, rows, swept, form):
             numbers = [v for v in values if v != ""]
             if column == "index":
                 f.create_dataset(column, data=np.asarray(values, dtype=np.int64))
-            elif all(isinstance(v, (int, float, np.integer, np.floating))
-                     and not isinstance(v, bool) for v in numbers):
+            elif column not in TEXT_COLUMNS and all(
+                    isinstance(v, (int, float, np.integer, np.floating))
+                    and not isinstance(v, bool) for v in numbers):
                 # missing values (a failed case has no pull-off) are NaN: plottable columns
                 f.create_dataset(column, data=np.asarray(
                     [np.nan if v == "" else v for v in values], dtype=float))

@@ -1,6 +1,8 @@
 """PNG of a case in the paper's scaling (Fig. 5a) and of load against indenter position."""
 from __future__ import annotations
 
+import os
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -38,5 +40,12 @@ def plot_case(path, output):
     ax2.set_ylabel("load per unit length $L_n$ (compressive > 0)")
     ax2.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(output, dpi=120)
-    plt.close(fig)
+    # atomically: a reader (or a plot interrupted mid-write) never sees half a PNG
+    partial = f"{output}.{os.getpid()}.tmp"
+    try:
+        fig.savefig(partial, dpi=120, format="png")
+        os.replace(partial, output)
+    finally:
+        plt.close(fig)
+        if os.path.exists(partial):
+            os.remove(partial)
