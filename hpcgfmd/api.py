@@ -20,6 +20,8 @@ import tempfile
 from .model.case import Case
 from .storage.reader import Result, read_result
 
+PLANNER_EFFORTS = ("FFTW_ESTIMATE", "FFTW_MEASURE", "FFTW_PATIENT", "FFTW_EXHAUSTIVE")
+
 
 def run(case, path=None, comm=None, overwrite=False, planner_effort="FFTW_MEASURE") -> Result:
     """Run the retraction of ``case`` and return its :class:`~hpcgfmd.storage.reader.Result`.
@@ -31,15 +33,19 @@ def run(case, path=None, comm=None, overwrite=False, planner_effort="FFTW_MEASUR
     case : Case, str or os.PathLike
         A :class:`Case`, a case file's path or its TOML text.
     path : str or os.PathLike, optional
-        The HDF5 file to write (kept). Left out, the run goes to a temporary file that is
-        read back and removed; ``Result.path`` is then None.
+        The HDF5 file to write (kept), taken as ``python -m hpcgfmd run -o path`` takes it:
+        under its lock, and continued from its checkpoint when the file and its checkpoint
+        both exist (a run stopped by :class:`~hpcgfmd.errors.Interrupted`). Left out, the
+        run goes to a temporary file that is read back and removed; ``Result.path`` is then
+        None.
     comm : mpi4py.MPI.Comm, optional
         The ranks sharing the case; default ``MPI.COMM_SELF`` (serial).
     overwrite : bool
-        Replace an existing ``path``.
+        Replace an existing ``path`` (and start anew instead of continuing a checkpoint).
     planner_effort : str
         FFTW planner flag: "FFTW_MEASURE" (fastest transforms, planning takes seconds at
-        2^17) or "FFTW_ESTIMATE" (instant planning, for small quick runs).
+        2^17) or "FFTW_ESTIMATE" (instant planning, for small quick runs); also
+        "FFTW_PATIENT" and "FFTW_EXHAUSTIVE".
 
     Raises
     ------
@@ -48,19 +54,36 @@ def run(case, path=None, comm=None, overwrite=False, planner_effort="FFTW_MEASUR
     CaseFailure
         The run failed (e.g. the solver did not converge).
     FileExistsError
-        ``path`` exists and ``overwrite`` is false.
+        ``path`` exists without a checkpoint to continue from and ``overwrite`` is false
+        (an :class:`~hpcgfmd.errors.OutputExistsError`).
+    UsageError
+        ``path`` cannot be written: another process writes it, its directory is missing or
+        read-only, it is a directory, or its checkpoint is of another case or damaged.
+    Interrupted
+        SIGTERM or SIGUSR1 stopped the run after a checkpoint: the same call continues it.
+    ValueError
+        An unknown ``planner_effort``.
     """
     from mpi4py import MPI
 
+    from .runs.resume import prepare_output
     from .runs.single_case import run_case
 
     comm = MPI.COMM_SELF if comm is None else comm
+    if planner_effort not in PLANNER_EFFORTS:
+        raise ValueError(f"planner_effort = {planner_effort!r}: expected one of"
+                         f" {', '.join(PLANNER_EFFORTS)}")
     if not isinstance(case, Case):
         case = Case.from_toml(case)
     if path is not None:
-        if os.path.exists(path) and not overwrite:
-            raise FileExistsError(f"{path}: file exists; pass overwrite=True to replace it")
-        run_case(case, path, comm, overwrite=overwrite, planner_effort=planner_effort)
+        path = os.fspath(path)
+        lock, resume = prepare_output(comm, case, path, overwrite)
+        try:
+            run_case(case, path, comm, overwrite=overwrite, resume=resume,
+                     planner_effort=planner_effort)
+        finally:
+            if lock is not None:
+                lock.release()
         return read_result(path)
     directory = comm.bcast(tempfile.mkdtemp(prefix="hpcgfmd-") if comm.Get_rank() == 0
                            else None, root=0)

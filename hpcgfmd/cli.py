@@ -30,30 +30,16 @@ from .signals import STOP_SIGNALS
 logger = logging.getLogger(__name__)
 
 
-def _check_output_path(path, overwrite):
-    directory = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(directory):
-        raise UsageError(f"-o {path}: directory {directory} does not exist")
-    if os.path.isdir(path):
-        raise UsageError(f"-o {path}: is a directory; give a file name")
-    if os.path.exists(path) and not overwrite:
-        raise UsageError(f"-o {path}: file exists; choose another name or pass --overwrite")
-
-
 def _run(comm, case, output, overwrite, dry_run, restart=False, stop=None):
-    from .runs.resume import resume_wanted
+    from .runs.resume import prepare_output
     from .runs.single_case import describe, run_case
-    from .storage.lock import acquire_output_lock
 
     logger.info(describe(case))
     if dry_run:
         return EXIT_OK
     # one writer per output, decided before anything is read or computed (storage/lock.py)
-    lock = acquire_output_lock(comm, output)
+    lock, resume = prepare_output(comm, case, output, overwrite, restart)
     try:
-        resume = resume_wanted(comm, case, output, restart, overwrite)
-        if not resume:
-            _check_output_path(output, overwrite)
         logger.info(f"{'resuming' if resume else 'writing'} {output} on {comm.Get_size()}"
                     " rank(s)")
         summary = run_case(case, output, comm, overwrite=overwrite, resume=resume, stop=stop)
@@ -182,6 +168,7 @@ def _print_cycles(series, attrs):
 
 
 def cmd_plot(comm, args):
+    from .storage.lock import check_output_path
     from .storage.reader import read_result
 
     try:
@@ -193,7 +180,7 @@ def cmd_plot(comm, args):
     except ImportError as err:
         raise UsageError(f"plot needs matplotlib ({err}); pip install 'hpcgfmd[plot]'") from None
     output = args.output or os.path.splitext(args.file)[0] + ".png"
-    _check_output_path(output, args.overwrite)
+    check_output_path(output, args.overwrite)
     try:
         plot_case(args.file, output)
     except (OSError, KeyError, ValueError) as err:

@@ -38,6 +38,11 @@ class UsageError(Exception):
     """Bad input detected by the command line, e.g. an output path that exists (exit 2)."""
 
 
+class OutputExistsError(UsageError, FileExistsError):
+    """The output file exists and replacing it was not asked (exit 2); from Python also a
+    :class:`FileExistsError`."""
+
+
 class ResultFileError(ValueError):
     """A file that cannot be read as an hpcgfmd case file (exit 2 from ``info`` and ``plot``).
 

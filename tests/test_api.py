@@ -83,6 +83,7 @@ def test_open_gives_the_results_of_the_file(written):
     assert pull_off.load == load.min() and pull_off.index == int(np.argmin(load))
     assert pull_off.lbar == pytest.approx(load.min() / case.load_scale, rel=1e-12)
     assert opened.groups["lambda0"] == 1.0 and opened.groups["k"] == 1.0
+    assert opened.groups == pytest.approx(case.groups(), rel=1e-15)  # every group, stored
 
 
 def test_xarray_opens_series_and_snapshots_with_coordinates(written):
@@ -176,3 +177,80 @@ def test_quiet_and_log_file(tmp_path):
     missing = run("--log", os.path.join("no", "such", "dir", "run.log"))
     assert missing.returncode == 2 and missing.stderr.count("\n") == 1
     assert "--log" in missing.stderr and "Traceback" not in missing.stderr
+
+
+@pytest.mark.parametrize("change, words", [
+    ({"numerics": 1024}, ["numerics = 1024", "dict", "[numerics]"]),
+    ({"numerics": [("nx", 1024)]}, ["numerics = ", "dict", "[numerics]"]),
+    ({"output": "x.h5"}, ["output = 'x.h5'", "dict", "[output]"]),
+])
+def test_settings_that_are_not_tables_are_named(change, words):
+    with pytest.raises(CaseError) as err:
+        hpcgfmd.Case(**{**GROUPS, **change})
+    assert all(word in str(err.value) for word in words), str(err.value)
+
+
+@pytest.mark.parametrize("source", [42, None, b"[case]"])
+def test_a_case_source_of_another_type_is_named(source):
+    for call in (hpcgfmd.Case.from_toml, hpcgfmd.run):
+        with pytest.raises(CaseError) as err:
+            call(source)
+        assert f"case = {source!r}" in str(err.value) and "TOML text" in str(err.value)
+
+
+def test_an_unreadable_case_file_is_named(tmp_path):
+    missing = tmp_path / "missing.toml"
+    with pytest.raises(CaseError) as err:
+        hpcgfmd.Case.from_toml(missing)
+    assert str(err.value).startswith(f"{missing}: cannot read case file")
+
+
+def test_run_refuses_outputs_it_cannot_write_before_computing(tmp_path):
+    from hpcgfmd.errors import OutputExistsError, UsageError
+    from hpcgfmd.storage.lock import acquire_output_lock
+    from mpi4py import MPI
+
+    case = hpcgfmd.Case(**ELASTIC, numerics={"nx": 1024})
+    quick = {"planner_effort": "FFTW_ESTIMATE"}
+    for path, overwrite, words in [(tmp_path / "none" / "x.h5", False, ["does not exist"]),
+                                   (tmp_path, True, ["is a directory"])]:
+        with pytest.raises(UsageError) as err:
+            hpcgfmd.run(case, path, overwrite=overwrite, **quick)
+        assert str(path) in str(err.value) and all(w in str(err.value) for w in words)
+    with pytest.raises(ValueError, match="planner_effort = 'FAST'"):
+        hpcgfmd.run(case, tmp_path / "y.h5", planner_effort="FAST")
+    (tmp_path / "mine.h5").write_bytes(b"mine")
+    with pytest.raises(FileExistsError) as err:
+        hpcgfmd.run(case, tmp_path / "mine.h5", **quick)
+    assert isinstance(err.value, OutputExistsError)
+    # one writer per output, also with overwrite: the lock held elsewhere refuses the run
+    lock = acquire_output_lock(MPI.COMM_SELF, str(tmp_path / "mine.h5"))
+    try:
+        with pytest.raises(UsageError, match="being written by pid"):
+            hpcgfmd.run(case, tmp_path / "mine.h5", overwrite=True, **quick)
+    finally:
+        lock.release()
+    assert (tmp_path / "mine.h5").read_bytes() == b"mine"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine.h5"]
+    hpcgfmd.run(case, tmp_path / "mine.h5", overwrite=True, **quick)  # free again
+
+
+def test_run_continues_an_interrupted_case_bitwise(tmp_path):
+    # a run stopped after a checkpoint (Interrupted) is continued by the same call
+    from mpi4py import MPI
+
+    from cases import StopAtStep
+    from hpcgfmd.errors import Interrupted
+    from hpcgfmd.runs.single_case import run_case
+
+    case = hpcgfmd.Case(**GROUPS, numerics={"nx": 1024})
+    quick = {"planner_effort": "FFTW_ESTIMATE"}
+    whole = hpcgfmd.run(case, tmp_path / "whole.h5", **quick)
+    with pytest.raises(Interrupted):
+        run_case(case, tmp_path / "parts.h5", MPI.COMM_SELF, stop=StopAtStep(20), **quick)
+    parts = hpcgfmd.run(case, tmp_path / "parts.h5", **quick)
+    assert parts.attrs["finished"] and parts.attrs["steps"] == whole.attrs["steps"] > 20
+    for name in ("time", "load", "contact_half_width", "iterations"):
+        np.testing.assert_array_equal(getattr(parts.series, name),
+                                      getattr(whole.series, name), err_msg=name)
+    assert not os.path.exists(tmp_path / "parts.checkpoint.h5")

@@ -208,6 +208,14 @@ def test_bad_case_one_line_status_2(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_collect_without_tables_one_line_status_2(tmp_path):
+    run = subprocess.run([sys.executable, "-m", "hpcgfmd", "bench", "--collect", "--out",
+                          "nothing"], cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert run.returncode == 2
+    assert run.stderr.count("\n") == 1 and "nothing-<lambda0>-<V_z>.csv" in run.stderr
+    assert list(tmp_path.iterdir()) == []  # nothing written
+
+
 def test_curve_distance_follows_the_attached_branch_past_the_pull_off():
     """A run's pull-off sample later on the reference's attached branch (past the reference's
     own pull-off, the load's flat minimum) lies on the curve; a point off the branch does

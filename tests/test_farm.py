@@ -216,6 +216,20 @@ def test_dry_run_lists_cases_groups_and_cost(tmp_path):
     assert run.stderr == ""  # no warning, no error
 
 
+def test_quiet_farm_still_reports_its_failed_cases(tmp_path):
+    # --quiet keeps warnings and errors: a failed case is an error
+    (tmp_path / "sweep.toml").write_text(
+        BASE + "[[cases]]\nnx = 64\n[[cases]]\nmax_iterations = 2\n")
+    run = subprocess.run([sys.executable, "-m", "hpcgfmd", "farm", "sweep.toml", "--quiet"],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert run.returncode == 102, run.stderr
+    failed = sorted(line for line in run.stderr.splitlines() if ": failed: " in line)
+    assert len(failed) == 2, run.stderr
+    assert "[0] nx_64" in failed[0] and "nx = 64" in failed[0]
+    assert "[1] max_iterations_2" in failed[1] and "NonConvergenceError" in failed[1]
+    assert run.stdout == ""
+
+
 def test_summary_text_columns_are_strings_without_failures(tmp_path):
     # no case failed: the error column is empty text, not NaN; numbers stay numbers
     from hpcgfmd.runs.farm import _write_tables

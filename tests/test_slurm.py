@@ -180,7 +180,9 @@ def wait_for_checkpoint(slurm, job, tmp_path, timeout=120):
 
 def test_chain_continues_in_a_new_job_after_the_signal(slurm, reference, tmp_path):
     (tmp_path / "case.toml").write_text(CASE)
-    first = submit(slurm, tmp_path, "chain.sbatch", "case.toml", "out.h5")
+    # options after the files go to every part, but --overwrite to the first only
+    first = submit(slurm, tmp_path, "chain.sbatch", "case.toml", "out.h5", "--overwrite",
+                   "--log", "run.log")
     wait_for_checkpoint(slurm, first, tmp_path)
     # what SLURM does at --signal=B:USR1@margin before the time limit: USR1 to the batch shell
     slurm.run("scancel", "--signal=USR1", "--batch", first)
@@ -207,8 +209,31 @@ def test_chain_continues_in_a_new_job_after_the_signal(slurm, reference, tmp_pat
     assert "part 2 of at most 20" in log and "resuming" in log, context
     assert log.count("SIGUSR1") == 1, context  # ours; none from SLURM's --signal margin
     assert "finished in part 2" in log, context
+    part_1, part_2 = log.split("part 2 of at most 20")
+    assert "run case.toml -o out.h5 --overwrite --log run.log" in part_1, context
+    assert "run case.toml -o out.h5 --log run.log" in part_2, context
+    run_log = (tmp_path / "run.log").read_text()  # both parts' messages, by the option
+    assert "writing out.h5" in run_log and "resuming out.h5" in run_log, context
+    assert "finished:" in run_log, context
     assert not (tmp_path / "out.checkpoint.h5").exists(), context
     assert_same_series(reference, tmp_path / "out.h5", context)
+
+
+@pytest.mark.parametrize("script, variables, name", [
+    ("case.sbatch", {"HPCGFMD_CASE": "case.toml", "HPCGFMD_OUTPUT": "out.h5"}, "out.h5"),
+    ("farm.sbatch", {"HPCGFMD_SWEEP": "sweep.toml", "HPCGFMD_OUTDIR": "study"}, "study"),
+])
+def test_files_from_variables_and_options_from_the_command_line(slurm, tmp_path, script,
+                                                                   variables, name):
+    (tmp_path / "case.toml").write_text(CASE)
+    (tmp_path / "sweep.toml").write_text(SWEEP)
+    env = dict(job_environment(slurm), **variables)
+    job = submit(slurm, tmp_path, script, "--dry-run", options=["--ntasks=1"], env=env)
+    record, = finish(slurm, job)
+    context = slurm.diagnostics(job)
+    assert record["JobState"] == "COMPLETED" and record["ExitCode"] == "0:0", context
+    assert "chi_ve" in Path(record["StdOut"]).read_text(), context  # the dry run's groups
+    assert not (tmp_path / name).exists(), context
 
 
 def test_cancelled_chain_is_not_continued(slurm, tmp_path):

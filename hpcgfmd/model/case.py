@@ -32,6 +32,7 @@ import math
 import numbers
 import os
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -152,6 +153,11 @@ class Case:
 
     def __post_init__(self):
         given = {"numerics": self.numerics, "output": self.output}
+        for name, resolved in (("numerics", Numerics), ("output", Output)):
+            value = given[name]
+            if not (value is None or isinstance(value, (Mapping, resolved))):
+                raise CaseError(f"{name} = {shown(value)}: expected a dict of the [{name}]"
+                                " keys (or None for the defaults)")
         given_protocol = self.protocol
         if any(value is not None and not (hasattr(value, "__len__") and len(value) == 0)
                for value in (self.relaxation_moduli, self.relaxation_times)):
@@ -290,7 +296,13 @@ class Case:
         Raises :class:`~hpcgfmd.errors.CaseError`, also for an unreadable file.
         """
         if isinstance(source, os.PathLike) or (isinstance(source, str) and "\n" not in source):
-            return load_case(source)
+            try:
+                return load_case(source)
+            except CaseError as err:
+                raise CaseError(f"{os.fspath(source)}: {err}") from None
+        if not isinstance(source, str):
+            raise CaseError(f"case = {shown(source)}: expected a Case, a case file's path"
+                            " (str or os.PathLike) or its TOML text")
         return parse_case(source)
 
     def cell_key(self) -> str:

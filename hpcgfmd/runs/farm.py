@@ -198,18 +198,24 @@ def _run_one(item, out_dir, group, say, stop):
     record = {"index": item.index, "name": item.name, "file": os.path.basename(path),
               "ranks": group.Get_size(), "error": ""}
     if item.case is None:
-        return dict(record, status="failed", error=item.error)
+        return _failed(item, record, say, item.error)
     try:  # one writer per case file (storage/lock.py): another farm may be running it
         lock = acquire_output_lock(group, path)
     except UsageError as err:
         # left to its writer: pending here (the summary takes it from the file once finished)
-        say(f"[{item.index}] {item.name}: skipped: {err}")
+        say(f"[{item.index}] {item.name}: skipped: {err}", logging.WARNING)
         return dict(record, status="pending", error=str(err))
     try:
         return _run_locked(item, path, record, group, say, stop)
     finally:
         if lock is not None:
             lock.release()
+
+
+def _failed(item, record, say, error):
+    """The record of a failed case, its error reported (an error: shown under --quiet too)."""
+    say(f"[{item.index}] {item.name}: failed: {error}", logging.ERROR)
+    return dict(record, status="failed", error=error)
 
 
 def _run_locked(item, path, record, group, say, stop):
@@ -221,12 +227,11 @@ def _run_locked(item, path, record, group, say, stop):
         return dict(record, status="finished")
     if status == "damaged":
         newest = checkpoint_path(path)
-        return dict(record, status="failed",
-                    error=f"cannot resume: {newest} and its previous generation are damaged;"
-                          " remove them to start the case again")
+        return _failed(item, record, say, f"cannot resume: {newest} and its previous"
+                       " generation are damaged; remove them to start the case again")
     if status == "other case":
-        return dict(record, status="failed",
-                    error=f"{path} holds another case; move it away to run this one")
+        return _failed(item, record, say, f"{path} holds another case; move it away to run"
+                       " this one")
     say(f"[{item.index}] {item.name}: {'resuming' if status == 'resumable' else 'starting'}"
         f" on {group.Get_size()} rank(s)")
     alike = (CaseError, CaseFailure, FloatingPointError)
@@ -241,8 +246,7 @@ def _run_locked(item, path, record, group, say, stop):
         say(f"[{item.index}] {item.name}: interrupted, checkpointed")
         return dict(record, status="interrupted")
     except alike as err:
-        say(f"[{item.index}] {item.name}: failed: {type(err).__name__}: {err}")
-        return dict(record, status="failed", error=f"{type(err).__name__}: {err}")
+        return _failed(item, record, say, f"{type(err).__name__}: {err}")
     say(f"[{item.index}] {item.name}: finished, {summary['steps']} steps,"
         f" {time.monotonic() - started:.1f} s")
     return dict(record, status="finished")
@@ -282,9 +286,9 @@ def run_farm(sweep, comm, out_dir, ranks_per_case=1, only=None, stop=None) -> in
         order = sorted(range(len(sweep.cases)), key=lambda i: -sweep.cases[i].cost())
     leader = group.Get_rank() == 0
 
-    def say(line):  # each group's leader reports its own cases
+    def say(line, level=logging.INFO):  # each group's leader reports its own cases
         if leader:
-            logger.info(line, extra={"every_rank": True})
+            logger.log(level, line, extra={"every_rank": True})
 
     n_groups = comm.Get_size() // group.Get_size() if only is None else 1
     queue = _Counter.create(comm, order, rank // group.Get_size(), n_groups, say)

@@ -6,6 +6,8 @@ case (its identity hash, :meth:`~hpcgfmd.model.case.Case.owns_identity`), and th
 must hold at least the steps and snapshots the checkpoint counts. A damaged newest checkpoint
 gives way to the previous generation, with a warning. Anything else is a
 :class:`~hpcgfmd.errors.UsageError` naming the file, with nothing touched.
+:func:`prepare_output` takes the output's lock with that decision: the command line and
+:func:`hpcgfmd.run` start every run through it.
 """
 from __future__ import annotations
 
@@ -17,8 +19,40 @@ import h5py
 from ..errors import UsageError
 from ..storage.checkpoint import (checkpoint_path, previous_path, read_checkpoint_attrs,
                                   usable_checkpoint)
+from ..storage.lock import acquire_output_lock, check_output_path
 
 logger = logging.getLogger(__name__)
+
+
+def prepare_output(comm, case, output, overwrite, restart=False):
+    """Collective: take ``output``'s lock and decide whether the run continues from its
+    checkpoint; before anything is computed or written.
+
+    Returns
+    -------
+    lock : hpcgfmd.storage.lock.OutputLock or None
+        Held until the caller releases it (rank 0; None on the other ranks).
+    resume : str or None
+        The checkpoint to continue from (:func:`resume_wanted`), or None for a new file.
+
+    Raises
+    ------
+    UsageError
+        Another process writes ``output``, its directory is missing or not writable, it is a
+        directory, or its checkpoint does not fit the case.
+    OutputExistsError
+        ``output`` exists without a checkpoint to continue from, and ``overwrite`` is false.
+    """
+    lock = acquire_output_lock(comm, output)
+    try:
+        resume = resume_wanted(comm, case, output, restart, overwrite)
+        if not resume:
+            check_output_path(output, overwrite)
+    except BaseException:
+        if lock is not None:
+            lock.release()
+        raise
+    return lock, resume
 
 
 def resume_wanted(comm, case, output, restart, overwrite):

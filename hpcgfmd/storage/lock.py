@@ -24,7 +24,7 @@ import logging
 import os
 import socket
 
-from ..errors import UsageError
+from ..errors import OutputExistsError, UsageError
 
 logger = logging.getLogger(__name__)
 UNSUPPORTED = (errno.ENOSYS, errno.ENOLCK, errno.EOPNOTSUPP)  # no flock on this file system
@@ -124,3 +124,24 @@ def acquire_output_lock(comm, output) -> OutputLock | None:
     if error:
         raise UsageError(error)
     return lock
+
+
+def check_output_path(path, overwrite):
+    """A file to be written at ``path``: its directory exists, it is not a directory, and it
+    does not exist unless ``overwrite``.
+
+    Raises
+    ------
+    UsageError
+        A missing directory, or ``path`` is a directory (one line naming it).
+    OutputExistsError
+        ``path`` exists and ``overwrite`` is false.
+    """
+    directory = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(directory):
+        raise UsageError(f"-o {path}: directory {directory} does not exist")
+    if os.path.isdir(path):
+        raise UsageError(f"-o {path}: is a directory; give a file name")
+    if os.path.exists(path) and not overwrite:
+        raise OutputExistsError(f"-o {path}: file exists; choose another name or pass"
+                                " --overwrite (overwrite=True from Python)")

@@ -430,9 +430,12 @@ def _parser():
     parser.add_argument("--nx", nargs="+", type=int, default=[16, 17],
                         help="log2 of the grids; the largest is the reference's (default 16 17)")
     parser.add_argument("--paper-equilibration", nargs="*", type=int,
-                        default=list(PAPER_EQUILIBRATION),
-                        help="pseudo steps per step of the paper's method (shortened runs)")
-    parser.add_argument("--paper-steps", type=int, default=PAPER_STEPS)
+                        default=list(PAPER_EQUILIBRATION), help=(
+                            "pseudo steps per step of the paper's method (shortened runs;"
+                            f" default {' '.join(map(str, PAPER_EQUILIBRATION))})"))
+    parser.add_argument("--paper-steps", type=int, default=PAPER_STEPS, help=(
+        "steps of the paper method's shortened runs, whose cost is extrapolated to the whole"
+        f" retraction (default {PAPER_STEPS})"))
     parser.add_argument("--paper-time-steps", type=int, default=PAPER_TIME_STEPS, help=(
         "longest whole retraction run at the paper's fixed steps for its time error"
         f" (default {PAPER_TIME_STEPS}; 0 skips them)"))
@@ -446,11 +449,10 @@ def _parser():
                         help="h0/R, L/R, alpha instead of 0.1 10 5e-5 (quick checks only)")
     parser.add_argument("--out", default="speed_vs_error", help=(
         "output prefix: PREFIX.csv, PREFIX.md (the table), PREFIX.png and the reference runs"
-        " PREFIX-reference-*.npz"
-        " (reused when present)"))
+        " PREFIX-reference-*.npz (reused when present; default speed_vs_error)"))
     parser.add_argument("--clock", choices=("wall", "cpu"), default="wall", help=(
         "time axis of the PNG: wall time, or the CPU time of the slowest rank (equal to the"
-        " wall time on an idle machine; use it on a shared one)"))
+        " wall time on an idle machine; use it on a shared one; default wall)"))
     parser.add_argument("--collect", action="store_true", help=(
         "run nothing: combine the per-case tables PREFIX-<lambda0>-<V_z>.csv of earlier runs"
         " (e.g. one job per case) into PREFIX.csv, PREFIX.md and PREFIX.png"))
@@ -509,6 +511,11 @@ def main(comm, argv=None):
     if args.collect:
         if rank0:
             rows = collect(args.out)
+            if not rows:
+                print(f"bench: --collect --out {args.out}: no per-case table"
+                      f" {args.out}-<lambda0>-<V_z>.csv to collect (run the cases first)",
+                      file=sys.stderr)
+                return 2
             write_csv(rows, args.out + ".csv")
             write_markdown(rows, args.out + ".md")
             plot(rows, args.out + ".png", args.clock)
