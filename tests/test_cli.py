@@ -168,7 +168,8 @@ def test_run_info_plot_end_to_end(tmp_path):
     (tmp_path / "out.png").write_bytes(b"mine")
     res = hpcgfmd("plot", "out.h5", cwd=tmp_path)
     assert res.returncode == 2 and (tmp_path / "out.png").read_bytes() == b"mine"
-    assert res.stderr.count("\n") == 1 and "out.png" in res.stderr and "--overwrite" in res.stderr
+    assert res.stderr.count("\n") == 1 and "out.png" in res.stderr
+    assert "--overwrite" in res.stderr
     assert hpcgfmd("plot", "out.h5", "--overwrite", cwd=tmp_path).returncode == 0
     assert (tmp_path / "out.png").read_bytes() == png
     assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml", "out.h5", "out.png"]

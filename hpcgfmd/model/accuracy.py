@@ -8,8 +8,9 @@ and the equilibrium solver's tolerance. Each share follows from a measured law b
 absolute load errors are in units of the relaxed 2D pull-off, 1.74 load scales (the
 Maugis-Dugdale minimum of docs/model.md, (M26): 1.744 for lambda0 >= 3.5, 1.739 at 1.5, 1.724
 at 1, 1.61 at 0.5), which no pull-off of the SLS undercuts from lambda0 = 1.5 on; below, the
-error counted against it is up to 8 % (lambda0 = 0.5) larger than against the pull-off. The laws were calibrated on the cases of docs/results.md
-("The accuracy knob") and validated on others.
+error counted against it is up to 8 % (lambda0 = 0.5) larger than against the pull-off.
+The laws were calibrated on the cases of docs/results.md ("The accuracy knob") and validated
+on others.
 """
 from __future__ import annotations
 
