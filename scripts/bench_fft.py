@@ -157,7 +157,9 @@ def main():
     if comm.Get_rank() != 0:
         return
     load = os.getloadavg()
-    wides = [name for name in (f"T x {size}", "H x 2") if any(name in r for r in rows)]
+    # the transforms over all ranks (none on one rank: "T x 1" is the column before them)
+    wides = [name for name in (f"T x {size}", "H x 2")
+             if size > 1 and any(name in r for r in rows)]
     title = f"# {size} rank(s), {args.rounds} rounds, {args.effort}"
     if size > 1:
         title += f", transport {rows[0]['transport']}"

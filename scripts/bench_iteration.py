@@ -52,6 +52,7 @@ import pyfftw.builders  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from hpcgfmd.errors import CaseError  # noqa: E402
 from hpcgfmd.model.case import case_file_text, parse_case  # noqa: E402
 from hpcgfmd.runs.protocol import Retraction  # noqa: E402
 
@@ -219,7 +220,8 @@ def peak_temporaries(sim):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--n", type=int, default=17, help="n_x = 2**n (default 17)")
+    parser.add_argument("--n", type=int, default=17, help=(
+        "n_x = 2**n (default 17; from 13: the default case needs about 7600 nodes)"))
     parser.add_argument("--steps", type=int, default=20, help="retraction steps timed")
     parser.add_argument("--repeats", type=int, default=5,
                         help="bare pairs timed after each step (minimum taken)")
@@ -240,7 +242,10 @@ def main():
     rank = comm.Get_rank()
     n = 2**args.n
     text = case_file_text(DEFAULT_GROUPS, {"nx": n})
-    case = parse_case(text)
+    try:
+        case = parse_case(text)
+    except CaseError as err:  # too coarse a grid: one line
+        parser.error(f"--n {args.n}: {err}")
     start = time.perf_counter()
     sim = Retraction(case, comm, planner_effort=args.planner)
     applied, raw = bare_pairs(sim.fft, n, args.repeats)

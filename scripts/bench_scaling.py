@@ -285,7 +285,7 @@ def main():
                       help="run under mpirun -n P for each P, then report")
     mode.add_argument("--report", metavar="CSV", help="only print the table of this CSV file")
     parser.add_argument("--n", type=int, nargs="+", default=[17, 20, 22],
-                        help="grid sizes as powers of two, n_x = 2^N")
+                        help="grid sizes as powers of two, n_x = 2^N, N from 14 to 30")
     parser.add_argument("--steps", type=int, default=20, help="timed retraction steps")
     parser.add_argument("--planner", default="FFTW_MEASURE",
                         help="FFTW planner flag (FFTW_ESTIMATE plans in no time)")
@@ -297,6 +297,8 @@ def main():
     if not (args.report or all(14 <= n <= 30 for n in args.n)):
         # the default case's zone needs w/dx >= 0.5 (accepted here): 2^14 and finer
         parser.error(f"--n {' '.join(map(str, args.n))}: expected exponents from 14 to 30")
+    if args.report and not os.path.isfile(args.report):
+        parser.error(f"--report {args.report}: no such file")
     if args.report:
         report(args.report, args.markdown)
     elif args.launch:

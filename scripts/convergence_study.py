@@ -1,8 +1,10 @@
 """Convergence of the pull-off load with n_x and dt for the paper's cases (issue: engine).
 
-For each case the pull-off load (most tensile load) is computed on a ladder of grids at the
-default time step and at half the default time step on the default grid; the change against
-the finest run is printed and appended to a CSV file.
+For each case the pull-off (most tensile load) is computed on the grids of ``--nx`` at the
+paper's fixed default time step dmax/(4 v_z), and on the grid ``--dt-nx`` (default: the largest
+``--nx``) at the multiples ``--dt-factors`` of it other than 1 (default: none). Each run's row
+(groups, grid, steps, iterations, wall time, pull-off Lbar and abar, detachment) is printed and
+appended to the CSV file; the changes between rows are left to the reader.
 
     python scripts/convergence_study.py --out convergence.csv \
         --case 7:0.45 --case 7:4.5 --nx 32768 65536 131072 --dt-factors 0.5 --dt-nx 65536

@@ -59,4 +59,6 @@ def main(argv):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    from retraction_cost import run_script
+
+    sys.exit(run_script(main, __doc__, sys.argv[1:]))

@@ -31,6 +31,20 @@ from hpcgfmd.runs.protocol import Retraction  # noqa: E402
 from hpcgfmd.solvers import stepping  # noqa: E402
 
 
+def run_script(main, doc, argv):
+    """A hand-parsed script's entry: ``--help`` prints ``doc``; a case or a value the script
+    or hpcgfmd rejects ends in one line on stderr with status 2 (else 0)."""
+    if {"-h", "--help"} & set(argv):
+        print(doc)
+        return 0
+    try:
+        main(argv)
+    except ValueError as err:  # hpcgfmd's CaseError included
+        print(f"{os.path.basename(sys.argv[0])}: error: {err}", file=sys.stderr)
+        return 2
+    return 0
+
+
 def _pairs(items):
     out = {}
     for item in items:
@@ -87,4 +101,4 @@ def main(argv):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    sys.exit(run_script(main, __doc__, sys.argv[1:]))

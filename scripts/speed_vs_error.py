@@ -14,7 +14,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 
 from mpi4py import MPI  # noqa: E402
 
-from hpcgfmd.studies.benchmark import main  # noqa: E402
+from hpcgfmd.cli import main  # noqa: E402
 
-if __name__ == "__main__":
-    sys.exit(main(MPI.COMM_WORLD, sys.argv[1:]))
+if __name__ == "__main__":  # through the command line: --quiet and --log as for bench
+    sys.exit(main(MPI.COMM_WORLD, ["bench", *sys.argv[1:]]))

@@ -30,7 +30,7 @@ from mpi4py import MPI  # noqa: E402
 
 import hpcgfmd  # noqa: E402
 from hpcgfmd.runs.protocol import Retraction  # noqa: E402
-from retraction_cost import _pairs  # noqa: E402
+from retraction_cost import _pairs, run_script  # noqa: E402
 
 
 def binding(decision):
@@ -88,4 +88,4 @@ def main(argv):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    sys.exit(run_script(main, __doc__, sys.argv[1:]))

@@ -37,7 +37,7 @@ def _keys(items):
 
 def main(argv):
     parser = argparse.ArgumentParser(prog="scripts/time_error.py",
-                                     description=__doc__.split("\n")[0])
+                                     description=__doc__.split("\n\n")[0])
     parser.add_argument("case", nargs="+", help="[case] keys, key=value")
     parser.add_argument("--nx", type=int, required=True)
     parser.add_argument("--reference", nargs="+", required=True, help="numerics key=value")

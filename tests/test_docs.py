@@ -59,6 +59,25 @@ def test_the_docs_exist_and_have_blocks():
 TOML = blocks("toml")
 
 
+def test_cited_sections_exist():
+    # a citation `name.md, "Heading"` in the docs, the package or the scripts names (the
+    # start of) a heading of docs/name.md
+    headings = {path.name: [re.sub(r"^#+\s*", "", line).strip()
+                            for line in path.read_text().splitlines() if line.startswith("#")]
+                for path in REPO.glob("docs/*.md")}
+    sources = DOCS + sorted(REPO.glob("hpcgfmd/**/*.py")) + sorted(REPO.glob("scripts/*.py"))
+    cited, missing = 0, []
+    for path in sources:
+        for name, title in re.findall(r'([a-z-]+\.md)[,:]?\s*\(?\s*"([^"]+)"',
+                                      path.read_text()):
+            if name in headings:
+                cited += 1
+                title = " ".join(title.split())
+                if not any(h.startswith(title) for h in headings[name]):
+                    missing.append((str(path.relative_to(REPO)), name, title))
+    assert cited > 50 and missing == []
+
+
 def test_python_examples_print_what_their_comments_state():
     # the first ```python block of README.md and of docs/api.md that makes a Case: one case,
     # run once; each print(...) # value[, value] comment holds to the digits it states

@@ -92,7 +92,8 @@ def fast_widening(chi_ve, k, lambda0):
     its contact) the contact, not the zone, sets the grid, and there is no widening.
     At most 1 / k, the glassy zone's own width; 1 for the elastic solid. Validated up to
     3.66 on the accuracy tables and up to 6.04 on the paper's fast cases against their
-    converged 2^17 references. The measurements are in docs/results.md ("Convergence",
+    converged 2^17 references. The measurements are in docs/results.md ("Grid and time-step
+    convergence",
     "The accuracy knob", "Crossings in the history's estimate").
     """
     if k >= 1.0 or not chi_ve > 0.0 or lambda0 * k ** (2.0 / 3.0) < GLASSY_MAUGIS:

@@ -1,6 +1,6 @@
 """Generalized Maxwell (Prony series) half-space, one Fourier mode at a time.
 
-The relaxation modulus (docs/model.md, "Generalized Maxwell substrate", (M38)):
+The relaxation modulus (docs/model.md, "Generalized Maxwell (Prony series) substrate", (M38)):
 
     E*(t) = E0 + sum_i E_i exp(-t / tau_i),   i = 1..m,
 

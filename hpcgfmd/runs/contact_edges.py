@@ -1,5 +1,5 @@
 """The contact edges of the last two steps: the step control's edge criterion and the
-solver's watch on a solve's edges read them (docs/numerics.md, "Step control")."""
+solver's watch on a solve's edges read them (docs/numerics.md, "Time steps")."""
 from __future__ import annotations
 
 import math

@@ -1,5 +1,5 @@
 """The three accepted states the history's time-error estimate reads (docs/numerics.md,
-"Time-error control").
+"Time steps").
 
 :class:`~hpcgfmd.solvers.stepping.HistoryError` fits u quadratic in time through the
 state before the last accepted step (u_{n-1}), the last accepted one (u_n) and the attempt

@@ -1,7 +1,8 @@
 """Speed against error: the fast solver and the paper's method on the paper's hard cases.
 
 ``python -m hpcgfmd bench`` (or ``scripts/speed_vs_error.py``) runs, for each case
-(lambda0, V_z) at h0/R = 0.1, L/R = 10, alpha = 5e-5, k = 0.1 (docs/model.md, "The paper's cases"):
+(lambda0, V_z) at h0/R = 0.1, L/R = 10, alpha = 5e-5, k = 0.1 (docs/model.md, "Scales and
+dimensionless groups"):
 
 1. A reference run: the fast solver with fine settings (:data:`REFERENCE`: edge motion
    <= w/4 per step, load deviation <= 5e-4 load scales, history error <= 2e-4 load scales,
