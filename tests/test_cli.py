@@ -1,4 +1,5 @@
 """The command line as a user meets it: subprocesses of `python -m hpcgfmd`."""
+import re
 import signal
 import subprocess
 import sys
@@ -246,3 +247,14 @@ def test_bench_takes_the_common_options(tmp_path):
         bad = hpcgfmd(*args, cwd=tmp_path)
         assert bad.returncode == 2 and "--nx [3]" in bad.stderr, bad.stderr
     assert "--log FILE" in hpcgfmd("bench", "--help", cwd=tmp_path).stdout
+
+
+def test_the_default_command_runs_the_embedded_case_into_a_dated_file(tmp_path):
+    # `python -m hpcgfmd` (what scripts/main.sh runs): the README names the file it writes
+    res = hpcgfmd(cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    files = [p.name for p in tmp_path.iterdir()]
+    assert len(files) == 1 and re.fullmatch(r"hpcgfmd-default-\d{8}-\d{6}\.h5", files[0]), files
+    result = read_series(tmp_path / files[0])
+    assert result.attrs["finished"] and result.attrs["lambda0"] == 7.0
+    assert result.attrs["Vz"] == 0.45 and result.load.min() < 0 < result.load[0]
