@@ -59,6 +59,15 @@ def test_the_docs_exist_and_have_blocks():
 TOML = blocks("toml")
 
 
+@pytest.mark.parametrize("script", sorted(p.name for p in (REPO / "scripts").glob("*.py")))
+def test_every_script_answers_help(script):
+    # --help prints the usage or the docstring and runs nothing (hand-parsed scripts too)
+    done = subprocess.run([sys.executable, str(REPO / "scripts" / script), "--help"],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    assert done.stdout.startswith("usage:") or len(done.stdout.splitlines()) > 3
+
+
 def test_cited_sections_exist():
     # a citation `name.md, "Heading"` in the docs, the package or the scripts names (the
     # start of) a heading of docs/name.md
