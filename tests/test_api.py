@@ -51,6 +51,8 @@ def test_case_from_a_path(tmp_path):
     ({"modulus_ratio": 2.0}, ["modulus_ratio", "2.0", "(0, 1]"]),
     ({"numerics": {"nx": 63}}, ["[numerics] nx", "63", "even integer"]),
     ({"output": {"checkpoint_steps": -2}}, ["checkpoint_steps", "-2"]),
+    # so fast that a step's square underflows (the SLS step divides by it)
+    ({"velocity": 1e160}, ["[numerics] dt (default)", "at least 1.49e-154"]),
 ])
 def test_case_keywords_are_validated_like_the_file(change, words):
     with pytest.raises(CaseError) as err:
@@ -188,6 +190,22 @@ def test_settings_that_are_not_tables_are_named(change, words):
     with pytest.raises(CaseError) as err:
         hpcgfmd.Case(**{**GROUPS, **change})
     assert all(word in str(err.value) for word in words), str(err.value)
+
+
+def test_numpy_values_are_the_numbers_they_hold():
+    # a sweep script looping over numpy arrays gives the case of the same Python numbers
+    plain = hpcgfmd.Case(**{**GROUPS, "modulus_ratio": None}, relaxation_moduli=[3.0, 6.0],
+                         relaxation_times=[0.1, 1.45], numerics={"nx": 2048},
+                         output={"snapshot_times": [0.0, 1.0]})
+    numpy = hpcgfmd.Case(**{key: np.float64(value) for key, value in GROUPS.items()
+                            if key != "modulus_ratio"}, modulus_ratio=None,
+                         relaxation_moduli=np.array([3.0, 6.0]),
+                         relaxation_times=np.array([0.1, 1.45]),
+                         numerics={"nx": np.int64(2048)},
+                         output={"snapshot_times": np.array([0.0, 1.0])})
+    assert numpy.identity() == plain.identity() and numpy.text == plain.text
+    narrow = hpcgfmd.Case(**{**GROUPS, "maugis": np.float32(3.5), "velocity": np.int32(1)})
+    assert narrow.maugis == 3.5 and narrow.velocity == 1.0
 
 
 @pytest.mark.parametrize("source", [42, None, b"[case]"])

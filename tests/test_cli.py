@@ -258,3 +258,20 @@ def test_the_default_command_runs_the_embedded_case_into_a_dated_file(tmp_path):
     result = read_series(tmp_path / files[0])
     assert result.attrs["finished"] and result.attrs["lambda0"] == 7.0
     assert result.attrs["Vz"] == 0.45 and result.load.min() < 0 < result.load[0]
+
+
+@pytest.mark.parametrize("dt, warned", [(1e4, True), (1.0, True), (0.1, False)])
+def test_fixed_steps_too_long_for_the_pull_off_are_warned(tmp_path, dt, warned):
+    # one step from the preload to detachment (1e4: past u_z = 1 R, yet detached, so
+    # finished) or an edge moving 7.6 zone widths a step (1.0): the pull-off is not resolved
+    # and the run says so; at 0.1 the edge moves within the allowance (Lbar -6.3635 against
+    # -6.358 with adaptive steps)
+    (tmp_path / "case.toml").write_text(cases.case_text(
+        f'accuracy = 1e-2\nstep_control = "fixed"\ndt = {dt}', ""))
+    res = hpcgfmd("run", "case.toml", "--quiet", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    lines = [line for line in res.stderr.splitlines() if "fixed steps" in line]
+    assert len(lines) == (1 if warned else 0), res.stderr
+    if warned:
+        assert "cohesive-zone widths in one step before the pull-off" in lines[0]
+    assert read_series(tmp_path / "case.h5").attrs["finished"]

@@ -152,6 +152,9 @@ class Case:
     protocol: tuple = ()
 
     def __post_init__(self):
+        # numpy scalars (a sweep over numpy arrays) as the Python numbers a case file gives
+        for name in CASE_KEYS + PRONY_KEYS + DRIVE_KEYS + ("numerics", "output", "protocol"):
+            object.__setattr__(self, name, _python_numbers(getattr(self, name)))
         given = {"numerics": self.numerics, "output": self.output}
         for name, resolved in (("numerics", Numerics), ("output", Output)):
             value = given[name]
@@ -481,6 +484,20 @@ def _stiffness(table, section):
     except CaseError:
         raise CaseError(f"[{section}] drive_stiffness = {shown(value)}: expected a finite"
                         " number > 0 (a spring) or 0 (load control)") from None
+
+
+def _python_numbers(value):
+    """``value`` with every numpy scalar in it (in dicts, lists and tuples too) replaced by
+    the Python number, bool or str it holds, and numpy arrays by lists."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):  # a list of numbers (relaxation_moduli, snapshot_times)
+        return value.tolist()
+    if isinstance(value, dict):
+        return {key: _python_numbers(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return type(value)(_python_numbers(item) for item in value)
+    return value
 
 
 def _plain(value):

@@ -5,6 +5,7 @@ grid, the steps and the tolerances that ``accuracy`` implies where a key is left
 from __future__ import annotations
 
 import math
+import sys
 import os
 from dataclasses import dataclass
 
@@ -87,11 +88,14 @@ def resolve_numerics(case, num: dict) -> Numerics:
               else DT_MIN_PER_DEFAULT * min(dt, fixed_default))
     dt_max = (number(num, "numerics", "dt_max") / time_unit if "dt_max" in num
               else max(DT_MAX_DEPTH_FRACTION * case.depth / speed, dt))
-    for key, value in (("dt", dt), ("dt_min", dt_min)):  # over- or underflowed
-        if not 0.0 < value < math.inf:
+    # over- or underflowed; the SLS step divides by the square of a step (M46): a normal float
+    shortest = math.sqrt(sys.float_info.min)
+    for key, value in (("dt", dt), ("dt_min", dt_min)):
+        if not shortest <= value < math.inf:
             given = f" = {shown(num[key])}" if key in num else " (default)"
             raise CaseError(f"[numerics] {key}{given}: {value:g} relaxation times, out of"
-                            " the floating-point range; expected a step finite and > 0")
+                            " the floating-point range; expected a finite step of at least"
+                            f" {shortest:.3g} (the SLS step divides by its square)")
     if dt_min > dt_max:
         raise CaseError(f"[numerics] dt_min = {dt_min * time_unit:g}: must not exceed"
                         f" dt_max = {dt_max * time_unit:g}")
