@@ -136,7 +136,9 @@ def cmd_info(comm, args):
               + (" (load control)" if a["drive_stiffness"] == 0 else ""))
     print(f"numerics: nx = {a['nx']}, dt = {a['dt']:.6g}, tolerance = {a['tolerance']:g}")
     print(f"scales: beta = {a['beta']:.6g}, load scale = {a['load_scale']:.6g}")
-    if s.load.size:
+    if s.load.size and not s.load.min() < 0.0:
+        print("pull-off: none, no tensile load recorded")
+    elif s.load.size:
         p = result.pull_off()
         print(f"pull-off: load = {p.load:.6g} (Lbar = {p.lbar:.6g}) at contact half-width"
               f" {p.contact_half_width:.6g} (abar = {p.abar:.6g}), indenter {p.indenter:.6g},"

@@ -273,5 +273,9 @@ def test_fixed_steps_too_long_for_the_pull_off_are_warned(tmp_path, dt, warned):
     lines = [line for line in res.stderr.splitlines() if "fixed steps" in line]
     assert len(lines) == (1 if warned else 0), res.stderr
     if warned:
+        assert lines[0].startswith("hpcgfmd: case.h5: fixed steps: a contact edge moved")
         assert "cohesive-zone widths in one step before the pull-off" in lines[0]
     assert read_series(tmp_path / "case.h5").attrs["finished"]
+    # without a tensile load there is no pull-off to report
+    info = hpcgfmd("info", "case.h5", cwd=tmp_path).stdout
+    assert ("pull-off: none, no tensile load recorded" in info) == (dt == 1e4), info

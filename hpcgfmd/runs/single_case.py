@@ -307,7 +307,8 @@ def _warn_unresolved_pull_off(case, path):
     moved = float(abs(widths[1:] - widths[:-1]).max(initial=0.0)) / case.zone_width
     allowance = case.numerics.edge_fraction
     if moved > allowance:
-        logger.warning(f"fixed steps: a contact edge moved {moved:.3g} cohesive-zone widths in"
-                       f" one step before the pull-off, the accuracy allows {allowance:.3g};"
-                       " the pull-off may be off by more than the accuracy: choose a smaller"
-                       " dt, or adaptive steps")
+        # from this case's rank 0, whichever rank of the job it is (a farm's group leader)
+        logger.warning(f"{path}: fixed steps: a contact edge moved {moved:.3g} cohesive-zone"
+                       f" widths in one step before the pull-off, the accuracy allows"
+                       f" {allowance:.3g}; the pull-off may be off by more than the accuracy:"
+                       " choose a smaller dt, or adaptive steps", extra={"every_rank": True})
