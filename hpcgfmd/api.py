@@ -20,7 +20,8 @@ import tempfile
 from .model.case import Case
 from .storage.reader import Result, read_result
 
-PLANNER_EFFORTS = ("FFTW_ESTIMATE", "FFTW_MEASURE", "FFTW_PATIENT", "FFTW_EXHAUSTIVE")
+PLANNER_EFFORTS = ("FFTW_ESTIMATE", "FFTW_MEASURE", "FFTW_PATIENT", "FFTW_EXHAUSTIVE",
+                   "FFTW_WISDOM_ONLY")
 
 
 def run(case, path=None, comm=None, overwrite=False, planner_effort="FFTW_MEASURE") -> Result:
@@ -45,7 +46,7 @@ def run(case, path=None, comm=None, overwrite=False, planner_effort="FFTW_MEASUR
     planner_effort : str
         FFTW planner flag: "FFTW_MEASURE" (fastest transforms, planning takes seconds at
         2^17) or "FFTW_ESTIMATE" (instant planning, for small quick runs); also
-        "FFTW_PATIENT" and "FFTW_EXHAUSTIVE".
+        "FFTW_PATIENT", "FFTW_EXHAUSTIVE" and "FFTW_WISDOM_ONLY".
 
     Raises
     ------

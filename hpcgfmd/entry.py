@@ -57,10 +57,13 @@ def _abort(comm):
     """Print the exception being handled and abort every rank of ``comm`` (status 1)."""
     import traceback
 
-    traceback.print_exc()
-    sys.stderr.write(f"hpcgfmd: rank {comm.Get_rank()} failed; aborting all"
-                     f" {comm.Get_size()} ranks\n")
-    sys.stderr.flush()
+    try:  # stderr may be a pipe whose reader has gone: the abort must happen regardless
+        traceback.print_exc()
+        sys.stderr.write(f"hpcgfmd: rank {comm.Get_rank()} failed; aborting all"
+                         f" {comm.Get_size()} ranks\n")
+        sys.stderr.flush()
+    except OSError:
+        pass
     comm.Abort(1)
 
 

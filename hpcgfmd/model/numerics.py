@@ -5,8 +5,8 @@ grid, the steps and the tolerances that ``accuracy`` implies where a key is left
 from __future__ import annotations
 
 import math
-import sys
 import os
+import sys
 from dataclasses import dataclass
 
 from ..errors import CaseError

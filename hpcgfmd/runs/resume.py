@@ -46,8 +46,16 @@ def prepare_output(comm, case, output, overwrite, restart=False):
     lock = acquire_output_lock(comm, output)
     try:
         resume = resume_wanted(comm, case, output, restart, overwrite)
-        if not resume:
-            check_output_path(output, overwrite)
+        if not resume:  # rank 0 looks, all ranks raise alike (caches differ between nodes)
+            verdict = None
+            if comm.Get_rank() == 0:
+                try:
+                    check_output_path(output, overwrite)
+                except UsageError as err:
+                    verdict = (type(err), str(err))
+            verdict = comm.bcast(verdict, root=0)
+            if verdict is not None:
+                raise verdict[0](verdict[1])
     except BaseException:
         if lock is not None:
             lock.release()

@@ -510,18 +510,20 @@ def main(comm, argv=None):
             print(f"bench: {error}", file=sys.stderr)
         return 2
     if args.collect:
+        status = 0
         if rank0:
             rows = collect(args.out)
             if not rows:
                 print(f"bench: --collect --out {args.out}: no per-case table"
                       f" {args.out}-<lambda0>-<V_z>.csv to collect (run the cases first)",
                       file=sys.stderr)
-                return 2
-            write_csv(rows, args.out + ".csv")
-            write_markdown(rows, args.out + ".md")
-            plot(rows, args.out + ".png", args.clock)
-            logger.info(f"collected {len(rows)} rows into {args.out}.csv, .md and .png")
-        return 0
+                status = 2
+            else:
+                write_csv(rows, args.out + ".csv")
+                write_markdown(rows, args.out + ".md")
+                plot(rows, args.out + ".png", args.clock)
+                logger.info(f"collected {len(rows)} rows into {args.out}.csv, .md and .png")
+        return comm.bcast(status, root=0)  # the same status on every rank
     rows = []
     for key in args.cases:
         case_rows = bench_case(key, comm, [2**e for e in args.nx], sweep,
