@@ -140,7 +140,8 @@ def cmd_info(comm, args):
         print("pull-off: none, no tensile load recorded")
     elif s.load.size:
         p = result.pull_off()
-        print(f"pull-off: load = {p.load:.6g} (Lbar = {p.lbar:.6g}) at contact half-width"
+        so_far = "" if result.finished else " (the most tensile load so far)"
+        print(f"pull-off{so_far}: load = {p.load:.6g} (Lbar = {p.lbar:.6g}) at contact half-width"
               f" {p.contact_half_width:.6g} (abar = {p.abar:.6g}), indenter {p.indenter:.6g},"
               f" time {p.time:.6g}")
     if "protocol_kinds" in a and s.load.size:

@@ -233,6 +233,10 @@ def test_killed_run_leaves_a_readable_file(tmp_path):
             assert f["series"][name].shape[0] in (n, n + 1)  # killed between two appends
     s = read_series(tmp_path / "case.h5")  # truncates to the complete steps
     assert s.time.size == n and np.all(np.diff(s.time) > 0) and np.all(s.iterations > 0)
+    info = hpcgfmd("info", "case.h5", cwd=tmp_path).stdout  # its loads so far, said so
+    assert "NOT finished" in info and "steps so far" in info
+    assert "pull-off (the most tensile load so far): load = " in info or \
+        "pull-off: none, no tensile load recorded" in info, info
 
 
 

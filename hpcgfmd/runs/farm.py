@@ -357,7 +357,9 @@ def summary_rows(sweep, out_dir, records):
             status = "finished"
         row = {"index": item.index, "name": item.name, "status": status,
                "error": (record or {}).get("error", "") or (item.error or ""),
-               "file": os.path.basename(path), "ranks": (record or {}).get("ranks", "")}
+               # empty when the case wrote none (it failed before its first step)
+               "file": os.path.basename(path) if os.path.exists(path) else "",
+               "ranks": (record or {}).get("ranks", "")}
         row.update({k: v for k, v in item.values.items()})
         if item.case is not None:
             row.update(item.case.groups())
