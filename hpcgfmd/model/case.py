@@ -43,10 +43,9 @@ from . import theory
 from .keys import (as_float, integer, number, numbers_list, quoted_key, shown,
                    unknown_keys)
 from .loading import Segment, paper_protocol, parse_protocol
-from .material import StandardLinearSolid
+from .material import GeneralizedMaxwell
 from .numerics import (DEFAULT_MAX_ITERATIONS, NUMERICS_KEYS, Numerics, contact_nodes,
                        resolve_numerics)
-from .prony import GeneralizedMaxwell
 
 # The geometric contact width sqrt(2 R h0) bounds a_c; with L >= 6 sqrt(2 R h0) the periodic
 # image correction pi^2 a^2 / (6 L^2) to the load stays below 5 %.
@@ -275,7 +274,7 @@ class Case:
         :class:`~hpcgfmd.model.material.StandardLinearSolid` of k."""
         if self.prony:
             return GeneralizedMaxwell(1.0, self.relaxation_moduli, self.relaxation_times)
-        return StandardLinearSolid(1.0, 1.0 / self.k, 1.0)
+        return GeneralizedMaxwell.standard_linear(1.0, 1.0 / self.k, 1.0)
 
     def _check_scales(self):
         """The derived scales the numerics divide by, finite and > 0: extreme groups (1e308,

@@ -1,4 +1,4 @@
-"""Compiled loop of the SLS history traction (:class:`.material.ViscoelasticHalfSpace`).
+"""Compiled loop of the history traction of the half-space (:class:`.halfspace.MaxwellHalfSpace`).
 
 The history of a step, H = a p_n + (E0 (1 - a) - Eeff) G_n (docs/model.md, (M8)) with the
 quadratic step's terms (M46), reads three fields of the block and writes two; as numpy

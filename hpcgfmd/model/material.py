@@ -1,136 +1,192 @@
-"""Standard linear solid (Zener) half-space, one Fourier mode at a time.
+"""The substrate's material: a generalized Maxwell solid (Prony series), the standard linear
+solid (SLS, Zener) being its one-branch case.
 
-Per mode q != 0 (docs/model.md, "Substrate"; paper Eq. 14 with the corrected factor |q|/2):
+Relaxation modulus (docs/model.md, (M5) and (M38)):
 
-    p + tau dp/dt = (|q|/2) (E0 u + tau Einf du/dt)
+    E*(t) = E0 + sum_i E_i exp(-t / tau_i),   i = 1..m,   Einf = E0 + sum_i E_i,
 
-integrated exactly over a step dt for u linear in time within the step. With
-a = exp(-dt/tau), phi = tau (1 - a) / dt and Eeff = E0 + (Einf - E0) phi:
+a spring E0 in parallel with m Maxwell branches (spring E_i, relaxation time tau_i). The SLS
+of the paper (Eqs. 2-3) is m = 1 with E_1 = Einf - E0 and tau_1 = tau; the elastic solid is
+m = 1 with E_1 = 0 (k = 1). Each branch integrates exactly over a step dt with the
+displacement linear in time (M40); with a_i = exp(-dt / tau_i) and phi_i = tau_i (1 - a_i) /
+dt the step's modulus is Eeff = E0 + sum_i E_i phi_i (M7). The quadratic step (M46) adds the
+curvature response sum_i E_i F_i(dt), F the integral of :func:`curvature_integral`.
 
-    p_{n+1} = (|q|/2) Eeff u_{n+1} + [a p_n + (|q|/2) (E0 (1 - a) - Eeff) u_n]
-
-so each time step is an elastic problem of stiffness (|q|/2) Eeff plus a known history
-traction. The quadratic step (docs/model.md, (M46)) takes u quadratic in time through
-u_{n-1}, u_n and u_{n+1} instead: it adds (|q|/2) R c, R = (Einf - E0) F(dt) (F the
-curvature integral of (M46), :func:`curvature_integral`) and c = ((u_{n+1} - u_n) / dt -
-(u_n - u_{n-1}) / h) / (dt + h) (h the step before), which is linear in u_{n+1}, so the step
-stays an elastic problem, of modulus Eeff + R / (dt (dt + h)). All moduli are plane-strain
-effective moduli E* = E / (1 - nu^2).
-Numpy and one compiled loop (:mod:`.history_kernels`): it acts on whatever block of modes
-the caller owns (in any order).
+All moduli are plane-strain effective moduli E* = E / (1 - nu^2). Pure Python and numpy:
+the stepping of the half-space mode by mode is :mod:`.halfspace`.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
-
-from .history_kernels import sls_history
-
-KEPT_LENGTHS = 6  # (step, step before) pairs whose operators a substrate keeps (2 spectra each)
 
 
 @dataclass(frozen=True)
 class StepFactors:
-    """Coefficients of one exact SLS step of length dt.
+    """Coefficients of one exact step of length dt (docs/model.md, (M7), (M40)).
 
     Attributes
     ----------
-    decay : float
-        a = exp(-dt/tau), dimensionless.
+    decays : tuple of float
+        a_i = exp(-dt / tau_i) of each branch, dimensionless.
+    weights : tuple of float
+        E_i phi_i, phi_i = tau_i (1 - a_i) / dt (stress).
     e_eff : float
-        Effective modulus of the step, Eeff = E0 + (Einf - E0) phi (stress units).
+        Eeff = E0 + sum_i E_i phi_i (stress).
     e_history : float
-        Coefficient of u_n in the history term, E0 (1 - a) - Eeff (stress units).
+        E0 (1 - a_1) - Eeff: the weight of G_n = (|q|/2) u_n in the history of (M8) when the
+        first branch's stress is p_n - E0 G_n - sum_{i>1} S_i (stress).
     """
 
-    decay: float
+    decays: tuple
+    weights: tuple
     e_eff: float
     e_history: float
 
 
 @dataclass(frozen=True)
-class StandardLinearSolid:
-    """SLS with relaxation modulus E*(t) = E0 + (Einf - E0) exp(-t/tau) (paper Eq. 3).
+class GeneralizedMaxwell:
+    """Prony series E*(t) = E0 + sum_i E_i exp(-t / tau_i) (module docstring).
 
     Parameters
     ----------
     e_relaxed : float
-        E0, relaxed plane-strain modulus (t -> infinity), stress units.
-    e_instantaneous : float
-        Einf >= E0, instantaneous plane-strain modulus (t -> 0), stress units.
-        Einf == E0 is the purely elastic solid.
-    relaxation_time : float
-        tau, time units.
+        E0 > 0, the relaxed plane-strain modulus (t -> infinity), stress.
+    branch_moduli : tuple of float
+        E_i >= 0 of each Maxwell branch, stress (a single E_1 = 0: the elastic solid).
+    branch_times : tuple of float
+        tau_i > 0 of each branch, time.
+    e_instantaneous : float, optional
+        Einf = E0 + sum_i E_i (stress); given, it is kept as given (the SLS of k stores
+        Einf = E0 / k itself rather than its sum).
     """
 
     e_relaxed: float
-    e_instantaneous: float
-    relaxation_time: float
+    branch_moduli: tuple
+    branch_times: tuple
+    e_instantaneous: float = field(default=math.nan)
+
+    def __post_init__(self):
+        moduli, times = tuple(map(float, self.branch_moduli)), tuple(map(float, self.branch_times))
+        if not moduli or len(moduli) != len(times):
+            raise ValueError("branch_moduli and branch_times: expected two lists of one length"
+                             " >= 1")
+        if not (all(e >= 0.0 for e in moduli) and all(t > 0.0 for t in times)
+                and self.e_relaxed > 0.0):
+            raise ValueError("expected E0 > 0, branch moduli >= 0 and branch times > 0")
+        if math.isnan(self.e_instantaneous):
+            einf = self.e_relaxed + math.fsum(moduli)
+        else:
+            einf = float(self.e_instantaneous)
+        # normalised once at construction (a frozen dataclass's own idiom)
+        object.__setattr__(self, "branch_moduli", moduli)
+        object.__setattr__(self, "branch_times", times)
+        object.__setattr__(self, "e_instantaneous", einf)
+
+    @classmethod
+    def standard_linear(cls, e_relaxed: float, e_instantaneous: float,
+                        relaxation_time: float) -> GeneralizedMaxwell:
+        """The SLS E*(t) = E0 + (Einf - E0) exp(-t / tau) (M5): one branch of Einf - E0."""
+        return cls(e_relaxed, (e_instantaneous - e_relaxed,), (relaxation_time,),
+                   e_instantaneous)
 
     @property
-    def branch_moduli(self) -> tuple:
-        """(Einf - E0,): the SLS as a one-branch Prony series (:mod:`.prony`)."""
-        return (self.e_instantaneous - self.e_relaxed,)
+    def branches(self) -> int:
+        """m, the number of Maxwell branches."""
+        return len(self.branch_moduli)
 
     @property
-    def branch_times(self) -> tuple:
-        """(tau,)."""
-        return (self.relaxation_time,)
-
-    def step_factors(self, dt: float) -> StepFactors:
-        """Factors of the exact step over dt (docs/model.md, "Substrate").
-
-        ``dt = math.inf`` gives the relaxed (elastic E0) problem used for the preload.
-        """
-        e0, einf, tau = self.e_relaxed, self.e_instantaneous, self.relaxation_time
-        x = dt / tau  # dt = inf gives decay = phi = 0: Eeff = E0, no history
-        decay = math.exp(-x)
-        phi = -math.expm1(-x) / x  # tau (1 - a) / dt without cancellation at small dt
-        e_eff = e0 + (einf - e0) * phi
-        return StepFactors(decay=decay, e_eff=e_eff, e_history=e0 * (1.0 - decay) - e_eff)
-
-    def curvature_response(self, dt: float) -> float:
-        """(Einf - E0) F(dt): the step's traction error per unit curvature of u (stress time^2).
-
-        The exact step assumes u linear in time within it. For u(t_n + s) = u_n + v s + c s^2
-        the traction at the step's end misses (|q|/2) (Einf - E0) c F(dt) per mode
-        (:func:`curvature_integral`). Zero for the elastic solid.
-        """
-        return (self.e_instantaneous - self.e_relaxed) * curvature_integral(
-            dt, self.relaxation_time)
+    def relaxation_time(self) -> float:
+        """The reference time tau_r = sum_i E_i tau_i / sum_i E_i (M41): tau for the SLS and
+        for branches of one time (time; tau_1 for the elastic solid)."""
+        total = math.fsum(self.branch_moduli)
+        if total == 0.0 or len(set(self.branch_times)) == 1:
+            return self.branch_times[0]
+        return math.fsum(e * t for e, t in zip(self.branch_moduli, self.branch_times)) / total
 
     @property
     def shortest_time(self) -> float:
-        """tau, the fastest (only) memory time (time units)."""
-        return self.relaxation_time
+        """min_i tau_i, the fastest memory (time)."""
+        return min(self.branch_times)
 
     @property
     def retardation_time(self) -> float:
-        """tau Einf / E0 = tau / k, the creep compliance's time (M9) (time units)."""
-        return self.relaxation_time * self.e_instantaneous / self.e_relaxed
+        """The creep compliance's slowest time (time): tau Einf / E0 = tau / k for the SLS
+        and branches of one time (M9).
+
+        The retardation times are -1/s at the zeros of s E~(s) = E0 + sum_i E_i s tau_i /
+        (1 + s tau_i) (the Laplace transform of (M38)); they interlace the relaxation times,
+        and the slowest lies in (tau_max, tau_max Einf / E0]: the root in s of
+        (-1/tau_max, 0), found by bisection to round-off (brentq).
+        """
+        times = self.branch_times
+        if len(set(times)) == 1:
+            return times[0] * self.e_instantaneous / self.e_relaxed
+        moduli, slowest = np.asarray(self.branch_moduli), max(times)
+        times = np.asarray(times)
+
+        def modulus(s):
+            return self.e_relaxed + float(np.sum(moduli * s * times / (1.0 + s * times)))
+
+        # the bracket's ends: just above the pole at -1/tau_max (the sum -> -inf) and the
+        # bound -E0 / (tau_max Einf) (where the modulus is >= 0)
+        high = -self.e_relaxed / (slowest * self.e_instantaneous)
+        low = -1.0 / slowest * (1.0 - 1e-15)
+        if modulus(high) <= 0.0:
+            return -1.0 / high
+        from scipy import optimize  # only a spectrum of times needs it
+
+        return -1.0 / optimize.brentq(modulus, low, high, xtol=1e-300, rtol=1e-15)
+
+    def step_factors(self, dt: float) -> StepFactors:
+        """Factors of the exact step over dt (M7), (M40); dt = inf is the relaxed solid
+        (a_i = phi_i = 0, Eeff = E0: the preload)."""
+        decays, weights = [], []
+        for e, tau in zip(self.branch_moduli, self.branch_times):
+            x = dt / tau
+            decays.append(math.exp(-x))
+            weights.append(e * (-math.expm1(-x) / x))  # phi without cancellation at small dt
+        e_eff = self.e_relaxed + math.fsum(weights)
+        return StepFactors(tuple(decays), tuple(weights), e_eff,
+                           self.e_relaxed * (1.0 - decays[0]) - e_eff)
+
+    def curvature_response(self, dt: float) -> float:
+        """sum_i E_i F_i(dt): the step's traction error per unit curvature of u (stress
+        time^2; (M46)). The step exact for u linear in time misses (|q|/2) c times this per
+        mode when u(t_n + s) = u_n + v s + c s^2. Zero for the elastic solid."""
+        return math.fsum(self.branch_curvature_responses(dt))
+
+    def branch_curvature_responses(self, dt: float) -> np.ndarray:
+        """E_i F_i(dt) of each branch (stress time^2)."""
+        return np.array([e * curvature_integral(dt, t)
+                         for e, t in zip(self.branch_moduli, self.branch_times)])
 
     def relaxation_modulus(self, t):
-        """E*(t) = E0 + (Einf - E0) exp(-t/tau) (M5), stress units; t in time units."""
+        """E*(t) (M38), stress; t in time units (array or float)."""
         t = np.asarray(t, dtype=float)
-        e0, einf, tau = self.e_relaxed, self.e_instantaneous, self.relaxation_time
-        return e0 + (einf - e0) * np.exp(-t / tau)
+        return self.e_relaxed + sum(e * np.exp(-t / tau) for e, tau
+                                    in zip(self.branch_moduli, self.branch_times))
 
     def complex_modulus(self, omega):
-        """E*(omega) = E0 + (Einf - E0) i omega tau / (1 + i omega tau) (stress units)."""
+        """E*(omega) = E0 + sum_i E_i i omega tau_i / (1 + i omega tau_i) (M42), stress."""
         omega = np.asarray(omega, dtype=float)
-        e0, einf, tau = self.e_relaxed, self.e_instantaneous, self.relaxation_time
-        return e0 + (einf - e0) * 1j * omega * tau / (1.0 + 1j * omega * tau)
+        return self.e_relaxed + sum(e * 1j * omega * tau / (1.0 + 1j * omega * tau)
+                                    for e, tau in zip(self.branch_moduli, self.branch_times))
 
     def creep_compliance(self, t):
-        """J(t) = 1/E0 - (1/E0 - 1/Einf) exp(-t E0 / (Einf tau)) (docs/model.md, "Substrate")."""
-        e0, einf, tau = self.e_relaxed, self.e_instantaneous, self.relaxation_time
-        return 1.0 / e0 - (1.0 / e0 - 1.0 / einf) * np.exp(-np.asarray(t) * e0 / (einf * tau))
+        """J(t) of the SLS and of branches of one time: 1/E0 - (1/E0 - 1/Einf)
+        exp(-t / retardation time) (M9), 1/stress."""
+        if len(set(self.branch_times)) != 1:
+            raise ValueError("the closed-form creep compliance is that of one relaxation time")
+        e0, einf = self.e_relaxed, self.e_instantaneous
+        return 1.0 / e0 - (1.0 / e0 - 1.0 / einf) * np.exp(-np.asarray(t)
+                                                             / self.retardation_time)
 
 
 def curvature_integral(dt: float, tau: float) -> float:
-    """F(dt) = integral_0^dt exp(-(dt - s)/tau) (2 s - dt) ds (time^2; docs/model.md, (M8)).
+    """F(dt) = integral_0^dt exp(-(dt - s)/tau) (2 s - dt) ds (time^2; docs/model.md, (M46)).
 
     A Maxwell element of relaxation time tau, stepped exactly for u linear in time, misses
     E c F(dt) of its stress when u(t_n + s) = u_n + v s + c s^2:
@@ -144,185 +200,3 @@ def curvature_integral(dt: float, tau: float) -> float:
         return tau * tau * x**3 * (1.0 / 6.0 - x / 12.0 + x * x / 40.0)
     a = math.exp(-x)
     return dt * tau * (1.0 + a) - 2.0 * tau * tau * (1.0 - a)
-
-
-@dataclass
-class StepOperators:
-    """Mode-diagonal data of one time step (already divided by n for the unnormalised irfft).
-
-    Attributes
-    ----------
-    stiffness : ndarray, shape of this rank's spectrum
-        k_q / n = (|q|/2) Eeff / n, zero at q = 0 (stress/length units).
-    compliance : ndarray, shape of this rank's spectrum
-        1 / (k_q n), zero at q = 0: the preconditioner (length/stress units).
-    """
-
-    stiffness: np.ndarray
-    compliance: np.ndarray
-
-    @classmethod
-    def from_modulus(cls, half_q, modulus, n):
-        """Operators for stiffness (|q|/2) * modulus; ``half_q`` is |q|/2 per local mode."""
-        stiffness = half_q * (modulus / n)
-        compliance = np.zeros_like(half_q)
-        moving = half_q > 0.0  # the q = 0 mode (rigid motion) is held by the zero mean
-        compliance[moving] = 1.0 / (half_q[moving] * modulus * n)
-        return cls(stiffness, compliance)
-
-
-def quadratic_terms(material, dt, step_before):
-    """The quadratic step's coefficients (docs/model.md, (M46)), or None for the linear step.
-
-    Parameters
-    ----------
-    material : StandardLinearSolid or GeneralizedMaxwell
-    dt, step_before : float
-        The step's length and the accepted step's before it, h (time units); ``step_before``
-        None (after the preload or a start from a given u) or ``dt`` infinite (the relaxed
-        preload): the linear step.
-
-    Returns
-    -------
-    (float, float) or None
-        (R / (dt (dt + h)), R / (h (dt + h))) with R = curvature_response(dt) (stress
-        time^2): the modulus added to Eeff and the weight of G_n - G_{n-1} in the history.
-    """
-    if step_before is None or not math.isfinite(dt):
-        return None
-    response = material.curvature_response(dt)
-    return (response / (dt * (dt + step_before)),
-            response / (step_before * (dt + step_before)))
-
-
-class ViscoelasticHalfSpace:
-    """Per-mode SLS time stepping of the periodic half-space (docs/model.md, "Substrate").
-
-    Holds the operators of a step (recomputed only when dt or the step before changes;
-    the last few kept) and forms the
-    history traction H = a p_n + (|q|/2)(E0 (1 - a) - Eeff) u_n from the previous state.
-    After the step's equilibrium u_{n+1}, the substrate traction is p_{n+1} = K u_{n+1} + H.
-
-    The state is p_n, G_n = (|q|/2) u_n and G_{n-1}, all in real space: mode-diagonal maps
-    commute with the transform, so H = a p_n + (E0 (1 - a) - Eeff) G_n needs no transform,
-    and G_{n+1} = (K u_{n+1}) / Eeff comes with the solve (as for the Prony series,
-    :mod:`.prony`). Only a state that starts from a given u (:meth:`start`) costs one.
-
-    Given the step before, h (``step_before``), a step is the quadratic one (module
-    docstring, (M46)): modulus Eeff' = Eeff + R / (dt (dt + h)) and history
-    H' = H - R (G_n / (dt (dt + h)) + (G_n - G_{n-1}) / (h (dt + h))); then
-    p_{n+1} = K' u_{n+1} + H' and G_{n+1} = K' u_{n+1} / Eeff'. Every method of a step takes
-    the same ``step_before``.
-
-    Parameters
-    ----------
-    material : StandardLinearSolid
-    half_q : ndarray
-        |q|/2 of each Fourier mode this rank holds, in the FFT's local order (1/length).
-    n : int
-        Grid points.
-    local_n : int, optional
-        Nodes of this rank's real-space block (default n: one rank).
-    """
-
-    def __init__(self, material: StandardLinearSolid, half_q, n: int, local_n: int = None):
-        self.material = material
-        self.half_q = half_q
-        self.n = n
-        local_n = n if local_n is None else local_n
-        self.relaxed_traction = np.zeros(local_n)  # G_n
-        self.relaxed_before = np.zeros(local_n)  # G_{n-1}
-        self._relaxed_start = np.zeros(local_n)  # G_n of the step being solved
-        self.last_step_quadratic = False  # the last update's step was the quadratic one
-        self._key = None
-        self._kept = {}  # (dt, h) -> (operators, decay, e_history, modulus, terms), LRU first
-
-    def operators(self, dt: float, step_before=None) -> StepOperators:
-        """Stiffness (|q|/2) Eeff(dt) (Eeff' for the quadratic step) and its preconditioner;
-        dt = inf is the relaxed solid."""
-        self._prepare(dt, step_before)
-        return self._ops
-
-    def start(self, fft, u, out=None):
-        """Collective (one FFT pair): G = (|q|/2) u of the displacement ``u`` into ``out``
-        (default the state's G_n: a state not reached by :meth:`update`, a given start)."""
-        fft.apply_diagonal(u, self.half_q * (1.0 / self.n),
-                           self.relaxed_traction if out is None else out)
-
-    def history(self, fft, u, substrate_traction, dt, out, step_before=None):
-        """History traction H of a step of length dt (M8; H' of (M46) given ``step_before``)
-        into ``out`` (stress units).
-
-        Local (no transform): H = a p_n + (E0 (1 - a) - Eeff) G_n, G_n = (|q|/2) u_n of the
-        state (:meth:`update`, :meth:`start`); ``fft`` and ``u`` are not needed. The state's
-        G_n is kept as the step's start for :meth:`update` (a step may be solved more than
-        once: the compliant drive's search).
-        """
-        self._prepare(dt, step_before)
-        added, weight = self._terms if self._terms is not None else (0.0, 0.0)
-        sls_history(self.relaxed_traction, substrate_traction, self.relaxed_before,
-                    self._e_history, self._decay, added, weight, self._terms is not None,
-                    out, self._relaxed_start)
-        return out
-
-    def state_elastic_traction(self, dt, out, step_before=None):
-        """K(dt) u_n = Eeff(dt) G_n (Eeff' G_n for the quadratic step) of the state's
-        displacement under a step of length dt (stress units; local, no transform)."""
-        self._prepare(dt, step_before)
-        return np.multiply(self.relaxed_traction, self._modulus, out=out)
-
-    def field_names(self):
-        """Names of the state fields beyond u and p: G_n and G_{n-1}."""
-        return ("relaxed_traction", "relaxed_before")
-
-    def fields(self):
-        """{name: this rank's block} of the state fields beyond u and p (views)."""
-        return {"relaxed_traction": self.relaxed_traction,
-                "relaxed_before": self.relaxed_before}
-
-    def restore(self, fields, fft=None, u=None, u_before=None):
-        """Set G_n and G_{n-1} from ``fields``; collective when they lack them (checkpoints
-        written before they were kept): G_n from ``u``, G_{n-1} from ``u_before`` (u_{n-1},
-        or u when it is None) by one transform each."""
-        if "relaxed_traction" in fields:
-            self.relaxed_traction[:] = fields["relaxed_traction"]
-        else:
-            self.start(fft, u)
-        if "relaxed_before" in fields:
-            self.relaxed_before[:] = fields["relaxed_before"]
-        else:
-            self.start(fft, u if u_before is None else u_before, self.relaxed_before)
-
-    def update(self, elastic_traction, history, dt, substrate_traction, step_before=None):
-        """After a step's solve: the substrate traction p_{n+1} = K u_{n+1} + H (M8, (M46)),
-        G_{n+1} = (K u_{n+1}) / Eeff (Eeff') and G_{n-1} = the step's start G_n."""
-        self._prepare(dt, step_before)
-        np.add(elastic_traction, history, out=substrate_traction)
-        self.relaxed_before[:] = self._relaxed_start
-        np.multiply(elastic_traction, 1.0 / self._modulus, out=self.relaxed_traction)
-        self.last_step_quadratic = self._terms is not None
-
-    def correct(self, missed, dt, substrate_traction):
-        """Add the traction the linear step of length dt missed to p (the whole history);
-        nothing after a quadratic step, which holds it."""
-        if not self.last_step_quadratic:
-            substrate_traction += missed
-
-    def _prepare(self, dt, step_before=None):
-        key = (dt, step_before)
-        if key == self._key:
-            return
-        # Adaptive steps recur on a grid of lengths (dt_min 2^(j/4)): the last few pairs'
-        # operators are kept rather than remade at every change.
-        kept = self._kept.pop(key, None)
-        if kept is None:
-            f = self.material.step_factors(dt)
-            terms = quadratic_terms(self.material, dt, step_before)
-            modulus = f.e_eff + (terms[0] if terms else 0.0)
-            kept = (StepOperators.from_modulus(self.half_q, modulus, self.n), f.decay,
-                    f.e_history, modulus, terms)
-        self._kept[key] = kept
-        if len(self._kept) > KEPT_LENGTHS:
-            del self._kept[next(iter(self._kept))]  # the least recently used
-        self._ops, self._decay, self._e_history, self._modulus, self._terms = kept
-        self._key = key

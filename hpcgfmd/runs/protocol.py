@@ -38,8 +38,7 @@ from ..errors import NonConvergenceError
 from ..model.case import Case
 from ..model.interface import DugdaleMaugis
 from ..model.loading import START_HEIGHT
-from ..model.material import ViscoelasticHalfSpace
-from ..model.prony import MaxwellHalfSpace
+from ..model.halfspace import MaxwellHalfSpace
 from ..parallel.domain import Domain
 from ..parallel.fft import aligned_empty, plan_real_fft
 from ..solvers import make_solver
@@ -112,12 +111,9 @@ class Retraction:
         self.x = self.domain.x  # this rank's nodes; the indenter axis is on node n/2
         self.profile = self.x**2 / 2.0  # h(x) = x^2 / (2R), paper Eq. 1, R = 1
         self.half_q = np.pi * np.abs(self.fft.wavenumber) / case.cell  # |q|/2 per local mode
-        self.substrate = (MaxwellHalfSpace(case.material(), self.half_q, n,
-                                           self.domain.local_n) if case.prony
-                          else ViscoelasticHalfSpace(case.material(), self.half_q, n,
-                                                     self.domain.local_n))
-        # the state's fields: these and the substrate's own (a Prony series' branches)
-        self.field_names = self.FIELDS + self.substrate.field_names()
+        self.substrate = MaxwellHalfSpace(case.material(), self.half_q, n, self.domain.local_n)
+        substrate_fields = tuple(f"substrate.{name}" for name in self.substrate.state().arrays)
+        self.field_names = self.FIELDS + substrate_fields
         self.law = DugdaleMaugis(case.sigma_a, case.dmax)
         self.solver = make_solver(case, self.domain, self.fft, self.law, self.half_q)
         self.steps = make_step_control(case)
@@ -132,7 +128,7 @@ class Retraction:
         # (aligned: the serial transform reads u and writes the history in place)
         self.u = aligned_empty(n)  # surface displacement, upward positive
         self.u[:] = 0.0
-        self.substrate_traction = np.zeros(n)  # p_n (q != 0 part) of the SLS history
+        self.substrate_traction = self.substrate.traction  # p_n (q != 0 part) of the history
         self.history = aligned_empty(n)
         self.history[:] = 0.0
         self.wall = np.empty(n)
@@ -154,7 +150,7 @@ class Retraction:
         self._step_before = None  # the step before of the step being solved (None: linear)
         self.edges = ContactEdges()  # of the last two steps
         self._reverted = ("u", "u_previous", "u_before_previous", "substrate_traction",
-                          "traction", *self.substrate.field_names())
+                          "traction", *substrate_fields)
         self._saved = {name: np.empty(n) for name in self._reverted}
         self._absent = np.zeros(n)  # a field the state does not have yet (read only)
         self._stiffness_u = np.empty(n)  # K u_n under a step's stiffness (the predictor's)
@@ -186,7 +182,6 @@ class Retraction:
         # substrate's own state
         self.substrate.update(solver.elastic_traction(), self.history,
                               dt if substrate_dt is None else substrate_dt,
-                              self.substrate_traction,
                               None if substrate_dt is not None else self._step_before)
         return self._record(result, dt)
 
@@ -292,8 +287,7 @@ class Retraction:
             self.history_window.restart()
         before = self._step_before = (
             self.dt_previous if self.quadratic_history and not first_of_segment else None)
-        self.substrate.history(self.fft, self.u, self.substrate_traction, dt, self.history,
-                               before)
+        self.substrate.history(dt, self.history, before)
         gap_before = np.subtract(self.wall, self.u, out=self._gap_before)
         contact = np.less_equal(gap_before, 0.0, out=self._contact_before)
         self.step_index += 1
@@ -384,7 +378,8 @@ class Retraction:
                   "traction": self.traction, **predicted,
                   **(window.fields(self._absent) if window
                      else dict.fromkeys(HistoryWindow.FIELDS, self._absent))}
-        fields.update(self.substrate.fields())
+        fields.update({f"substrate.{name}": block
+                       for name, block in self.substrate.state().arrays.items()})
         attrs.update(time=self.time, indenter=self.indenter, step_index=self.step_index,
                      total_iterations=self.total_iterations, fft_pairs=self.fft.pairs,
                      rejected_steps=self.rejected_steps,
@@ -413,7 +408,9 @@ class Retraction:
         u_before = (fields["u_previous"] if attrs.get("has_previous")
                     else fields.get("u_older")
                     if not math.isnan(float(attrs.get("time_older", math.nan))) else None)
-        self.substrate.restore(fields, self.fft, self.u, u_before)
+        from ..state import State
+        self.substrate.restore(State({name: fields[f"substrate.{name}"]
+                                      for name in self.substrate.state().arrays}))
         self.time = float(attrs["time"])
         self.indenter = float(attrs["indenter"])
         # (absent from checkpoints before the compliant drive: displacement control)

@@ -515,7 +515,7 @@ class HistoryError:
         no crossing, and its dp per unit curvature response for the next estimate's error of
         the correction; the estimate is used up."""
         if self._estimated:
-            self.substrate.correct(self._traction, self._step, substrate_traction)
+            self.substrate.correct(self._traction, self._step)
             if self._response > 0.0:
                 np.multiply(self._traction, 1.0 / self._response, out=self.previous_correction)
                 self.has_previous, self.previous_reused = True, self._reused
