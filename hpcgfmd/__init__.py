@@ -7,7 +7,7 @@ they return; the exceptions are in :mod:`hpcgfmd.errors`. They are imported on f
 """
 __version__ = "0.1.0"
 
-_API = {"Case": ("model.case", "Case"), "run": ("api", "run"), "open": ("api", "open_result"),
+_API = {"Case": ("case", "Case"), "run": ("api", "run"), "open": ("api", "open_result"),
         "Result": ("storage.reader", "Result")}
 __all__ = ["Case", "run", "open", "Result", "__version__"]
 

@@ -17,7 +17,7 @@ import os
 import shutil
 import tempfile
 
-from .model.case import Case
+from .case import Case
 from .storage.reader import Result, read_result
 
 PLANNER_EFFORTS = ("FFTW_ESTIMATE", "FFTW_MEASURE", "FFTW_PATIENT", "FFTW_EXHAUSTIVE",

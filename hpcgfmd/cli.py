@@ -24,7 +24,7 @@ from importlib import resources
 from . import __version__, logs
 from .errors import (EXIT_FAILURE, EXIT_OK, EXIT_RESUMABLE, EXIT_USAGE, CaseError, CaseFailure,
                      Interrupted, ResultFileError, SweepError, UsageError)
-from .model.case import load_case, parse_case
+from .case import load_case, parse_case
 from .signals import STOP_SIGNALS
 
 logger = logging.getLogger(__name__)

@@ -177,7 +177,7 @@ def persson_brener_modulus(rhodot, c0, modulus):
     modulus : callable
         omega (1 / time, array) -> E(omega) / E0 (complex): for a Prony series
         ``material.complex_modulus(omega) / material.e_relaxed``
-        (:meth:`~hpcgfmd.model.prony.GeneralizedMaxwell.complex_modulus`).
+        (:meth:`~hpcgfmd.model.material.GeneralizedMaxwell.complex_modulus`).
 
     Returns
     -------

@@ -142,7 +142,7 @@ def _load(runs_dir, name):
 
 def run_accuracy(result) -> float:
     """The ``[numerics] accuracy`` a run was made with (its stored case file)."""
-    from ..model.case import parse_case
+    from ..case import parse_case
 
     return parse_case(result.attrs["config"]).numerics.accuracy
 

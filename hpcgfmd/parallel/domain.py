@@ -57,6 +57,8 @@ class Domain:
         self.x_start, self.x_stop = self.x_blocks[self.rank]
         self.local_n = self.x_stop - self.x_start
         self.x = (np.arange(self.x_start, self.x_stop) - n // 2) * self.dx
+        self.shape, self.local_shape = (n,), (self.local_n,)
+        self.coordinates = (self.x,)  # this rank's nodes, one array per dimension
         self.serial = self.size == 1
         # Halo partners: the nearest ranks to the left and right that own nodes (periodic).
         owners = [r for r, (a, b) in enumerate(self.x_blocks) if b > a]

@@ -1,19 +1,6 @@
-"""Real FFT of the periodic surface, serial or distributed over an MPI communicator.
+"""The planned real FFT of the periodic surface for a communicator (:func:`plan_real_fft`).
 
-The only operation the solver needs is a mode-diagonal operator applied to a real field,
-``out = irfft(diag * rfft(v))``: the elastic stiffness, its inverse (the Green's function) and
-the SLS history are all of that form. The multiplier is real and even in the mode index m
-(it depends on |q| = 2 pi |m| / L only) and the caller folds the 1/n of the inverse transform
-into it, so an application is one forward transform, one multiply and one unnormalised
-backward transform. Plans are made once on aligned buffers and nothing is allocated per call.
-
-Three classes share one interface (``comm``, ``n``, ``x_start``, ``x_stop``, ``x_blocks``,
-``spectrum_shape``, ``wavenumber``, ``apply_diagonal``, ``pairs``, ``communication_time``);
-:func:`plan_real_fft` picks one for a communicator. For solvers that must keep or combine
-spectra between transforms (the damped-dynamics baseline, :mod:`hpcgfmd.solvers.verlet`), all also
-split the pair: ``forward(field, spectrum_out)`` and ``inverse(spectrum, field_out)``, with
-``inverse(d * forward(f))`` equal to ``apply_diagonal(f, d)``, and a persistent ``spectrum``
-buffer of ``spectrum_shape`` to pass to them.
+Three classes share the interface of :class:`~.real_fft.RealFFT`:
 
 * :class:`SerialRealFFT`: one rank, a pyfftw rfft/irfft pair of length n.
 * :class:`HalvedRealFFT`: a single length-n transform split over two ranks by one radix-2
@@ -29,6 +16,7 @@ from . import wisdom
 from .fft_halved import HalvedRealFFT, fits
 from .fft_serial import SerialRealFFT, aligned_empty
 from .fft_transposed import TransposedRealFFT
+from .real_fft import RealFFT
 
 
 def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
@@ -54,7 +42,7 @@ def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
 
     Returns
     -------
-    SerialRealFFT, HalvedRealFFT or TransposedRealFFT
+    RealFFT
     """
     size = comm.Get_size()
     halved = transposed is None and fits(size, n)
@@ -75,4 +63,5 @@ def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
     return fft
 
 
-__all__ = ["HalvedRealFFT", "SerialRealFFT", "TransposedRealFFT", "aligned_empty", "plan_real_fft"]
+__all__ = ["HalvedRealFFT", "RealFFT", "SerialRealFFT", "TransposedRealFFT", "aligned_empty",
+           "plan_real_fft"]

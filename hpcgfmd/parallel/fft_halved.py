@@ -61,6 +61,7 @@ import pyfftw
 from .fft_kernels import (combine, odd_modes, odd_modes_backward, odd_modes_multiplied, scale,
                           twist_difference)
 from .transport import StageBuffers, padded_width
+from .real_fft import RealFFT
 
 _STAGES = ("pack", "h")  # the field (step 1) and this rank's part of the result (step 2)
 
@@ -70,7 +71,7 @@ def fits(size, n):
     return size == 2 and n % 4 == 0 and n >= 8
 
 
-class HalvedRealFFT:
+class HalvedRealFFT(RealFFT):
     """Real FFT of length n over the two ranks of ``comm`` (module docstring).
 
     Construction is collective on ``comm``.

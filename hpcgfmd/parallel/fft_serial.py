@@ -15,6 +15,7 @@ import pyfftw
 from mpi4py import MPI
 
 from .fft_kernels import scale
+from .real_fft import RealFFT
 
 DIRECT_MEMORY = 8  # arrays remembered as aligned by SerialRealFFT._direct
 
@@ -26,7 +27,7 @@ def aligned_empty(shape):
     return pyfftw.empty_aligned(shape, dtype="float64")
 
 
-class SerialRealFFT:
+class SerialRealFFT(RealFFT):
     """rfft/irfft pair of length n on persistent aligned buffers, on one rank.
 
     Parameters

@@ -79,6 +79,7 @@ import pyfftw
 
 from .blocks import block_range
 from .transport import TRANSPORTS, StageBuffers, padded_width
+from .real_fft import RealFFT
 
 # Work-array sizes of the chunked stages, in elements: a stage-A/C chunk of columns holds
 # about _COLUMN_CHUNK reals (plus its half spectrum), a stage-B chunk about _ROW_CHUNK complex
@@ -122,7 +123,7 @@ def _chunks(count, size):
     return [block_range(count, number, i) for i in range(number)]
 
 
-class TransposedRealFFT:
+class TransposedRealFFT(RealFFT):
     """Length-n real FFT distributed over ``comm`` by the four-step algorithm.
 
     See the module docstring for the algorithm, the layout, the transports and the

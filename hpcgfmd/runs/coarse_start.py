@@ -112,7 +112,7 @@ def coarse_start(case, domain, planner_effort: str, level):
     try:
         record = coarse.preload()
         levels = coarse.preload_levels + [(nx, record.iterations)]
-        full = coarse.domain.segment(coarse.u, 0, nx)
+        full = coarse.domain.segment(coarse.surface.u, 0, nx)
     finally:
         coarse.close()
     start = prolong(full, domain.x_start, domain.x_stop)

@@ -11,9 +11,8 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from ..errors import NonConvergenceError
+from ..state import State
 
 SPRING_TOLERANCE = 0.1    # spring imbalance accepted, in load allowances
 MAX_SPRING_SOLVES = 40    # the solves one step's search may take
@@ -81,22 +80,22 @@ class CompliantDrive:
                 self.slope = secant
         self.accepted_load = load
 
-    def balance(self, sim, ops, dt):
-        """Collective: the step's indenter position where the spring balances the load.
+    def balance(self, equilibrium, drive: float, indenter: float):
+        """Collective: the step's equilibrium where the spring balances the load.
 
-        ``sim`` is the :class:`~hpcgfmd.runs.protocol.Retraction` in the middle of a step
-        (time, drive and first indenter guess set; u its start): each evaluation of
-        f(u_z) = L(u_z) - k_s (u_z - Z) is its equilibrium solve at the step's fixed history,
-        started from the last state below the root with the nodes within range carried
-        along by the indenter (the search follows the attached branch while it lasts).
-        Outside a bracket: secant steps on f, or Newton steps with f' = S - k_s (S:
-        :attr:`slope`), at most SPRING_TRUST dmax per solve; where no slope is negative (past
-        the spring's jump, or across a jump of the discrete L(u_z) where the grid's contact
-        edge passes a node) the spring alone, f' = -k_s, which marches u_z to the next
-        balance. Inside a bracket (f > 0 below, f < 0 above): regula falsi alternating with
-        bisection; detached (no node within range): the drive's position. Converged when |f|
-        is below SPRING_TOLERANCE load allowances; or when the next Newton step would move the
-        load by less than that and u_z by less than SPRING_TRAVEL dmax (a stiff spring: its
+        ``equilibrium`` (:class:`~.equilibrium.Equilibrium`, the step begun) solves the
+        step at an indenter position, from the last solve below the root with the nodes
+        within range carried along by the indenter (the search follows the attached branch
+        while it lasts); ``drive`` is the drive's value at the step's end, ``indenter`` the
+        first position tried. The search on f(u_z) = L(u_z) - k_s (u_z - Z): outside a
+        bracket, secant steps on f, or Newton steps with f' = S - k_s (S: :attr:`slope`),
+        at most SPRING_TRUST dmax per solve; where no slope is negative (past the spring's
+        jump, or across a jump of the discrete L(u_z) where the grid's contact edge passes a
+        node) the spring alone, f' = -k_s, which marches u_z to the next balance. Inside a
+        bracket (f > 0 below, f < 0 above): regula falsi alternating with bisection;
+        detached (no node within range): the drive's position. Converged when |f| is below
+        SPRING_TOLERANCE load allowances; or when the next Newton step would move the load by
+        less than that and u_z by less than SPRING_TRAVEL dmax (a stiff spring: its
         imbalance is k_s times the solves' own position error); or when the bracket is
         narrower than that load's travel (the balance falls in a jump of the discrete L).
         Every decision uses reduced values (loads, widths), so all ranks take the same.
@@ -104,34 +103,31 @@ class CompliantDrive:
         Returns
         -------
         StepRecord or None
-            The balanced step (its iterations those of all the solves); None when a solve
-            was abandoned (its edges strayed beyond what the step control accepts) or no
-            balance was found within MAX_SPRING_SOLVES solves of a step the step control can
-            still shorten (at dt_min that is a NonConvergenceError).
+            The balanced step (its indenter the balanced position, its iterations those of
+            all the solves); None when a solve was abandoned (its edges strayed beyond what
+            the step control accepts) or no balance was found within MAX_SPRING_SOLVES
+            solves of a step the step control can still shorten (else NonConvergenceError).
         """
         stiffness, tolerance = self.stiffness, self.tolerance
-        watch = sim.edge_watch(dt)
-        edges_before = sim.edges.current
         slope = self.slope if math.isfinite(self.slope) else -1.0
         iterations = 0
         previous = below = above = None  # (u_z, f); f > 0 below the root, < 0 above
-        anchor = None  # (u_z, u, nodes within range) of the last solve below the root
         bisect = False
         for solves in range(MAX_SPRING_SOLVES):
-            record = sim.equilibrate(ops, dt, watch)
+            record = equilibrium.solve(indenter)
             if record is None:
                 return None
             iterations += record.iterations
             self.solves += solves > 0
-            imbalance = record.load - self.force(sim.indenter, sim.drive)
-            point = (sim.indenter, imbalance)
-            if self.load_control and record.load == 0.0 and record.cohesive_half_width == 0.0:
-                sim.edges.previous = edges_before  # the load let go: the indenter flew off
-                record.iterations = iterations
-                return record
+            record.iterations = iterations
+            imbalance = record.load - self.force(indenter, drive)
+            point = (indenter, imbalance)
+            detached = record.load == 0.0 and record.cohesive_half_width == 0.0
+            if self.load_control and detached:
+                return record  # the load let go: the indenter flew off
             if imbalance > 0.0:
                 below = point
-                anchor = (sim.indenter, sim.u.copy(), sim.gap() <= self.dmax)
+                equilibrium.anchor()
             else:
                 above = point
             bracket = below is not None and above is not None and below[0] < above[0]
@@ -140,27 +136,20 @@ class CompliantDrive:
                         and abs(imbalance * slope) <= tolerance * (stiffness - slope))
                     or (bracket and (above[0] - below[0]) * max(stiffness, abs(slope))
                         <= tolerance)):
-                sim.edges.previous = edges_before  # (each solve's record moved them)
-                record.iterations = iterations
                 return record
-            target = self._next(sim, record, point, previous, below, above, bracket, bisect,
-                                slope)
+            target = (drive if detached  # the spring alone, balanced at the drive (k_s > 0)
+                      else self._next(point, previous, below, above, bracket, bisect, slope))
             bisect = bracket and not bisect
-            previous = point
-            if anchor is not None:
-                np.add(anchor[1], (target - anchor[0]) * anchor[2], out=sim.u)
-            sim.indenter = target
-        if watch is not None:  # the step control may shorten the step: an abandoned solve
+            previous, indenter = point, target
+        if equilibrium.can_shorten:  # the step control may shorten the step: abandoned
             return None
         raise NonConvergenceError(
-            f"step {sim.step_index} (t = {sim.time:.6g}): no position of the indenter"
-            f" balances the drive's spring (drive_stiffness = {stiffness:g}) within"
-            f" {MAX_SPRING_SOLVES} solves; reduce dt or raise [numerics] tolerance")
+            f"{equilibrium.where()}: no position of the indenter balances the drive's"
+            f" spring (drive_stiffness = {stiffness:g}) within {MAX_SPRING_SOLVES} solves;"
+            " reduce dt or raise [numerics] tolerance")
 
-    def _next(self, sim, record, point, previous, below, above, bracket, bisect, slope):
+    def _next(self, point, previous, below, above, bracket, bisect, slope):
         """The search's next indenter position (:meth:`balance`)."""
-        if record.load == 0.0 and record.cohesive_half_width == 0.0:
-            return sim.drive  # detached: the spring alone, balanced at the drive (k_s > 0)
         if bracket:
             if bisect:
                 return 0.5 * (below[0] + above[0])
@@ -177,17 +166,19 @@ class CompliantDrive:
             return point[0] + math.copysign(self.reach, point[1])
         return point[0] + point[1] / self.stiffness  # no stable slope: the spring alone
 
-    def state(self) -> dict:
-        """The drive's scalars for a checkpoint (rank-independent)."""
-        return {"indenter_rate": self.rate,
-                "indenter_slope": self.slope, "spring_solves": self.solves,
-                "accepted_load": self.accepted_load}
+    def state(self) -> State:
+        """The indenter's rate, the search's slope and the last load (:mod:`hpcgfmd.state`)."""
+        return State(scalars={"rate": self.rate, "slope": self.slope,
+                              "accepted_load": self.accepted_load})
 
-    def restore(self, attrs, statistics=True):
-        """Continue from :meth:`state`; ``statistics=False`` keeps the solve count (undoing a
-        rejected step: its work was done)."""
-        self.rate = float(attrs["indenter_rate"])
-        self.slope = float(attrs["indenter_slope"])
-        self.accepted_load = float(attrs["accepted_load"])
-        if statistics:
-            self.solves = int(attrs["spring_solves"])
+    def restore(self, state: State):
+        s = state.scalars
+        self.rate, self.slope = float(s["rate"]), float(s["slope"])
+        self.accepted_load = float(s["accepted_load"])
+
+    def counters(self) -> dict:
+        """Equilibrium solves beyond one per step."""
+        return {"spring_solves": self.solves}
+
+    def restore_counters(self, counters: dict):
+        self.solves = int(counters["spring_solves"])

@@ -81,7 +81,7 @@ def file_status(path, item) -> str:
             identity = str(f.attrs.get("case_identity", ""))
     except OSError:
         return "unfinished"  # unreadable (killed while being created): written again
-    if item.case is None or not item.case.owns_identity(identity):
+    if item.case is None or identity != item.case.identity():
         return "other case"
     if finished:
         return "finished"

@@ -6,8 +6,8 @@ state before the last accepted step (u_{n-1}), the last accepted one (u_n) and t
 (u_{n+1}). :class:`HistoryWindow` keeps u_{n-1} with its time and indenter position, and
 the nodes' interaction states (2 on the wall, 1 in the cohesive zone, 0 beyond the range)
 of u_{n-1}, u_n and the attempt, so that an accepted step's states are not recomputed by
-the next estimate. It is part of the checkpoint: a restored run estimates the next step's
-error exactly as the uninterrupted one.
+the next estimate. It is a part of the run's state (:mod:`hpcgfmd.state`): a restored run estimates the
+next step's error exactly as the uninterrupted one.
 
 Invariant: after :meth:`accept`, the older state is the one before the accepted step and
 the attempt's states are those of (u_n, u_{n+1}); a rejected attempt changes neither.
@@ -19,7 +19,8 @@ import math
 import numpy as np
 
 from ..solvers.step_kernels import interaction_state
-from ..solvers.stepping import HistoryError
+from ..solvers.history_error import HistoryError
+from ..state import State
 
 
 class HistoryWindow:
@@ -27,7 +28,7 @@ class HistoryWindow:
 
     Parameters
     ----------
-    substrate : ViscoelasticHalfSpace or MaxwellHalfSpace
+    substrate : hpcgfmd.model.halfspace.Substrate
         The substrate whose history is estimated.
     fft : SerialRealFFT, HalvedRealFFT or TransposedRealFFT
         The case's transform (the estimate's one pair per step).
@@ -42,9 +43,6 @@ class HistoryWindow:
         :class:`HistoryError`).
     """
 
-    #: the checkpoint's fields of the window (zeros when it holds none yet)
-    FIELDS = ("u_older", "history_curvature", "history_correction")
-
     def __init__(self, substrate, fft, domain, profile, dmax, crossing_reach=0.0):
         self.error = HistoryError(substrate, fft, domain, crossing_reach)
         self.profile, self.dmax = profile, dmax
@@ -53,6 +51,7 @@ class HistoryWindow:
         # latest states, which become them when it is accepted
         self._states = (None, None)
         self._attempt_states = None
+        self._absent = np.zeros(domain.local_n)  # the older state before one is known
 
     def estimate(self, before, time_before, indenter_before, after, time_after,
                  indenter_after):
@@ -74,10 +73,10 @@ class HistoryWindow:
         return self.error.estimate(older, time_older, state_older, before, time_before,
                                    state_before, after, time_after, state)
 
-    def accept(self, substrate_traction, before, time_before, indenter_before):
-        """The attempt was accepted: correct its substrate traction (the exact-for-quadratic
+    def accept(self, before, time_before, indenter_before):
+        """The attempt was accepted: correct the substrate's state (the exact-for-quadratic
         history, :meth:`HistoryError.correct`) and make u_n (``before``) the older state."""
-        self.error.correct(substrate_traction)
+        self.error.correct()
         if self._older is None:
             self._older = (np.empty_like(before), 0.0, 0.0)
         self._older[0][:] = before
@@ -102,50 +101,42 @@ class HistoryWindow:
         interaction_state(self.profile, indenter, u, self.dmax, state)
         return state
 
-    # --- checkpoint ----------------------------------------------------------------------
-    def fields(self, absent):
-        """This rank's checkpoint fields (``absent``, a zero block, for none yet)."""
-        return {"u_older": self._older[0] if self._older else absent,
-                "history_curvature": self.error.smooth_curvature,
-                "history_correction": self.error.previous_correction}
+    # --- state -----------------------------------------------------------------------
+    def state(self) -> State:
+        """The older state and the estimate's memory (:mod:`hpcgfmd.state`; zeros for an
+        older state not known yet)."""
+        error, older = self.error, self._older
+        return State(
+            {"u_older": older[0] if older else self._absent,
+             "curvature": error.smooth_curvature, "correction": error.previous_correction},
+            {"time_older": older[1] if older else math.nan,
+             "indenter_older": older[2] if older else math.nan,
+             "curvature_age": error.curvature_age, "curvature_time": error.curvature_time,
+             "has_previous_correction": bool(error.has_previous),
+             "previous_correction_reused": bool(error.previous_reused)})
 
-    def attrs(self):
-        """The rank-independent scalars of the checkpoint."""
-        return dict(
-            time_older=self._older[1] if self._older else math.nan,
-            indenter_older=self._older[2] if self._older else math.nan,
-            curvature_age=self.error.curvature_age,
-            curvature_time=self.error.curvature_time,
-            has_previous_correction=bool(self.error.has_previous),
-            previous_correction_reused=bool(self.error.previous_reused))
-
-    @staticmethod
-    def empty_attrs():
-        """The checkpoint's scalars of a run without the estimate."""
-        return dict(time_older=math.nan, indenter_older=math.nan, curvature_age=math.inf,
-                    curvature_time=-math.inf, has_previous_correction=False,
-                    previous_correction_reused=False)
-
-    def restore(self, fields, attrs, indenter_at):
-        """Continue from :meth:`fields` and :meth:`attrs`. Checkpoints older than a key
-        restart the estimate as the run did when the key did not exist: no older indenter
-        position (``indenter_at(time)``, the paper's drive, gives it), no smooth curvature,
-        no previous correction (the first estimate then bounds the correction's error by
-        the step's)."""
+    def restore(self, state: State):
+        """Continue from :meth:`state` (the attempt's interaction states are recomputed)."""
         self._states = (None, None)
         self._attempt_states = None
-        time_older = float(attrs.get("time_older", math.nan))
-        indenter_older = float(attrs.get("indenter_older", indenter_at(time_older)))
-        self._older = (None if math.isnan(time_older)
-                       else (fields["u_older"].copy(), time_older, indenter_older))
-        error = self.error
-        error.curvature_age = float(attrs.get("curvature_age", math.inf))
-        error.curvature_time = float(attrs.get("curvature_time", -math.inf))
-        if "history_curvature" in fields:
-            error.smooth_curvature[:] = fields["history_curvature"]
-        previous = "history_correction" in fields and bool(
-            attrs.get("has_previous_correction", False))
-        error.has_previous = previous
-        error.previous_reused = bool(attrs.get("previous_correction_reused", False))
-        if previous:
-            error.previous_correction[:] = fields["history_correction"]
+        s, error = state.scalars, self.error
+        time_older = float(s["time_older"])
+        if math.isnan(time_older):
+            self._older = None
+        else:
+            self._older = (_kept(self._older, state.arrays["u_older"]), time_older,
+                           float(s["indenter_older"]))
+        error.curvature_age = float(s["curvature_age"])
+        error.curvature_time = float(s["curvature_time"])
+        error.smooth_curvature[:] = state.arrays["curvature"]
+        error.previous_correction[:] = state.arrays["correction"]
+        error.has_previous = bool(s["has_previous_correction"])
+        error.previous_reused = bool(s["previous_correction_reused"])
+
+
+def _kept(older, values):
+    """``values`` copied into the older state's buffer (made when there is none)."""
+    if older is None:
+        return values.copy()
+    older[0][:] = values
+    return older[0]

@@ -17,7 +17,7 @@ class Progress:
     ----------
     interval : float
         Wall seconds between lines.
-    units : hpcgfmd.model.case.Units
+    units : hpcgfmd.case.Units
         The case's units (the line shows time, load and width in them).
     """
 

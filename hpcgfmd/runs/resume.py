@@ -2,7 +2,7 @@
 
 The same command resumes when the output file and its checkpoint both exist (``--restart``
 demands it); the checkpoint must be complete and unaltered (its digest), belong to the same
-case (its identity hash, :meth:`~hpcgfmd.model.case.Case.owns_identity`), and the output file
+case (its identity hash, :meth:`~hpcgfmd.case.Case.identity`), and the output file
 must hold at least the steps and snapshots the checkpoint counts. A damaged newest checkpoint
 gives way to the previous generation, with a warning. Anything else is a
 :class:`~hpcgfmd.errors.UsageError` naming the file, with nothing touched.
@@ -104,7 +104,7 @@ def _check_resume(case, output, restart, overwrite):
         identity = str(saved["case_identity"])
     except (OSError, KeyError, ValueError) as err:
         raise UsageError(f"{checkpoint}: not an hpcgfmd checkpoint ({err})") from None
-    if not case.owns_identity(identity):
+    if identity != case.identity():
         raise UsageError(f"{checkpoint}: checkpoint of a different case (identity {identity},"
                          f" this case {case.identity()}); choose another -o or remove it")
     try:
@@ -114,7 +114,7 @@ def _check_resume(case, output, restart, overwrite):
     except (OSError, KeyError) as err:
         raise UsageError(f"-o {output}: not the output of this checkpoint ({err})") from None
     needed = (identity, int(saved["step_index"]) + 1, int(saved["snapshots_written"]))
-    if not case.owns_identity(written[0]) or written[1] < needed[1] or written[2] < needed[2]:
+    if written[0] != identity or written[1] < needed[1] or written[2] < needed[2]:
         raise UsageError(f"-o {output}: does not match checkpoint {checkpoint} (case"
                          f" {written[0]}, {written[1]} steps, {written[2]} snapshots written;"
                          f" the checkpoint needs case {needed[0]}, {needed[1]} steps,"

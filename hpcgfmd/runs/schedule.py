@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import math
 
+from ..state import State
+
 
 class Schedule:
     """The protocol's state: segment index, its start time, step and drive value.
@@ -21,7 +23,7 @@ class Schedule:
     Parameters
     ----------
     segments : tuple of Segment
-        The case's segments (:attr:`hpcgfmd.model.case.Case.segments`).
+        The case's segments (:attr:`hpcgfmd.case.Case.segments`).
     load_control : bool
         The drive is the applied load (``drive_stiffness = 0``).
     """
@@ -99,15 +101,13 @@ class Schedule:
             self.start_time, self.start_step, self.start_value = time, step_index, value
         return True
 
-    def state(self) -> dict:
-        """The schedule's scalars for a checkpoint."""
-        return {"segment_index": self.index, "segment_start_time": self.start_time,
-                "segment_start_step": self.start_step, "segment_start_value": self.start_value}
+    def state(self) -> State:
+        """The schedule's position in the protocol (:mod:`hpcgfmd.state`)."""
+        return State(scalars={"index": self.index, "start_time": self.start_time,
+                              "start_step": self.start_step, "start_value": self.start_value})
 
-    def restore(self, attrs, fallback_value: float):
-        """Continue from :meth:`state`; checkpoints written before protocols existed are at
-        the paper's single segment, started at t = 0 from ``fallback_value``."""
-        self.index = int(attrs.get("segment_index", 0))
-        self.start_time = float(attrs.get("segment_start_time", 0.0))
-        self.start_step = int(attrs.get("segment_start_step", 0))
-        self.start_value = float(attrs.get("segment_start_value", fallback_value))
+    def restore(self, state: State):
+        """Continue from :meth:`state`."""
+        s = state.scalars
+        self.index, self.start_step = int(s["index"]), int(s["start_step"])
+        self.start_time, self.start_value = float(s["start_time"]), float(s["start_value"])

@@ -1,4 +1,4 @@
-"""One case from a validated :class:`~hpcgfmd.model.case.Case` to a finished HDF5 file.
+"""One case from a validated :class:`~hpcgfmd.case.Case` to a finished HDF5 file.
 
 Collective over the case's communicator. A run survives the end of a job's allocation:
 the full state is checkpointed (:mod:`hpcgfmd.storage.checkpoint`) every ``[output]
@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import CaseError, CaseFailure, Interrupted, NonConvergenceError
 from ..model import accuracy as knob
-from ..model.case import Case
+from ..case import Case
 from ..signals import StopSignals
 from ..solvers import solver_class
 from ..storage.casefile import CaseFile
@@ -77,7 +77,8 @@ def describe(case: Case) -> str:
     u = case.units
     num = case.numerics
     auto = (f" (from accuracy {num.accuracy:g}: the smallest f 2^a, f in {{1, 3, 9}}, with"
-            f" {knob.zone_points(num.accuracy, case.chi_ve, case.k, case.lambda0):.2g} points"
+            f" {knob.zone_points(num.accuracy, case.chi_ve, case.modulus_ratio, case.maugis):.2g}"
+            " points"
             f" across w and {knob.contact_points(num.accuracy):.3g} across sqrt(2 R h0))"
             if num.nx_automatic
             else "")
@@ -90,7 +91,7 @@ def describe(case: Case) -> str:
                  f" {num.time_tolerance:.3g} load scales")
     material = ([f"Prony series: E_i/E0 = {_numbers(g['relaxation_moduli'])}, tau_i/tau_r ="
                  f" {_numbers(g['relaxation_times'])}; V_z and chi_ve with tau_r ="
-                 f" {u.time:.6g}"] if case.prony else [])
+                 f" {u.time:.6g}"] if case.relaxation_moduli else [])
     if case.compliant:
         material.append(f"compliant drive: the indenter on a spring of k_s ="
                         f" {case.drive_stiffness * u.stress:.6g} per unit length"
@@ -150,20 +151,21 @@ def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
     if resume:
         checkpoint = _resume_from(checkpoint, resume, comm)
         fields, attrs = read_checkpoint(checkpoint, comm, dom.x_start, dom.x_stop)
-        sim.restore(fields, attrs)
+        sim.state.restore(fields, attrs)
         schedule.restore(attrs["snapshot_schedule"])
         snapshots = int(attrs["snapshots_written"])
         if dom.max(float(stop.received is not None)):  # the checkpoint is still the latest
             raise Interrupted(f"stopped by a signal while resuming; checkpoint {checkpoint}")
         try:
             out = CaseFile.reopen(path, case, comm, dom.x_start, sim.n,
-                                  steps=sim.step_index + 1, snapshots=snapshots)
+                                  steps=sim.surface.step_index + 1, snapshots=snapshots)
         except (ValueError, KeyError) as err:  # alike on every rank: the same file
             raise CaseError(f"{path} does not match its checkpoint {checkpoint}: {err}") from None
-        logger.info(f"resuming from {checkpoint} at step {sim.step_index}"
-                    f" (t = {sim.time * case.units.time:.6g}) on {comm.Get_size()} rank(s)")
+        logger.info(f"resuming from {checkpoint} at step {sim.surface.step_index}"
+                    f" (t = {sim.surface.time * case.units.time:.6g}) on {comm.Get_size()}"
+                    " rank(s)")
         return out, snapshots, float(attrs["wall_time"])
-    room = room_for_a_step(sim.n, len(sim.field_names))
+    room = room_for_a_step(sim.n, sim.state.field_count())
     free = comm.bcast(free_bytes(path) if comm.Get_rank() == 0 else None, root=0)
     if free < 2 * room:  # the new file, its first steps and a checkpoint (storage/space.py)
         raise CaseError(f"-o {path}: {free} bytes free on its file system, at least"
@@ -179,9 +181,9 @@ def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
     if dom.max(float(stop.received is not None)):
         raise Interrupted("stopped by a signal before the first step; nothing was written")
     remove_checkpoint(checkpoint, comm)  # a stale one would pair with the new file
-    out = CaseFile(path, case, sim.x, comm, dom.x_start, sim.n, overwrite=overwrite)
+    out = CaseFile(path, case, dom.x, comm, dom.x_start, sim.n, overwrite=overwrite)
     out.append_step(record.as_dict())
-    out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
+    out.add_snapshot(record.time, sim.surface.u, sim.surface.traction, sim.equilibrium.gap())
     schedule.due(record)
     return out, 1, 0.0
 
@@ -221,7 +223,7 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
     last_checkpoint = time.monotonic()
 
     def save():
-        fields, attrs = sim.state()
+        fields, attrs = sim.state.gather()
         attrs.update(case_identity=case.identity(), snapshot_schedule=schedule.state(),
                      snapshots_written=snapshots,
                      wall_time=wall_before + time.monotonic() - start)
@@ -230,10 +232,10 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
         except OSError as err:  # alike on every rank: rank 0's free space was broadcast
             if err.errno != errno.ENOSPC:
                 raise
-            raise CaseFailure(f"disk full at step {sim.step_index}: {err.strerror}") from None
+            raise CaseFailure(f"disk full at step {sim.surface.step_index}: {err.strerror}") from None
 
     # the next step's output and one checkpoint must fit (storage/space.py); rank 0 asks
-    room = room_for_a_step(sim.n, len(sim.field_names))
+    room = room_for_a_step(sim.n, sim.state.field_count())
 
     def short_of_space():
         return comm.Get_rank() == 0 and free_bytes(path) < room
@@ -243,7 +245,7 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
         raise CaseFailure(f"disk full: {os.path.dirname(os.path.abspath(path))} has"
                           f" {free_bytes(path) if comm.Get_rank() == 0 else 0} bytes free, a"
                           f" step and a checkpoint need {room}; stopped at step"
-                          f" {sim.step_index} with checkpoint {checkpoint}: free space and"
+                          f" {sim.surface.step_index} with checkpoint {checkpoint}: free space and"
                           " run the same command again")
 
     try:
@@ -256,18 +258,19 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
             except NonConvergenceError as err:  # (alike on every rank: a reduced residual)
                 save()  # the last accepted step (Retraction.step undid the failed one)
                 raise NonConvergenceError(f"{err}; checkpoint {checkpoint} holds the last"
-                                          f" accepted step, {sim.step_index}") from None
+                                          f" accepted step, {sim.surface.step_index}") from None
             out.append_step(record.as_dict())
             if schedule.due(record):
-                out.add_snapshot(record.time, sim.u, sim.traction, sim.gap())
+                out.add_snapshot(record.time, sim.surface.u, sim.surface.traction,
+                                 sim.equilibrium.gap())
                 snapshots += 1
-            progress.update(sim.step_index, record)
-            if sim.indenter > MAX_INDENTER_HEIGHT and not sim.finished():
+            progress.update(sim.surface.step_index, record)
+            if sim.surface.indenter > MAX_INDENTER_HEIGHT and not sim.finished():
                 raise CaseFailure(f"no complete detachment by u_z = {MAX_INDENTER_HEIGHT} R")
             # One reduction decides for all ranks: a signal on any rank, or rank 0's clock.
             by_time = (comm.Get_rank() == 0
                        and time.monotonic() - last_checkpoint >= case.output.checkpoint_interval)
-            by_step = every > 0 and sim.step_index % every == 0
+            by_step = every > 0 and sim.surface.step_index % every == 0
             signalled, timed, short = dom.maxes(float(stop.received is not None),
                                                 float(by_time), float(short_of_space()))
             if short:
@@ -276,14 +279,16 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
                 save()
                 last_checkpoint = time.monotonic()
             if signalled:
-                raise Interrupted(f"stopped by a signal at step {sim.step_index}"
-                                  f" (t = {sim.time * case.units.time:.6g}); checkpoint"
+                raise Interrupted(f"stopped by a signal at step {sim.surface.step_index}"
+                                  f" (t = {sim.surface.time * case.units.time:.6g});"
+                                  " checkpoint"
                                   f" {checkpoint}")
-        out.add_snapshot(sim.time, sim.u, sim.traction, sim.gap())
+        surface = sim.surface
+        out.add_snapshot(surface.time, surface.u, surface.traction, sim.equilibrium.gap())
         summary = {**sim.summary(), "wall_time": wall_before + time.monotonic() - start,
                    "ranks": comm.Get_size(),
-                   "detachment_indenter": sim.indenter * case.units.length,
-                   "detachment_time": sim.time * case.units.time}
+                   "detachment_indenter": surface.indenter * case.units.length,
+                   "detachment_time": surface.time * case.units.time}
         out.finish(summary)
     finally:
         out.close()

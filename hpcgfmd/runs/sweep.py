@@ -35,9 +35,10 @@ from dataclasses import dataclass
 import tomli_w
 
 from ..errors import CaseError, SweepError
-from ..model.case import OUTPUT_KEYS, SECTIONS, Case, parse_case
-from ..model.keys import quoted_key
-from ..model.numerics import DEFAULT_STEP_PER_RANGE, NUMERICS_KEYS
+from ..case import Case, parse_case
+from ..case.files import sections
+from ..case.keys import quoted_key
+from ..case.numerics import DEFAULT_STEP_PER_RANGE
 
 FARM_KEYS = ("ranks_per_case", "output")
 # Cost model of the dry run and of the longest-first order: seconds per CG iteration and
@@ -126,15 +127,16 @@ def _resolve(key, base):
     if "." in key:
         section, name = key.split(".", 1)
         present = section in base or section in ("numerics", "output")  # optional sections
-        if not present or name not in SECTIONS.get(section, ()):
+        if not present or name not in sections().get(section, ()):
             raise SweepError(f"{_dotted(key)}: no key {name!r} in section"
                              f" [{quoted_key(section)}] of this base case")
         return section, name
-    owners = [s for s in SECTIONS if (s in base or s in ("numerics", "output"))
-              and key in SECTIONS[s]]
+    known = sections()
+    owners = [s for s in known if (s in base or s in ("numerics", "output"))
+              and key in known[s]]
     if not owners:
         form = "case" if "case" in base else "physical"
-        accepted = ", ".join((*SECTIONS[form], *NUMERICS_KEYS, *OUTPUT_KEYS))
+        accepted = ", ".join((*known[form], *known["numerics"], *known["output"]))
         raise SweepError(f"{_dotted(key)}: not a key of the base case; accepted: {accepted}")
     return owners[0], key
 

@@ -2,18 +2,21 @@
 
 Every time step is an elastic problem of stiffness (|q|/2) Eeff plus a known history traction
 (docs/model.md, "Substrate"), minimised over the surface displacement with the hard wall and
-the cohesive law (docs/model.md, "Interface"). A solver relaxes ``u`` to that step's
-equilibrium on the physical branch. The protocol (:mod:`hpcgfmd.runs.protocol`) sees solvers
-only through :class:`EquilibriumSolver` and picks one by the case's ``[numerics] solver``
-through :func:`make_solver`; it never branches on the name or probes attributes.
+the cohesive law (:mod:`.step_problem`). A solver relaxes ``u`` to that step's equilibrium
+on the physical branch. The run sees solvers only through :class:`EquilibriumSolver` and
+picks one by the case's ``[numerics] solver`` through :func:`make_solver`.
 
-To add a solver: subclass :class:`EquilibriumSolver`, decorate it with
-``@register("name")``, import its module in :mod:`hpcgfmd.solvers` and add the name to
-``hpcgfmd.model.numerics.SOLVERS`` (the case-file vocabulary; a test holds the two equal).
+To add a solver: subclass :class:`EquilibriumSolver`, decorate it with ``@register("name")``,
+declare the ``[numerics]`` keys of its own in ``KEYS`` and import its module in
+:mod:`hpcgfmd.solvers`. The case files accept its name and its keys from then on
+(:mod:`hpcgfmd.case.numerics` asks the registry); nothing outside this package names a
+solver.
 """
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -64,27 +67,54 @@ class EdgeWatch:
     limit: float
 
 
+@dataclass(frozen=True)
+class SolverKey:
+    """A ``[numerics]`` key a solver declares for itself (an integer setting).
+
+    Attributes
+    ----------
+    name : str
+        The key.
+    smallest : int
+        The smallest value accepted.
+    default : callable
+        ``default(nx)``: the value when the key is left out, from the grid's nodes.
+    meaning : str
+        What it sets (docs/case-file.md).
+    """
+
+    name: str
+    smallest: int
+    default: Callable[[int], int]
+    meaning: str
+
+
 class EquilibriumSolver(ABC):
-    """What the protocol needs of a solver of one step's equilibrium.
+    """What the run needs of a solver of one step's equilibrium.
 
     Every method is collective over the case's communicator; arrays are this rank's block of
-    nodes. ``ops`` is the step's :class:`~hpcgfmd.model.material.StepOperators`, ``history``
-    the SLS history traction H (zero mean, stress), ``wall`` is h(x) + u_z (length),
+    nodes. ``ops`` is the step's :class:`~hpcgfmd.model.halfspace.StepOperators`,
+    ``history`` the history traction H (zero mean, stress), ``wall`` is h + u_z (length),
     ``applied`` an optional prescribed surface traction (tests).
 
     Attributes
     ----------
+    problem : hpcgfmd.solvers.step_problem.StepProblem
+        The step's energy, interface traction and residual (the physics the solver solves).
+    KEYS : tuple of SolverKey
+        The ``[numerics]`` keys of this solver's own (class attribute).
     starts_from_prediction : bool
-        True when the solver descends from its start, so that a better start (the protocol's
-        predictor) saves work; False when it relaxes from rest whatever the start (damped
-        dynamics starting from u_n).
+        True when the solver descends from its start, so that a better start (the run's
+        predictor) saves work; False when it relaxes from rest whatever the start.
     """
 
+    KEYS: ClassVar[tuple] = ()
     starts_from_prediction: ClassVar[bool] = False
+    name: ClassVar[str]
 
     @classmethod
     @abstractmethod
-    def from_case(cls, case, domain, fft, law, half_q) -> "EquilibriumSolver":
+    def from_case(cls, case, domain, fft, law, half_q) -> EquilibriumSolver:
         """The solver for ``case`` on this rank's ``domain`` with the planned ``fft``, the
         cohesive ``law`` and |q|/2 of the local modes ``half_q``."""
 
@@ -92,6 +122,12 @@ class EquilibriumSolver(ABC):
     def describe(cls, numerics) -> str:
         """One line naming the method and its settings, printed at the start of a run."""
         return cls.name
+
+    @classmethod
+    def iterations_per_step(cls, numerics) -> float:
+        """The iterations a step takes when the solver fixes them (its cost per step), NaN
+        when they follow from the solve's convergence."""
+        return math.nan
 
     @abstractmethod
     def solve(self, u, wall, ops, history, applied=None,
@@ -102,32 +138,21 @@ class EquilibriumSolver(ABC):
         edges are farther than ``edge_watch.limit`` from the given ones; it may also ignore it.
         """
 
-    @abstractmethod
-    def preload_solver(self) -> "EquilibriumSolver":
+    def preload_solver(self) -> EquilibriumSolver:
         """The solver of the relaxed preload (the loading-branch equilibrium, solved to the
-        case's tolerance): ``self``, or a solver that shares this one's statistics."""
-
-    @abstractmethod
-    def energy(self, u, wall, ops, history, applied=None, stiffness_u=None) -> float:
-        """Collective: the step's energy per unit length divided by dx (one FFT pair; none
-        when ``stiffness_u``, K u under ``ops``, is given)."""
+        case's tolerance): ``self`` by default."""
+        return self
 
     @abstractmethod
     def elastic_traction(self):
         """K u of the last solve's displacement (stress; valid until the next solve)."""
 
-    @abstractmethod
-    def interface_traction(self, u, wall, history, mean_traction, out, applied=None):
-        """Collective: traction of the indenter on the surface at equilibrium into ``out``."""
+    def counters(self) -> dict:
+        """Counters of the work done (integers, rank-independent; :mod:`hpcgfmd.state`)."""
+        return {}
 
-    @abstractmethod
-    def statistics(self) -> dict:
-        """Counters of the work done (integers, rank-independent), for the summary and the
-        checkpoint."""
-
-    @abstractmethod
-    def restore_statistics(self, saved: dict):
-        """Continue counting from :meth:`statistics` of a checkpoint (missing keys: 0)."""
+    def restore_counters(self, counters: dict):
+        """Continue counting from :meth:`counters` of a checkpoint."""
 
 
 def register(name: str):
@@ -142,7 +167,7 @@ def register(name: str):
 
 
 def registered() -> tuple:
-    """The names of the registered solvers."""
+    """The names of the registered solvers, the default first."""
     return tuple(_REGISTRY)
 
 

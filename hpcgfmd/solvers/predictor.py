@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..parallel.fft import aligned_empty
+from ..state import State
 from .projection import project_feasible
 from .step_kernels import linear_guess, quadratic_guess
 
@@ -66,6 +67,7 @@ class Predictor:
         self._moved = np.empty(n)
         self._gap = np.empty(n)
         self._starts = (aligned_empty(n), aligned_empty(n))
+        self._absent = np.zeros(n)  # a state not known yet
 
     def start(self, u, wall, gap_before, contact, rise, ratio, edges, edges_previous,
               energy, stiffness_u):
@@ -164,31 +166,36 @@ class Predictor:
         np.maximum(gap, 0.0, out=gap)
         return np.subtract(wall, gap, out=self._moved)
 
-    def state(self, u):
-        """(fields, attrs) for a checkpoint: u_{n-1} and u_{n-2} (zeros when unknown), the
-        last step ratio and the counters."""
-        absent = None  # zeros, made only when a state is missing (after the first steps)
-        fields = {}
-        for name in ("u_previous", "u_before_previous"):
-            kept = getattr(self, name)
-            if kept is None:
-                absent = np.zeros_like(u) if absent is None else absent
-            fields[name] = absent if kept is None else kept
-        return fields, {"has_previous": self.u_previous is not None,
-                        "has_before_previous": self.u_before_previous is not None,
-                        "ratio_previous": self.ratio_previous,
-                        "rejected_predictions": self.rejected,
-                        "predictor_choice": np.array(self.choices)}
+    def state(self) -> State:
+        """u_{n-1} and u_{n-2} (zeros when unknown) and the last step ratio
+        (:mod:`hpcgfmd.state`)."""
+        arrays = {name: self._absent if kept is None else kept
+                  for name, kept in (("u_previous", self.u_previous),
+                                     ("u_before_previous", self.u_before_previous))}
+        return State(arrays, {"has_previous": self.u_previous is not None,
+                              "has_before_previous": self.u_before_previous is not None,
+                              "ratio_previous": self.ratio_previous})
 
-    def restore(self, fields, attrs):
-        """Continue from :meth:`state` (checkpoints without u_{n-2} start linear)."""
-        self.u_previous = (_kept(self.u_previous, fields["u_previous"])
-                           if attrs["has_previous"] else None)
-        self.u_before_previous = (_kept(self.u_before_previous, fields["u_before_previous"])
-                                  if attrs.get("has_before_previous", False) else None)
-        self.ratio_previous = float(attrs.get("ratio_previous", np.nan))
-        self.rejected = int(attrs["rejected_predictions"])
-        self.choices = [int(v) for v in attrs["predictor_choice"]]
+    def restore(self, state: State):
+        """Continue from :meth:`state`."""
+        s = state.scalars
+        self.u_previous = (_kept(self.u_previous, state.arrays["u_previous"])
+                           if s["has_previous"] else None)
+        self.u_before_previous = (_kept(self.u_before_previous,
+                                        state.arrays["u_before_previous"])
+                                  if s["has_before_previous"] else None)
+        self.ratio_previous = float(s["ratio_previous"])
+
+    def counters(self) -> dict:
+        """Steps started from each guess and from u_n itself."""
+        return {"rejected_predictions": self.rejected,
+                "extrapolated_predictions": self.choices[0],
+                "moving_edge_predictions": self.choices[1]}
+
+    def restore_counters(self, counters: dict):
+        self.rejected = int(counters["rejected_predictions"])
+        self.choices = [int(counters["extrapolated_predictions"]),
+                        int(counters["moving_edge_predictions"])]
 
 
 def _kept(buffer, values):

@@ -18,8 +18,8 @@ Where the time discretisation errs (docs/model.md, "Substrate" and "Protocol"):
   / 2, to ``load_tolerance`` load scales (R dgamma0^2 E0)^(1/3): the sampled minimum is then
   within about load_tolerance / 8 load scales of the curve's.
 - The history's own errors: the smooth part's, estimated from the change of the curvature in
-  time of u (:class:`HistoryError`), and the tip's lag, the rate error the step's history
-  gives the nodes a moving edge passes (:func:`tip_lag_error`), both bounded through
+  time of u (:class:`~.history_error.HistoryError`), and the tip's lag, the rate error the step's history
+  gives the nodes a moving edge passes (:func:`~.tip_lag.tip_lag_error`), both bounded through
   ``time_tolerance``.
 
 Controller. After each step the error ratios e_edge = |da|max / (edge_fraction w) and e_lag
@@ -44,13 +44,12 @@ repeated (docs/results.md has the iterations it saves).
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
-import numpy as np
-
 from ..model.accuracy import PULL_OFF_SCALE
-from ..parallel.fft import aligned_empty
-from .step_kernels import clear_near_crossings, contact_sums, curvature
+from ..state import State
+from .tip_lag import LAG_PER_LOAD, LAG_PER_LOAD_SPECTRUM, tip_lag_error
 
 GROWTH_LIMIT = 2.0     # largest factor between consecutive steps
 SHRINK_LIMIT = 0.25    # smallest factor (also the retry factor bound after a rejection)
@@ -58,92 +57,43 @@ SAFETY = 0.9           # aim below the error target
 REJECT_EDGE = 2.0      # reject when the edge moved more than twice its allowance
 REJECT_LOAD = 4.0      # ... or the load deviates more than four times its tolerance
 REJECT_HISTORY = 4.0   # ... or the history's estimated error is four times its allowance
+REJECT_LAG = 4.0       # ... or the tip's lag error four times its allowance (jumps at crossings)
 GRID_PER_OCTAVE = 4    # steps are dt_min 2^(j/4): see AdaptiveSteps._on_grid
 ABANDON_EDGE = REJECT_EDGE  # edge ratio at which a solve is abandoned (module docstring)
-CURVATURE_AGE = 8      # steps a smooth curvature stands in for windows with crossings ...
-CURVATURE_LIFETIME = 0.05  # ... and time, in relaxation times tau (u_tt changes over tau)
-REJECT_LAG = 4.0       # ... or the tip's lag error four times its allowance (jumps at crossings)
 KEPT_SHARE = 0.5       # the kept errors' signed sum: held to this share of the allowance
-LAG_PER_LOAD = 1.0     # pull-off error / tip lag bound, measured (tip_lag_error, M46 steps)
-LAG_PER_LOAD_SPECTRUM = 4.0  # ... for relaxation times of several lengths (make_step_control)
 
 
-def tip_lag_error(dt, edge_motion, zone_width, modulus_ratio, branches=None):
-    """Relative error of the cohesive zone's traction from a step's linear-in-time history at
-    a moving contact edge (internal units, tau = 1; docs/numerics.md, "Time steps").
+@dataclass
+class StepOutcome:
+    """What a solved (or abandoned) step of length ``dt`` gives the step control.
 
-    Near an edge moving at v_a = |da| / dt a node's displacement follows the passing crack
-    tip, u = U(x - a(t)): its strain rate changes over the passage time w_c / v_a, w_c the
-    cohesive zone's width (the relaxed w for a slow tip, up to about k^(-4/3) w for a
-    glassy one, as the zone width scales with lambda^-2 and lambda with E^(-2/3)). The SLS
-    step (exact for u linear in time) sees the step's mean rate instead of the rate at its
-    end, a lag of dt/2 in time when dt >> tau (the memory is shorter than the step), and of
-    dt^2 / (12 tau) when dt << tau (the midpoint rule of the memory integral); as one
-    expression, a relative rate error (|da| / 2 w_c) x / (x + 6), x = dt / tau, at most 1 (a
-    rate cannot be more than wholly wrong; the edge criterion keeps |da| to a few w). How much the
-    zone's traction depends on its rate is the sensitivity S = d ln sigma / d ln theta of
-    an SLS strained at a constant rate over the passage time, theta = tau v_a / w_c:
-    sigma / (E0 eps) = k + (1 - k) F(theta), F = theta (1 - exp(-1/theta)), so
-    S = (1 - k) theta F'(theta) / (k + (1 - k) F). S vanishes for a relaxed tip
-    (theta << k) and a glassy one (theta >> 1), and is largest in between: the creeping
-    retractions, chi_ve / k of order 1. The estimate is S min(1, (|da| / 2 w_c) x / (x + 6)).
-    The quadratic step (M46), which adaptive steps take, follows the rate's change within
-    the step and lags far less: the estimate stays the linear step's, and its bound
-    (LAG_PER_LOAD) is calibrated for the quadratic step (docs/numerics.md).
-
-    Parameters
+    Attributes
     ----------
-    dt : float
-        Step length (tau).
+    dt, time : float
+        The step's length and end time (tau).
+    load : float or None
+        The step's load (load per length); None for an abandoned solve (no equilibrium:
+        only its edge motion counts).
     edge_motion : float
-        Largest contact-edge displacement of the step |da| (R); NaN or inf: none.
+        Largest displacement of a contact edge over the step (length; NaN: nothing to
+        compare, inf: the contact appeared or vanished).
+    history_error : float
+        The load error the step's history integration made in its own load (load per
+        length; :class:`~.history_error.HistoryError`).
+    history_kept : float or None
+        The part of it that stays in the history the next steps start from (None: all).
     zone_width : float
-        Cohesive-zone width w_c (R): the solved zone's at the step's end, or the relaxed w.
-    modulus_ratio : float
-        k = E0 / Einf (1: elastic, no lag).
-    branches : (sequence, sequence), optional
-        A Prony series' E_i / E0 and tau_i / tau (more than one branch): its zone traction
-        sigma / (E0 eps) = 1 + sum_i m_i F(theta_i), theta_i = tau_i v_a / w_c, whose rate
-        sensitivity sums the branches' with each branch's own rate error
-        (:func:`_prony_tip_lag_error`; one branch is the SLS above with k = 1 / (1 + m_1)).
-
-    Returns
-    -------
-    float
-        The estimated relative traction error (>= 0; about the pull-off's relative error,
-        which measured 0.5-1.6 times it on creeping retractions: docs/results.md).
+        The cohesive zone's width at the step's end (length; NaN: unknown, the relaxed w
+        stands in), the length a passing edge strains a node over.
     """
-    moved = edge_motion / zone_width
-    if modulus_ratio >= 1.0 or not (math.isfinite(moved) and moved > 0.0 and dt > 0.0):
-        return 0.0
-    if branches is not None and len(branches[0]) > 1:
-        return _prony_tip_lag_error(dt, moved, *branches)
-    k, x = modulus_ratio, dt
-    theta = moved / x
-    decay = math.exp(-1.0 / theta)
-    rate_response = theta * -math.expm1(-1.0 / theta)  # F(theta)
-    slope = -math.expm1(-1.0 / theta) - decay / theta  # F'(theta)
-    sensitivity = (1.0 - k) * theta * slope / (k + (1.0 - k) * rate_response)
-    return sensitivity * min(1.0, 0.5 * moved * x / (x + 6.0))
 
-
-def _prony_tip_lag_error(dt, moved, moduli, times):
-    """:func:`tip_lag_error` of a Prony series (``moved`` = |da| / w_c > 0).
-
-    Each branch i sees the rate error (|da| / 2 w_c) x_i / (x_i + 6), x_i = dt / tau_i (at
-    most 1), weighted by its share of the traction's rate sensitivity:
-    sum_i m_i theta_i F'(theta_i) min(1, ...) / (1 + sum_j m_j F(theta_j)), theta_i = tau_i
-    moved / dt. For one branch, m = (1 - k) / k, this is the SLS's expression.
-    """
-    sensitivity, stiffness = 0.0, 1.0
-    for m, tau in zip(moduli, times):
-        x = dt / tau
-        theta = moved / x
-        decay = math.exp(-1.0 / theta)
-        stiffness += m * theta * -math.expm1(-1.0 / theta)  # m F(theta)
-        slope = -math.expm1(-1.0 / theta) - decay / theta  # F'(theta)
-        sensitivity += m * theta * slope * min(1.0, 0.5 * moved * x / (x + 6.0))
-    return sensitivity / stiffness
+    dt: float
+    time: float
+    load: float | None
+    edge_motion: float
+    history_error: float = 0.0
+    history_kept: float | None = None
+    zone_width: float = math.nan
 
 
 @dataclass
@@ -152,45 +102,67 @@ class StepDecision:
 
     accepted: bool
     next_dt: float
-    edge_error: float   # |da| / (edge_fraction w)
-    load_error: float   # |L - L_pred| / (load_tolerance load_scale)
+    edge_error: float = 0.0   # |da| / (edge_fraction w)
+    load_error: float = 0.0   # |L - L_pred| / (load_tolerance load_scale)
     history_error: float = 0.0  # the history's load error / its allowance for this step
     lag_error: float = 0.0  # the tip's lag error / its allowance (tip_lag_error)
 
 
-class FixedSteps:
-    """Constant step dt (the paper's method): every step is accepted."""
+class StepControl(ABC):
+    """What a run needs of a time-step control (its state is a part of the run's,
+    :mod:`hpcgfmd.state`).
+
+    Attributes
+    ----------
+    dt : float
+        The next step's length (tau).
+    adaptive : bool
+        Steps are error-controlled (the quadratic step and the history's estimate apply).
+    """
 
     adaptive = False
+    dt: float
+
+    @abstractmethod
+    def judge(self, outcome: StepOutcome) -> StepDecision:
+        """The verdict on a solved step; sets :attr:`dt` to the next step's length."""
+
+    def edge_limit(self, dt) -> float:
+        """Edge motion at which a solve of a step of length dt may be abandoned (length;
+        inf: never)."""
+        return math.inf
+
+    def accept(self, time, load, cut_from=None):
+        """An accepted step ended at ``time`` with ``load``. ``cut_from``: the length proposed
+        before the step was cut to a segment's end (the next one is that, unless the cut
+        step's errors asked for less)."""
+        if cut_from is not None:
+            self.dt = max(self.dt, cut_from)
+
+    def new_segment(self):
+        """The drive's rate changed (a protocol's segment began)."""
+
+    def state(self) -> State:
+        return State(scalars={"dt": self.dt})
+
+    def restore(self, state: State):
+        self.dt = float(state.scalars["dt"])
+
+
+class FixedSteps(StepControl):
+    """Constant step dt (the paper's method): every step is accepted."""
 
     def __init__(self, dt: float):
         self.dt = dt
 
-    def first_dt(self) -> float:
-        return self.dt
+    def judge(self, outcome: StepOutcome) -> StepDecision:
+        return StepDecision(True, self.dt)
 
-    def judge(self, dt, time, load, edge_motion, history_error=0.0,
-              zone_width=math.nan, history_kept=None) -> StepDecision:
-        return StepDecision(True, self.dt, 0.0, 0.0)
-
-    def edge_limit(self, dt) -> float:
-        """Every fixed step is accepted: no solve may be abandoned."""
-        return math.inf
-
-    def accept(self, time, load):
-        pass
-
-    def new_segment(self):
-        pass
-
-    def state(self) -> dict:
-        return {}
-
-    def restore(self, attrs):
+    def accept(self, time, load, cut_from=None):
         pass
 
 
-class AdaptiveSteps:
+class AdaptiveSteps(StepControl):
     """Error-controlled step length (module docstring).
 
     Parameters
@@ -205,7 +177,7 @@ class AdaptiveSteps:
     history_allowance : float
         Largest load error of the history integration, time_tolerance * load scale (load per
         unit length): a step's own, and KEPT_SHARE of it for the signed sum of the errors kept
-        in the history over ``memory_time`` (:class:`HistoryError`, :meth:`judge`); inf: not
+        in the history over ``memory_time`` (:class:`~.history_error.HistoryError`, :meth:`judge`); inf: not
         controlled (the elastic solid).
     memory_time : float
         Time over which a history error persists, the retardation time tau/k (internal units;
@@ -238,9 +210,7 @@ class AdaptiveSteps:
         self.points = []  # the last two accepted (time, load)
         self.kept_history = 0.0  # signed sum of the accepted steps' kept errors, decayed
         self._kept_pending = 0.0  # ... with the step just judged
-
-    def first_dt(self) -> float:
-        return self.dt
+        self._judged_dt = math.inf  # the length of the step just judged
 
     def _on_grid(self, dt):
         """Round down to dt_min 2^(j/4), within [dt_min, dt_max].
@@ -256,54 +226,19 @@ class AdaptiveSteps:
         j = math.floor(GRID_PER_OCTAVE * math.log2(dt / self.dt_min) + 1e-9)
         return min(self.dt_min * 2.0 ** (j / GRID_PER_OCTAVE), self.dt_max)
 
-    def judge(self, dt, time, load, edge_motion, history_error=0.0,
-              zone_width=math.nan, history_kept=None) -> StepDecision:
-        """The verdict on a solved step of length dt ending at ``time`` with ``load``.
-
-        ``edge_motion`` is the largest displacement of a contact edge over the step (length;
-        NaN or inf when the contact appeared or vanished). ``load`` is None for an abandoned
-        solve (no equilibrium: only its edge motion counts). ``history_error`` is the load
-        error the step's history integration made in its own load, ``history_kept`` the part
-        of it that stays in the history the next steps start from (:class:`HistoryError`;
-        load per length; None: all of it).
-        ``zone_width`` is the cohesive zone's width at the step's end (length; NaN: unknown,
-        the relaxed width w stands in), the length a passing edge strains a node over.
-        """
-        edge_error = (edge_motion / self.edge_allowance if math.isfinite(edge_motion)
-                      else (0.0 if math.isnan(edge_motion) else math.inf))
-        load_error = 0.0
-        if (load is not None and len(self.points) == 2
-                and self.points[1][0] > self.points[0][0]):
-            (t0, l0), (t1, l1) = self.points
-            predicted = l1 + (l1 - l0) * (time - t1) / (t1 - t0)
-            load_error = abs(load - predicted) / self.load_allowance
-        # The errors kept in the history persist over the memory time: they add up with their
-        # signs, each decaying as exp(-dt / memory_time) per step, and the sum E is the
-        # history's load error, bounded by A = KEPT_SHARE times the allowance (E is an
-        # estimate, not a bound as the step's own error is: held to the steps' share of the
-        # accuracy, half the allowance, which is twice it). What is left of A for a step is
-        # A - |E| exp(-dt / memory_time), at least A (1 - exp(-dt / memory_time)) (what
-        # decays meanwhile: a coherent error per step then stays within A). A step is
-        # repeated when it spent, |E_n+1| - |E_n| exp(-dt / memory_time), over four times
-        # what was left; the next one is sized for its kept error, of either sign, to fit in
-        # what is left after this one. Errors of random sign (crossings and solver residuals
-        # read as curvature) mostly cancel in E, which leaves the next steps room; a coherent
-        # error fills E and its steps are held to A (1 - exp(-dt / memory_time)) each.
-        kept = history_error if history_kept is None else history_kept
-        allowance = self.history_allowance * KEPT_SHARE
-        share = -math.expm1(-dt / self.memory_time)
-        decayed = self.kept_history * (1.0 - share)
-        self._kept_pending = decayed + kept
-        spent = (abs(self._kept_pending) - abs(decayed)) / max(allowance - abs(decayed),
-                                                               allowance * share)
-        room = max(allowance - abs(self._kept_pending) * (1.0 - share), allowance * share)
-        own = abs(history_error) / self.history_allowance
-        history_ratio = max(own, spent)  # for the verdict
-        sizing_ratio = max(own, abs(kept) / room)  # for the next step
-        zone = zone_width if zone_width > 0.0 and math.isfinite(zone_width) else self.zone_width
-        lag_error = tip_lag_error(dt, edge_motion, zone, self.modulus_ratio,
+    def judge(self, outcome: StepOutcome) -> StepDecision:
+        """The verdict on a solved step (:class:`StepOutcome`), and the next step's length
+        (module docstring): the worst error ratio sizes it, a ratio over its rejection bound
+        repeats the step shorter unless it is already dt_min."""
+        dt = self._judged_dt = outcome.dt
+        edge_error = self._edge_ratio(outcome.edge_motion)
+        load_error = self._load_ratio(outcome)
+        history_ratio, sizing_ratio = self._history_ratios(outcome)
+        zone = (outcome.zone_width if outcome.zone_width > 0.0
+                and math.isfinite(outcome.zone_width) else self.zone_width)
+        lag_error = tip_lag_error(dt, outcome.edge_motion, zone, self.modulus_ratio,
                                   self.branches) / self.lag_allowance
-        # first order where it binds (dt >> tau)
+        # (the load's and the history's errors are of higher order in dt: square roots)
         worst = max(edge_error, math.sqrt(load_error), math.sqrt(sizing_ratio), lag_error)
         factor = SAFETY / worst if worst > 0.0 else GROWTH_LIMIT
         factor = min(max(factor, SHRINK_LIMIT), GROWTH_LIMIT)
@@ -315,6 +250,51 @@ class AdaptiveSteps:
         return StepDecision(not rejected, next_dt, edge_error, load_error, history_ratio,
                             lag_error)
 
+    def _edge_ratio(self, edge_motion):
+        """|da| over the edge allowance (0 with nothing to compare, inf for a contact that
+        appeared or vanished)."""
+        if math.isfinite(edge_motion):
+            return edge_motion / self.edge_allowance
+        return 0.0 if math.isnan(edge_motion) else math.inf
+
+    def _load_ratio(self, outcome):
+        """The load's deviation from the line through the two loads before, over its
+        allowance (0 without two points or a load)."""
+        if outcome.load is None or len(self.points) < 2 or not (
+                self.points[1][0] > self.points[0][0]):
+            return 0.0
+        (t0, l0), (t1, l1) = self.points
+        predicted = l1 + (l1 - l0) * (outcome.time - t1) / (t1 - t0)
+        return abs(outcome.load - predicted) / self.load_allowance
+
+    def _history_ratios(self, outcome):
+        """(the verdict's ratio, the next step's sizing ratio) of the history's errors.
+
+        The errors kept in the history persist over the memory time: they add up with their
+        signs, each decaying as exp(-dt / memory_time) per step, and the sum E is the
+        history's load error, bounded by A = KEPT_SHARE times the allowance (E is an
+        estimate, not a bound as the step's own error is: held to the steps' share of the
+        accuracy, half the allowance, which is twice it). What is left of A for a step is
+        A - |E| exp(-dt / memory_time), at least A (1 - exp(-dt / memory_time)) (what decays
+        meanwhile: a coherent error per step then stays within A). A step is repeated when
+        it spent, |E_n+1| - |E_n| exp(-dt / memory_time), over four times what was left; the
+        next one is sized for its kept error, of either sign, to fit in what is left after
+        this one. Errors of random sign (crossings and solver residuals read as curvature)
+        mostly cancel in E, which leaves the next steps room; a coherent error fills E and
+        its steps are held to A (1 - exp(-dt / memory_time)) each.
+        """
+        error = outcome.history_error
+        kept = error if outcome.history_kept is None else outcome.history_kept
+        allowance = self.history_allowance * KEPT_SHARE
+        share = -math.expm1(-outcome.dt / self.memory_time)
+        decayed = self.kept_history * (1.0 - share)
+        self._kept_pending = decayed + kept
+        spent = (abs(self._kept_pending) - abs(decayed)) / max(allowance - abs(decayed),
+                                                               allowance * share)
+        room = max(allowance - abs(self._kept_pending) * (1.0 - share), allowance * share)
+        own = abs(error) / self.history_allowance
+        return max(own, spent), max(own, abs(kept) / room)
+
     def edge_limit(self, dt) -> float:
         """Edge motion at which a solve of a step of length dt is abandoned, the step
         rejected and repeated with dt / 4 (length; inf at dt_min, where every step is
@@ -323,9 +303,13 @@ class AdaptiveSteps:
             return math.inf
         return ABANDON_EDGE * self.edge_allowance
 
-    def accept(self, time, load):
+    def accept(self, time, load, cut_from=None):
         """Record an accepted step's load for the next extrapolation (a repeated preload
-        at t = 0 replaces the point before)."""
+        at t = 0 replaces the point before); a step cut short by a segment's end
+        (``cut_from``: the length proposed before the cut) is followed by that length
+        unless the cut step's errors asked for less."""
+        if cut_from is not None and self.dt >= self._judged_dt:
+            self.dt = max(self.dt, cut_from)
         points = [p for p in self.points if p[0] < time]
         self.points = (points + [(time, load)])[-2:]
         self.kept_history, self._kept_pending = self._kept_pending, 0.0
@@ -335,27 +319,27 @@ class AdaptiveSteps:
         restarts from the last point, not across the kink."""
         self.points = self.points[-1:]
 
-    def state(self) -> dict:
+    def state(self) -> State:
         flat = [v for point in self.points for v in point]
-        return {"controller_dt": self.dt, "controller_points": flat + [math.nan] * (4 - len(flat)),
-                "controller_kept_history": self.kept_history}
+        return State(scalars={"dt": self.dt, "points": flat + [math.nan] * (4 - len(flat)),
+                              "kept_history": self.kept_history})
 
-    def restore(self, attrs):
-        self.dt = float(attrs["controller_dt"])
-        # (absent from checkpoints written before the kept errors were summed with signs)
-        self.kept_history = float(attrs.get("controller_kept_history", 0.0))
+    def restore(self, state: State):
+        s = state.scalars
+        self.dt = float(s["dt"])
+        self.kept_history = float(s["kept_history"])
         self._kept_pending = 0.0
-        flat = [float(v) for v in attrs["controller_points"]]
+        flat = [float(v) for v in s["points"]]
         self.points = [(flat[i], flat[i + 1]) for i in (0, 2) if not math.isnan(flat[i])]
 
 
-def make_step_control(case):
+def make_step_control(case) -> StepControl:
     """Fixed steps of ``[numerics] dt``, or adaptive steps starting from it."""
     numerics = case.numerics
     if numerics.step_control == "fixed":
         return FixedSteps(numerics.dt)
-    viscous = case.k < 1.0
     material = case.material()
+    viscous = case.modulus_ratio < 1.0
     # time_tolerance bounds the history's errors: the smooth part's in load scales, the
     # tip's lag as that load over the relaxed pull-off, shared for LAG_PER_LOAD. That bound
     # was calibrated and validated for one relaxation time (the SLS); a Prony series of
@@ -369,164 +353,6 @@ def make_step_control(case):
                          numerics.load_tolerance * case.load_scale,
                          numerics.time_tolerance * case.load_scale if viscous else math.inf,
                          material.retardation_time,  # tau / k for the SLS, tau = 1
-                         lag if viscous else math.inf, case.zone_width, case.k,
-                         (material.branch_moduli, material.branch_times) if case.prony
-                         else None)
-
-
-class HistoryError:
-    """The load error of a step's history integration, estimated from the last three states,
-    and the correction of the substrate traction that removes most of it.
-
-    The SLS step is exact for u linear in time within it (docs/model.md, (M8)); the quadratic
-    through u_{n-1}, u_n and u_{n+1} gives the curvature c = u_tt / 2, and the traction the
-    step missed is dp = (|q|/2) (Einf - E0) c F(dt) per mode
-    (:meth:`~hpcgfmd.model.material.StandardLinearSolid.curvature_response`). Its share on the
-    contact is carried by the indenter: the estimate is |sum of dp over the contact| dx. Once
-    the step is accepted, dp is added to the substrate traction p_{n+1} (:meth:`correct`), so
-    the history the next steps start from is exact for u quadratic in time through the last
-    three states; the equilibrium of the step itself keeps its one-step error, which no
-    longer accumulates over the memory time. Nodes whose contact state changed over the
-    three states are left out (c = 0 there), and so are those that entered or left the
-    cohesive zone, whose traction switches on or off: their u(t) has a kink, not a
-    curvature, the quadratic does not describe them, and the edge criterion bounds their
-    error. After a quadratic step (M46), which holds dp in its own equilibrium, nothing is
-    added and the step's error is the correction's (:meth:`estimate`). Cost: one
-    FFT pair per step (docs/numerics.md and docs/results.md have the measured errors).
-
-    Crossings (the linear step's correction; a quadratic step has put the window's own
-    curvature in its traction, and the estimate after it reads the smooth curvature only
-    for its size). A node that changes its state switches its traction on or off and moves
-    every node near it by a jump of the discrete solution, which the quadratic reads as a curvature
-    of size jump / dt^2: in a window that holds a crossing the estimate does not fall with
-    dt, and on coarse grids (the edge takes several steps per node) the step control would
-    shrink the steps without end. u_tt is smooth in time, so such a window takes the
-    curvature of the last window without a crossing, when that is at most ``CURVATURE_AGE``
-    accepted steps and ``CURVATURE_LIFETIME`` relaxation times old, for its estimate and its
-    correction. On fine grids, where nearly every step crosses nodes, the window's own
-    curvature is used: there the jumps are small. On creeping retractions, whose steps are a
-    good part of tau, the kept curvature is stale and the window's own is used too. Where
-    the window's own curvature is used in a window with a crossing, it is set to 0 on every
-    node within ``crossing_reach`` of a node that changed its state, not only on those
-    nodes: the jump spreads over the zone of the passing tip (up to the glassy w / k), and
-    read as curvature it gives errors of either sign, 20-80 times a smooth window's, whose
-    signed sum walks to the kept errors' allowance on grids of a few nodes per zone and
-    holds the steps at a small fraction of tau (docs/results.md, "Crossings in the
-    history's estimate").
-
-    Parameters
-    ----------
-    substrate : hpcgfmd.model.material.ViscoelasticHalfSpace
-    fft : SerialRealFFT, HalvedRealFFT or TransposedRealFFT
-    domain : hpcgfmd.parallel.domain.Domain
-    crossing_reach : float, optional
-        Distance from a node that changed its state within which the window's curvature is
-        not read (length; the package uses w / (2 k), half the glassy zone width; 0: the
-        changed nodes only).
-    """
-
-    def __init__(self, substrate, fft, domain, crossing_reach=0.0):
-        self.substrate, self.fft, self.domain = substrate, fft, domain
-        # in nodes (0: the changed nodes alone)
-        self.reach = min(domain.n, max(0, math.ceil(crossing_reach / domain.dx - 1e-9)))
-        n = domain.local_n
-        self._curvature = aligned_empty(n)
-        self._traction = aligned_empty(n)
-        self._estimated = False  # _traction holds the last estimate's dp
-        self.smooth_curvature = aligned_empty(n)  # c of the last window without a crossing
-        self.smooth_curvature[:] = 0.0
-        self.curvature_age = math.inf  # accepted steps since it was estimated
-        self.curvature_time = -math.inf  # end time of its window
-        self._lifetime = CURVATURE_LIFETIME * substrate.material.shortest_time
-        self._smooth = False  # the last estimate's window had no crossing
-        self._reused = False  # the last estimate took the smooth curvature
-        self.previous_reused = False  # ... and so did the previous accepted one
-        self._time = -math.inf  # end time of the last estimate's window
-        self._response = 0.0  # curvature_response of the last estimate's step
-        self._step = 0.0  # ... and its length
-        # K c of the last accepted estimate's curvature c, per unit curvature response
-        # (dp / response), for the error of the correction (estimate's docstring)
-        self.previous_correction = aligned_empty(n)
-        self.previous_correction[:] = 0.0
-        self.has_previous = False  # set by correct(); restored from checkpoints
-
-    def estimate(self, older, time_older, state_older, before, time_before, state_before,
-                 after, time_after, state):
-        """Collective (one FFT pair): the step's load error and the error its correction
-        leaves in the history (load per unit length, signed: the kept errors of successive
-        steps add up with their signs).
-
-        The step's error |sum of dp over the contact| dx is that of this step's equilibrium
-        only: :meth:`correct` removes it from the history the next steps start from. What
-        stays in the history is the correction's own error, the change of the curvature
-        over the step (u_ttt dt, which the quadratic through the last three states does not
-        see): estimated as the difference of this estimate's dp and the previous accepted
-        estimate's, taken at this step's curvature response,
-        |sum over the contact of (dp - response K c_prev)| dx (an embedded third-order
-        estimate: for u cubic in time it is about twice the corrected step's local error,
-        tests/test_history_error.py). Where either curvature is not the window's own (the
-        smooth curvature stood in for a crossing) or no accepted estimate came before, the
-        step's error stands in for it.
-
-        ``older``, ``before``, ``after``: this rank's u at the three times; ``state_*``:
-        their nodes' interaction states (2 on the wall, 1 in the cohesive zone, 0 beyond;
-        ``state``: after the step).
-
-        Returns
-        -------
-        (float, float)
-            The step's load error and the correction's (load per unit length).
-        """
-        h1, h0 = time_after - time_before, time_before - time_older
-        c = self._curvature
-        kinks, first, last = curvature(older, before, after, h0, h1, state_older,
-                                       state_before, state, c)
-        crossings, left, right = self.domain.marks_around(kinks, first, last)
-        self._smooth = crossings == 0
-        reuse = (not self._smooth and self.curvature_age <= CURVATURE_AGE
-                 and time_after - self.curvature_time <= self._lifetime)
-        if not self._smooth and not reuse and self.reach > 0:
-            clear_near_crossings(state_older, state_before, state, self.reach, left, right, c)
-        self._time = time_after
-        # the missed traction (|q|/2) response c per mode (one FFT pair)
-        self._response = self.substrate.material.curvature_response(h1)
-        self.fft.apply_diagonal(self.smooth_curvature if reuse else c,
-                                self.substrate.half_q * (self._response / self.substrate.n),
-                                self._traction)
-        self._estimated = True
-        self._step = h1
-        comparable = self.has_previous and not reuse and not self.previous_reused
-        self._reused = reuse
-        # (0 on a rank without nodes)
-        step_part, previous = contact_sums(self._traction, self.previous_correction, state)
-        kept = previous * self._response if comparable else 0.0
-        step_error, change = self.domain.sums(step_part, step_part - kept)
-        dx = self.domain.dx
-        kept_error = (change if comparable else step_error) * dx
-        if self.substrate.last_step_quadratic:
-            # the quadratic step (M46) held dp in its own equilibrium: its error, in the
-            # step's load and kept in the history alike, is the correction's
-            return kept_error, kept_error
-        return step_error * dx, kept_error
-
-    def correct(self, substrate_traction):
-        """Add the last estimate's missed traction to the accepted step's substrate traction
-        (nothing when the step had no estimate), and keep its curvature when its window had
-        no crossing, and its dp per unit curvature response for the next estimate's error of
-        the correction; the estimate is used up."""
-        if self._estimated:
-            self.substrate.correct(self._traction, self._step)
-            if self._response > 0.0:
-                np.multiply(self._traction, 1.0 / self._response, out=self.previous_correction)
-                self.has_previous, self.previous_reused = True, self._reused
-            if self._smooth:
-                self.smooth_curvature[:] = self._curvature
-                self.curvature_age = 0
-                self.curvature_time = self._time
-            else:
-                self.curvature_age += 1
-        self._estimated = False
-
-    def forget(self):
-        """Drop the last estimate (its step was rejected or abandoned)."""
-        self._estimated = False
+                         lag if viscous else math.inf, case.zone_width, case.modulus_ratio,
+                         (material.branch_moduli, material.branch_times)
+                         if material.branches > 1 else None)

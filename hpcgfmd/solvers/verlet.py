@@ -6,7 +6,7 @@ integrated by position (Stormer-)Verlet with a pseudo time step h, for a fixed n
 pseudo steps (the "equilibration time"); the hard wall is applied in real space after every
 step ("the hardwall condition returns the coordinates of the surface nodes to the rigid
 body"). :class:`DampedVerletGFMD` does exactly that for one time step, with the interface of
-:class:`hpcgfmd.solvers.cg.ConstrainedCG` so that the driver can use either.
+:class:`~hpcgfmd.solvers.base.EquilibriumSolver`, so that the run can use either.
 
 Equations of motion (docs/model.md, "Substrate"; the paper's 8|q| is |q|/2)
     Mode q, unit mass, stiffness k_q = (|q|/2) Eeff, history traction H_q (known for the time
@@ -124,12 +124,12 @@ Real-space formulation (one FFT pair per pseudo step)
     allocated per pseudo step by this module (the cohesive law makes its own temporaries).
 
 Per solve (not per pseudo step): an exact zero-mean projection of the start, the global
-stability limit (one reduction), and a final evaluation delegated to a ConstrainedCG with no
-iterations: its exact projection leaves u as it is (the last pseudo step's is exact); it
-computes K u (for ``elastic_traction``, ``interface_traction``, ``energy``) and the
-residual exactly as ConstrainedCG defines it (max |projected residual| / traction_scale
-over free nodes), reported for information only: the paper's method runs a fixed number
-of pseudo steps, so ``converged`` is always True.
+stability limit (one reduction), and the step problem's measure of the result
+(:meth:`~hpcgfmd.solvers.step_problem.StepProblem.measure`): its exact projection leaves u as
+it is (the last pseudo step's is exact); it computes K u (``elastic_traction``) and the
+residual as the active-set CG defines it (max |projected residual| / traction_scale over
+free nodes), reported for information only: the paper's method runs a fixed number of
+pseudo steps, so ``converged`` is always True.
 
 Parallel: every real-space vector is this rank's block, every spectrum this rank's modes in
 the transform's layout; the only communication is the transform pair, one ghost exchange
@@ -138,14 +138,18 @@ branches.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..model.interface import DugdaleMaugis
-from .base import EquilibriumSolver, SolveResult, register
+from .base import EquilibriumSolver, SolverKey, SolveResult, register
 from .cg import ConstrainedCG
 from .projection import project_feasible
+from .step_problem import StepProblem
 
 _GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
+EQUILIBRATION_PER_ROOT_N = 1024  # the paper authors' code: 256 * 4 * sqrt(nx) pseudo steps
 
 
 def contraction(s, e):
@@ -262,9 +266,9 @@ class DampedVerletGFMD(EquilibriumSolver):
         self.equilibration_steps = int(equilibration_steps)
         self.traction_scale = traction_scale
         self.time_step_fraction = float(time_step_fraction)
-        # The final evaluation (projection, K u, residual, mu), the interface traction and
-        # the energy are ConstrainedCG's with no iterations.
-        self._cg = ConstrainedCG(domain, fft, law, 0.0, 0, traction_scale)
+        # the final projection, K u, residual and mu: the step problem's measure
+        self.problem = StepProblem(domain, fft, law, traction_scale)
+        self._k_u = None
         n = domain.local_n
         self._gap_ext = np.zeros(n + 2)
         self._gap = self._gap_ext[1:-1]
@@ -298,17 +302,28 @@ class DampedVerletGFMD(EquilibriumSolver):
         self.shift_traction = np.nan  # s / h^2 of the last solve (= mean_traction at rest)
         self._preload = preload
 
+    KEYS = (SolverKey("equilibration_steps", 1,
+                      lambda nx: round(EQUILIBRATION_PER_ROOT_N * math.sqrt(nx)),
+                      "pseudo steps per time step, the paper's fixed equilibration time;"
+                      " default 1024 sqrt(nx)"),)
+
     @classmethod
     def from_case(cls, case, domain, fft, law, half_q):
         """The paper's method with the case's equilibration_steps; relaxed damping with
         E0 = 1 (internal units). Its preload is solved by CG to the case's tolerance."""
-        return cls(domain, fft, law, half_q, 1.0, case.numerics.equilibration_steps,
-                   case.sigma_a, preload=ConstrainedCG.from_case(case, domain, fft, law, half_q))
+        return cls(domain, fft, law, half_q, 1.0,
+                   case.numerics.setting("equilibration_steps"), case.sigma_a,
+                   preload=ConstrainedCG.from_case(case, domain, fft, law, half_q))
 
     @classmethod
     def describe(cls, numerics):
-        return (f"the paper's damped Verlet GFMD, {numerics.equilibration_steps} pseudo steps"
-                " per step")
+        return (f"the paper's damped Verlet GFMD,"
+                f" {numerics.setting('equilibration_steps')} pseudo steps per step")
+
+    @classmethod
+    def iterations_per_step(cls, numerics) -> float:
+        """The fixed pseudo steps of every time step."""
+        return float(numerics.setting("equilibration_steps"))
 
     def preload_solver(self):
         """CG: the loading-branch equilibrium to the tolerance (the paper's method would need a
@@ -440,29 +455,21 @@ class DampedVerletGFMD(EquilibriumSolver):
         abandon a solve.
         """
         s = self.relax(u, wall, ops, history, self.equilibration_steps, applied)
-        # Exact projection, K u, residual and multiplier as ConstrainedCG defines them.
-        check = self._cg.solve(u, wall, ops, history, applied)
+        # exact projection, K u, residual and multiplier (StepProblem.measure)
+        check, self._k_u = self.problem.measure(u, wall, ops, history, applied)
         self.shift_traction = s / self.step_length**2
         self._mean_traction = check.mean_traction
         return SolveResult(iterations=self.equilibration_steps, residual=check.residual,
                            converged=True, mean_traction=check.mean_traction)
 
-    # --- the rest of the solver interface (ConstrainedCG's) -----------------------------
+    # --- the rest of the solver interface -----------------------------------------------
     def elastic_traction(self):
         """K u of the last solve's displacement (stress units; valid until the next solve)."""
-        return self._cg.elastic_traction()
+        return self._k_u
 
-    def interface_traction(self, u, wall, history, mean_traction, out, applied=None):
-        """Traction the indenter exerts on the surface (ConstrainedCG.interface_traction)."""
-        return self._cg.interface_traction(u, wall, history, mean_traction, out, applied)
-
-    def energy(self, u, wall, ops, history, applied=None, stiffness_u=None):
-        """Collective: energy of the step per unit length over dx (ConstrainedCG.energy)."""
-        return self._cg.energy(u, wall, ops, history, applied, stiffness_u)
-
-    def statistics(self) -> dict:
-        """No counters beyond the pseudo steps (the protocol counts them as iterations)."""
+    def counters(self) -> dict:
+        """No counters beyond the pseudo steps (the run counts them as iterations)."""
         return {}
 
-    def restore_statistics(self, saved):
+    def restore_counters(self, saved):
         pass

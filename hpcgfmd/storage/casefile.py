@@ -83,7 +83,7 @@ class CaseFile:
     ----------
     path : str or Path
         Output file; must not exist unless ``overwrite`` (the caller decides).
-    case : hpcgfmd.model.case.Case
+    case : hpcgfmd.case.Case
         The case (internal units); its ``units`` convert to the file's units.
     x_local : ndarray
         This rank's grid positions, nodes [x_start, x_start + len(x_local)) (internal length
@@ -121,7 +121,8 @@ class CaseFile:
         attrs["load_tolerance"] = num.load_tolerance
         attrs["time_tolerance"] = num.time_tolerance
         attrs["accuracy"] = num.accuracy
-        attrs["equilibration_steps"] = num.equilibration_steps
+        for key, value in num.solver_settings:  # the solver's own keys
+            attrs[key] = value
         attrs["beta"] = case.beta * case.units.length
         attrs["load_scale"] = case.load_scale * case.units.load
         attrs["length_unit"] = case.units.length
@@ -179,7 +180,7 @@ class CaseFile:
         ----------
         path : str or Path
             Case file written by an earlier (killed) run of the same case.
-        case : hpcgfmd.model.case.Case
+        case : hpcgfmd.case.Case
             The case (for the units).
         comm : mpi4py.MPI.Comm
             Ranks writing from now on (any number).

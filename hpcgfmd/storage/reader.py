@@ -168,7 +168,7 @@ class Result:
     @property
     def groups(self) -> dict:
         """The dimensionless groups stored with the case: the keys of
-        :meth:`hpcgfmd.model.case.Case.groups` found in the file."""
+        :meth:`hpcgfmd.case.Case.groups` found in the file."""
         return {key: self.attrs[key] for key in ("lambda0", "lambda_inf", "k", "Vz", "chi_ve",
                                                  "alpha", "depth", "cell", "zone_points",
                                                  "relaxation_moduli", "relaxation_times",

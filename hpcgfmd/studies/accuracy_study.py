@@ -26,9 +26,9 @@ import os
 import sys
 
 from ..errors import CaseError
-from ..model.case import parse_case
+from ..case import parse_case
 from ..model.grid import grid_label
-from ..model.numerics import automatic_nx
+from ..case.numerics import automatic_nx
 from . import benchmark
 
 ACCURACIES = (1e-2, 5e-3, 1e-3)

@@ -49,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CaseError
-from ..model.case import case_file_text, parse_case
+from ..case import case_file_text, parse_case
 from ..model.grid import grid_label
 from ..runs.protocol import Retraction
 from .distance import load_area_distances

@@ -31,7 +31,7 @@ direction pushes into the wall held), so K d is not K K^-1 r = r and needs its o
 whenever a node is pressed, i.e. while there is contact. One more pair per projected
 backtracking trial and for the residual direction when a step reaches the wall (rare). Per
 solve, one pair at the start unless the predictor evaluated the start
-(:meth:`.energy.StepEnergy.recall`). K u is updated incrementally, through the running
+(:meth:`~hpcgfmd.solvers.step_problem.StepProblem.recall`). K u is updated incrementally, through the running
 load K u + H - p_applied, also for the solution (its exact K u differs by round-off). The elementwise work is about 15 passes over the block: r = t - (K u + H -
 p_applied), its sum and extrema, the mean of z, one pass for the three CG dot products (a
 2 x 2 matmul of the stacked r, r_old and z, d_old), one axpy for d, d.Kd, the trial point's
@@ -57,13 +57,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..base import EdgeWatch, EquilibriumSolver, SolveResult, register
 from ...parallel.fft import aligned_empty
+from .. import kernels
+from ..active_set import ActiveSet
+from ..base import EdgeWatch, EquilibriumSolver, SolveResult, register
+from ..points import Point, PointEvaluator
 from ..projection import project_feasible
-from . import kernels, line_search
-from .active_set import ActiveSet
-from .energy import StepEnergy
-from .points import Point, PointEvaluator
+from ..step_problem import StepProblem
+from . import line_search
 from .wall_steps import WallSteps
 
 
@@ -116,10 +117,10 @@ class ConstrainedCG(EquilibriumSolver):
         self.traction_scale = traction_scale
         n = domain.local_n
         self._n = n
-        self._energy = StepEnergy(domain, fft, law)
+        self.problem = StepProblem(domain, fft, law, traction_scale)
         self._evaluator = PointEvaluator(domain, law)
         self._active = ActiveSet(domain)
-        self._walls = WallSteps(domain, fft, self._energy)
+        self._walls = WallSteps(domain, fft, self.problem)
         # Every buffer of a solve is made here: an iteration allocates nothing of size n.
         # (aligned: the serial transform reads and writes them in place)
         self._k_u = aligned_empty(n)  # K u at the start and the end of a solve (elastic_traction)
@@ -133,7 +134,6 @@ class ConstrainedCG(EquilibriumSolver):
         self._directions[...] = 0.0
         self._start = np.empty(n)
         self._scratch = np.empty(n)
-        self._gap_ext = np.empty(n + 2)
         self._wall_scale = 0.0
         self.recalled = 0    # transforms saved by StepEnergy.recall
         self.abandoned = 0   # solves stopped by their edge watch
@@ -234,11 +234,11 @@ class ConstrainedCG(EquilibriumSolver):
         project_feasible(dom, u, wall, self._start, wall_scale=self._wall_scale)
         np.copyto(u, self._start)
         linear = history if applied is None else np.subtract(history, applied, out=self._linear)
-        if self._energy.recall(u, ops.stiffness, self._k_u):
+        if self.problem.recall(u, ops.stiffness, self._k_u):
             self.recalled += 1
         else:
             self.fft.apply_diagonal(u, ops.stiffness, self._k_u)
-        self._energy.forget()  # the kept vector lives within one step
+        self.problem.forget()  # the kept vector lives within one step
         np.add(self._k_u, linear, out=self._load)
         on_wall_tolerance = 1e-14 * self._wall_scale
         # Nodes that matter for the wall and the law: gap < level (PointEvaluator).
@@ -385,66 +385,26 @@ class ConstrainedCG(EquilibriumSolver):
             it.restart = True
 
     # --- the rest of the solver interface ------------------------------------------------
-    def energy(self, u, wall, ops, history, applied=None, stiffness_u=None):
-        """Collective: energy of the step per unit length, divided by dx (one FFT pair; none
-        when K u is given as ``stiffness_u``)."""
-        return self._energy.energy(u, wall, ops, history, applied, stiffness_u)
-
-    def energy_with(self, u, k_u, wall, history, applied=None):
-        """Collective: energy (per unit length, divided by dx) of u with K u given."""
-        return self._energy.energy_with(u, k_u, wall, history, applied)
-
     def elastic_traction(self):
         """K u of the last solve's displacement (stress; a view, valid until the next solve)."""
         return self._k_u
 
-    def interface_traction(self, u, wall, history, mean_traction, out, applied=None):
-        """Collective: traction of the indenter on the surface at equilibrium (stress, upward).
-
-        Cohesive traction on free nodes; on the wall the total reaction
-        K u + H + mean_traction - applied, which balances the substrate. One pass forms the
-        gaps and finds the span of nodes within the interaction range; the law and the
-        reaction are evaluated on that span (:mod:`.points`), the rest of ``out`` is zero.
-        """
-        gap_ext = self._gap_ext
-        gap = gap_ext[1:-1]
-        law = self.law
-        # gap < level: in the zone, or on the wall (a contact node's gap is 0 exactly)
-        level = law.dmax if law.sigma_a > 0.0 else np.nextafter(0.0, 1.0)
-        first, last, _ = kernels.shifted_gaps(wall, u, 1.0, gap, level)  # wall - 1.0 u
-        self.domain.fill_halo(gap_ext)
-        lo = hi = p = q = 0
-        if self._n:
-            lo, hi, p, q = kernels.spans(first, last, self._n, gap_ext[0] < level,
-                                         gap_ext[-1] < level)
-        out[:p] = 0.0
-        out[q:] = 0.0
-        if law.sigma_a > 0.0:
-            kernels.cohesive_traction(gap_ext, out, p, q, law.dmax, law.sigma_a)
-        else:
-            out[p:q] = 0.0
-        kernels.contact_reaction(gap, lo, hi, self._k_u, history, mean_traction, out)
-        if applied is not None:
-            on_wall = np.less_equal(gap[lo:hi], 0.0)
-            out[lo:hi][on_wall] -= applied[lo:hi][on_wall]
-        return out
-
-    def statistics(self) -> dict:
+    def counters(self) -> dict:
         """projections, cut_steps, residual_steps, held_steps, recalled, abandoned_solves,
-        extensions (see the module docstring and :mod:`.wall_steps`)."""
+        extensions, detached_jumps (see the module docstring and :mod:`.wall_steps`)."""
         walls = self._walls
         return {"projections": walls.projections, "cut_steps": walls.cut_steps,
                 "residual_steps": walls.residual_steps, "held_steps": self._active.held_steps,
                 "recalled": self.recalled, "abandoned_solves": self.abandoned,
                 "extensions": self.extensions, "detached_jumps": self.detached_jumps}
 
-    def restore_statistics(self, saved):
+    def restore_counters(self, saved):
         walls = self._walls
-        walls.projections = int(saved.get("projections", 0))
-        walls.cut_steps = int(saved.get("cut_steps", 0))
-        walls.residual_steps = int(saved.get("residual_steps", 0))
-        self._active.held_steps = int(saved.get("held_steps", 0))
-        self.recalled = int(saved.get("recalled", 0))
-        self.abandoned = int(saved.get("abandoned_solves", 0))
-        self.extensions = int(saved.get("extensions", 0))
-        self.detached_jumps = int(saved.get("detached_jumps", 0))
+        walls.projections = int(saved["projections"])
+        walls.cut_steps = int(saved["cut_steps"])
+        walls.residual_steps = int(saved["residual_steps"])
+        self._active.held_steps = int(saved["held_steps"])
+        self.recalled = int(saved["recalled"])
+        self.abandoned = int(saved["abandoned_solves"])
+        self.extensions = int(saved["extensions"])
+        self.detached_jumps = int(saved["detached_jumps"])

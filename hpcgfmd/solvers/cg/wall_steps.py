@@ -25,7 +25,7 @@ class WallSteps:
     ----------
     domain : hpcgfmd.parallel.domain.Domain
     fft : SerialRealFFT, HalvedRealFFT or TransposedRealFFT
-    energy : StepEnergy
+    problem : hpcgfmd.solvers.step_problem.StepProblem
         The step's energy (the projected steps are accepted only if it drops).
 
     Attributes
@@ -35,8 +35,8 @@ class WallSteps:
         taken along the projected residual.
     """
 
-    def __init__(self, domain, fft, energy):
-        self.domain, self.fft, self.energy = domain, fft, energy
+    def __init__(self, domain, fft, problem):
+        self.domain, self.fft, self.problem = domain, fft, problem
         n = domain.local_n
         self._n = n
         self._spare = np.empty(n)
@@ -57,7 +57,7 @@ class WallSteps:
         """
         dom, fft, gap = self.domain, self.fft, point.gap
         k_u = np.subtract(load, linear, out=self._scratch)
-        energy = self.energy.energy_linear(u, k_u, wall, linear)
+        energy = self.problem.energy_linear(u, k_u, wall, linear)
         spare = self._spare
         for trial in range(6):  # projected backtracking along the arc P(u + a d)
             step = alpha * 0.125**trial
@@ -65,7 +65,7 @@ class WallSteps:
             spare += u
             project_feasible(dom, spare, wall, self._projected, wall_scale=wall_scale)
             fft.apply_diagonal(self._projected, ops.stiffness, self._k_projected)
-            if self.energy.energy_linear(self._projected, self._k_projected, wall,
+            if self.problem.energy_linear(self._projected, self._k_projected, wall,
                                          linear) < energy:
                 np.copyto(u, self._projected)
                 np.subtract(wall, u, out=gap)

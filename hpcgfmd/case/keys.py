@@ -4,6 +4,7 @@ line naming the section, the key, the value as written and what is accepted (doc
 from __future__ import annotations
 
 import math
+import numbers
 
 from ..errors import CaseError
 
@@ -79,3 +80,38 @@ def numbers_list(table, section, key, units_scale):
                                           for v in value):
         raise CaseError(f"[{section}] {key} = {shown(value)}: expected a list of numbers >= 0")
     return tuple(sorted(float(v) / units_scale for v in value))
+
+
+def positive_list(value, section, key):
+    """A tuple of finite numbers > 0 from a non-empty list (CaseError naming the key)."""
+    if value is None:
+        raise CaseError(f"[{section}] {key} is missing: a Prony series needs"
+                        " relaxation_moduli and relaxation_times")
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) == 0 \
+            or any(isinstance(v, bool) or not isinstance(v, numbers.Real)
+                   or not 0.0 < as_float(v) < math.inf for v in value):
+        raise CaseError(f"[{section}] {key} = {shown(value)}: expected a non-empty list of"
+                        " finite numbers > 0")
+    return tuple(float(v) for v in value)
+
+
+def prony_series(moduli, times, section):
+    """(moduli, times) of a Prony series: two lists of numbers > 0 of one length."""
+    moduli = positive_list(moduli, section, "relaxation_moduli")
+    times = positive_list(times, section, "relaxation_times")
+    if len(moduli) != len(times):
+        raise CaseError(f"[{section}] relaxation_times = {shown(list(times))}: expected as"
+                        f" many times as relaxation_moduli ({len(moduli)})")
+    return moduli, times
+
+
+def stiffness(table, section):
+    """drive_stiffness: a finite number > 0 (a spring), or 0 (load control)."""
+    value = table["drive_stiffness"]
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and value == 0:
+        return 0.0
+    try:
+        return number(table, section, "drive_stiffness")
+    except CaseError:
+        raise CaseError(f"[{section}] drive_stiffness = {shown(value)}: expected a finite"
+                        " number > 0 (a spring) or 0 (load control)") from None

@@ -10,8 +10,9 @@ import sys
 from dataclasses import dataclass
 
 from ..errors import CaseError
-from . import accuracy as knob
-from .grid import smallest_grid
+from ..model import accuracy as knob
+from ..model.grid import smallest_grid
+from ..solvers import registered, solver_class
 from .keys import choice, integer, number, shown, unknown_keys
 
 # Cohesive-zone resolution w/dx (w: relaxed zone width pi E0 dmax / (4 sigma_a)); the
@@ -26,25 +27,44 @@ DEFAULT_MAX_ITERATIONS = 5000
 DT_MIN_PER_DEFAULT = 1.0 / 64.0     # dt_min: this fraction of the first step (<= fixed one)
 FIRST_STEP_PER_DEFAULT = 1.0 / 16.0  # adaptive: the first step, doubling while errors allow
 DT_MAX_DEPTH_FRACTION = 0.02        # dt_max: the indenter rises by this fraction of h0
-PAPER_EQUILIBRATION_PER_ROOT_N = 1024  # the paper authors' code: 256 * 4 * sqrt(nx) pseudo steps
-SOLVERS = ("cg", "paper")  # the names of hpcgfmd.solvers' registry
 STEP_CONTROLS = ("adaptive", "fixed")
 MIN_TOLERANCE = 1e-13      # the residual's round-off floor (max norm relative to sigma_a)
 BYTES_PER_POINT = 320      # about 40 float64 work arrays per grid point
 BYTES_PER_BRANCH = 24      # a Prony branch's traction, its step start and its undo copy
-NUMERICS_KEYS = ("accuracy", "nx", "dt", "tolerance", "max_iterations", "solver",
-                 "step_control", "dt_min", "dt_max", "edge_fraction", "load_tolerance",
-                 "time_tolerance", "equilibration_steps")
+# the keys every case has; each solver adds its own (SolverKey, hpcgfmd.solvers.base)
+COMMON_KEYS = ("accuracy", "nx", "dt", "tolerance", "max_iterations", "solver",
+               "step_control", "dt_min", "dt_max", "edge_fraction", "load_tolerance",
+               "time_tolerance")
 
 
 @dataclass(frozen=True)
 class Numerics:
-    """Discretisation: grid points, time steps (internal units of tau), solver and its tolerance.
+    """Discretisation: grid points, time steps (internal units of tau), solver and its
+    tolerance, each from ``[numerics]`` or from the accuracy knob (:func:`resolve_numerics`).
 
-    With ``step_control = "adaptive"`` ``dt`` is the first step; ``edge_fraction`` (of the
-    relaxed cohesive-zone width) and ``load_tolerance`` (in load scales) are the error
-    targets of :mod:`hpcgfmd.solvers.stepping`. ``equilibration_steps`` is the paper solver's
-    fixed number of pseudo time steps per time step.
+    Attributes
+    ----------
+    nx : int
+        Grid nodes.
+    nx_automatic : bool
+        ``nx`` was chosen by the accuracy knob.
+    dt : float
+        The fixed step, or the first adaptive step (tau).
+    tolerance : float
+        The equilibrium solves' residual traction / sigma_a.
+    max_iterations : int
+        A solve's iteration cap.
+    accuracy : float
+        The relative error asked for (docs/numerics.md, "The accuracy knob").
+    solver, step_control : str
+        The equilibrium solver (a name of :mod:`hpcgfmd.solvers`' registry) and the time
+        steps ("adaptive" or "fixed").
+    dt_min, dt_max : float
+        Adaptive steps' bounds (tau).
+    edge_fraction, load_tolerance, time_tolerance : float
+        The adaptive steps' error targets (:mod:`hpcgfmd.solvers.stepping`).
+    solver_settings : tuple of (str, int)
+        The solver's own keys and values (:attr:`EquilibriumSolver.KEYS`).
     """
 
     nx: int
@@ -52,75 +72,103 @@ class Numerics:
     dt: float
     tolerance: float
     max_iterations: int
-    accuracy: float = knob.DEFAULT_ACCURACY
-    solver: str = "cg"
-    step_control: str = "adaptive"
-    dt_min: float = 0.0
-    dt_max: float = math.inf
-    edge_fraction: float = 0.5
-    load_tolerance: float = 0.01
-    time_tolerance: float = 0.01
-    equilibration_steps: int = 0
+    accuracy: float
+    solver: str
+    step_control: str
+    dt_min: float
+    dt_max: float
+    edge_fraction: float
+    load_tolerance: float
+    time_tolerance: float
+    solver_settings: tuple = ()
+
+    def setting(self, name: str):
+        """The value of the solver's own key ``name``."""
+        return dict(self.solver_settings)[name]
 
 
-def resolve_numerics(case, num: dict) -> Numerics:
-    """``[numerics]`` keys (case units) -> :class:`Numerics` (internal units), defaults.
+def numerics_keys() -> tuple:
+    """Every ``[numerics]`` key: the common ones and every registered solver's own."""
+    own = tuple(key.name for name in registered() for key in solver_class(name).KEYS)
+    return COMMON_KEYS + tuple(dict.fromkeys(own))
 
-    ``case``: the :class:`~hpcgfmd.model.case.Case` whose groups, units and forms are
-    resolved already (its numerics are what this makes)."""
-    unknown_keys(num, "numerics", NUMERICS_KEYS)
-    accuracy = (number(num, "numerics", "accuracy") if "accuracy" in num
+
+def resolve_numerics(groups, table: dict) -> Numerics:
+    """``[numerics]`` keys (case units) -> :class:`Numerics` (internal units), each key left
+    out from the accuracy knob (:mod:`hpcgfmd.model.accuracy`) or its default.
+
+    ``groups``: the case's checked :class:`~.groups.Groups`."""
+    unknown_keys(table, "numerics", numerics_keys())
+    accuracy = (number(table, "numerics", "accuracy") if "accuracy" in table
                 else knob.DEFAULT_ACCURACY)
     if not accuracy < 0.1:
         raise CaseError(f"[numerics] accuracy = {accuracy}: expected a relative error in"
                         " (0, 0.1)")
-    nx, automatic = _grid(case, num, accuracy)
-    time_unit = case.units.time
-    solver = choice(num, "numerics", "solver", SOLVERS)
-    step_control = choice(num, "numerics", "step_control", STEP_CONTROLS)
-    speed = case.Vz * case.alpha ** (2.0 / 3.0)  # v_z = V_z beta^2, beta^2 = alpha^(2/3)
-    dmax = case.alpha ** (2.0 / 3.0) / case.lambda0
+    nx, automatic = _grid(groups, table, accuracy)
+    solver = choice(table, "numerics", "solver", registered())
+    step_control = choice(table, "numerics", "step_control", STEP_CONTROLS)
+    steps = _steps(groups, table, step_control)
+    tolerance = (number(table, "numerics", "tolerance") if "tolerance" in table
+                 else knob.solver_tolerance(accuracy, groups.compliant))
+    if not MIN_TOLERANCE <= tolerance < 1e-2:
+        raise CaseError(f"[numerics] tolerance = {tolerance}: expected a number in"
+                        f" [{MIN_TOLERANCE:g}, 0.01)")
+    return Numerics(
+        nx=nx, nx_automatic=automatic, **steps, tolerance=tolerance, accuracy=accuracy,
+        max_iterations=(integer(table, "numerics", "max_iterations", 1)
+                        if "max_iterations" in table
+                        else DEFAULT_MAX_ITERATIONS + contact_nodes(groups, nx)),
+        solver=solver, step_control=step_control,
+        edge_fraction=(number(table, "numerics", "edge_fraction") if "edge_fraction" in table
+                       else knob.edge_fraction(accuracy)),
+        load_tolerance=(number(table, "numerics", "load_tolerance")
+                        if "load_tolerance" in table else knob.load_tolerance(accuracy)),
+        time_tolerance=(number(table, "numerics", "time_tolerance")
+                        if "time_tolerance" in table else knob.time_tolerance(accuracy)),
+        solver_settings=_solver_settings(table, solver, nx))
+
+
+def _steps(groups, table, step_control) -> dict:
+    """dt, dt_min and dt_max (internal units): given (case units), or from the indenter's
+    travel per interaction range."""
+    time_unit = groups.units.time
+    speed = groups.velocity * groups.adhesion ** (2.0 / 3.0)  # v_z = V_z beta^2
+    dmax = groups.adhesion ** (2.0 / 3.0) / groups.maugis
     fixed_default = DEFAULT_STEP_PER_RANGE * dmax / speed
     # adaptive steps start short: the retraction starts with the steepest load change
-    dt = (number(num, "numerics", "dt") / time_unit if "dt" in num
+    dt = (number(table, "numerics", "dt") / time_unit if "dt" in table
           else fixed_default * (1.0 if step_control == "fixed" else FIRST_STEP_PER_DEFAULT))
-    dt_min = (number(num, "numerics", "dt_min") / time_unit if "dt_min" in num
+    dt_min = (number(table, "numerics", "dt_min") / time_unit if "dt_min" in table
               else DT_MIN_PER_DEFAULT * min(dt, fixed_default))
-    dt_max = (number(num, "numerics", "dt_max") / time_unit if "dt_max" in num
-              else max(DT_MAX_DEPTH_FRACTION * case.depth / speed, dt))
-    # over- or underflowed; the SLS step divides by the square of a step (M46): a normal float
+    dt_max = (number(table, "numerics", "dt_max") / time_unit if "dt_max" in table
+              else max(DT_MAX_DEPTH_FRACTION * groups.depth / speed, dt))
+    # over- or underflowed; the quadratic step divides by the square of a step: normal floats
     shortest = math.sqrt(sys.float_info.min)
     for key, value in (("dt", dt), ("dt_min", dt_min)):
         if not shortest <= value < math.inf:
-            given = f" = {shown(num[key])}" if key in num else " (default)"
+            given = f" = {shown(table[key])}" if key in table else " (default)"
             raise CaseError(f"[numerics] {key}{given}: {value:g} relaxation times, out of"
                             " the floating-point range; expected a finite step of at least"
                             f" {shortest:.3g} (the SLS step divides by its square)")
     if dt_min > dt_max:
         raise CaseError(f"[numerics] dt_min = {dt_min * time_unit:g}: must not exceed"
                         f" dt_max = {dt_max * time_unit:g}")
-    if "equilibration_steps" in num:
-        equilibration = integer(num, "numerics", "equilibration_steps", 1)
-    else:
-        equilibration = round(PAPER_EQUILIBRATION_PER_ROOT_N * math.sqrt(nx))
-    tolerance = (number(num, "numerics", "tolerance") if "tolerance" in num
-                 else knob.solver_tolerance(accuracy, case.compliant))
-    if not MIN_TOLERANCE <= tolerance < 1e-2:
-        raise CaseError(f"[numerics] tolerance = {tolerance}: expected a number in"
-                        f" [{MIN_TOLERANCE:g}, 0.01)")
-    return Numerics(
-        nx=nx, nx_automatic=automatic, dt=dt, tolerance=tolerance, accuracy=accuracy,
-        max_iterations=(integer(num, "numerics", "max_iterations", 1)
-                        if "max_iterations" in num
-                        else DEFAULT_MAX_ITERATIONS + contact_nodes(case, nx)),
-        solver=solver, step_control=step_control, dt_min=dt_min, dt_max=dt_max,
-        edge_fraction=(number(num, "numerics", "edge_fraction") if "edge_fraction" in num
-                       else knob.edge_fraction(accuracy)),
-        load_tolerance=(number(num, "numerics", "load_tolerance")
-                        if "load_tolerance" in num else knob.load_tolerance(accuracy)),
-        time_tolerance=(number(num, "numerics", "time_tolerance")
-                        if "time_tolerance" in num else knob.time_tolerance(accuracy)),
-        equilibration_steps=equilibration)
+    return {"dt": dt, "dt_min": dt_min, "dt_max": dt_max}
+
+
+def _solver_settings(table, solver, nx) -> tuple:
+    """The chosen solver's own keys (given, or their defaults); another solver's key is
+    refused in one line."""
+    own = solver_class(solver).KEYS
+    names = {key.name for key in own}
+    for name in registered():
+        for key in solver_class(name).KEYS:
+            if key.name in table and key.name not in names:
+                raise CaseError(f"[numerics] {key.name} = {shown(table[key.name])}: a key of"
+                                f" solver = {name!r} ({key.meaning}); this case's solver is"
+                                f" {solver!r}")
+    return tuple((key.name, integer(table, "numerics", key.name, key.smallest)
+                  if key.name in table else key.default(nx)) for key in own)
 
 
 def automatic_nx(case, accuracy, widen=True):
@@ -133,7 +181,7 @@ def automatic_nx(case, accuracy, widen=True):
 
     Parameters
     ----------
-    case : hpcgfmd.model.case.Case
+    case : hpcgfmd.case.groups.Groups
         Its groups (lambda0, k, chi_ve), cell L/R, depth h0/R and zone width w (R).
     accuracy : float
         The relative error asked for, in (0, 0.1).
@@ -151,7 +199,7 @@ def automatic_nx(case, accuracy, widen=True):
         When the grid is beyond the floating-point range (a subnormal accuracy).
     """
     try:
-        points = knob.zone_points(accuracy, case.chi_ve, case.k, case.lambda0, widen)
+        points = knob.zone_points(accuracy, case.chi_ve, case.modulus_ratio, case.maugis, widen)
         across_contact = knob.contact_points(accuracy)
     except ZeroDivisionError:  # a subnormal accuracy underflows to 0
         points = across_contact = math.inf
@@ -177,7 +225,7 @@ def _grid(case, num, accuracy):
     _check_memory(nx, False, len(case.relaxation_moduli))  # first: nx may exceed floats
     # the zone the retraction's tip has: the relaxed w, wider for a fast one (the knob's
     # grids resolve it alike)
-    width *= knob.fast_widening(case.chi_ve, case.k, case.lambda0)
+    width *= knob.fast_widening(case.chi_ve, case.modulus_ratio, case.maugis)
     points = width / (case.cell / nx)
     if points < MIN_ZONE_POINTS:
         ratio = MIN_ZONE_POINTS * case.cell / width  # inf when beyond the float range
@@ -191,7 +239,7 @@ def _grid(case, num, accuracy):
 
 def contact_nodes(case, nx) -> int:
     """Nodes of an nx grid across the geometric contact width 2 sqrt(2 R h0), which
-    bounds the contact (:data:`hpcgfmd.model.case.MIN_CELL_PER_CONTACT`)."""
+    bounds the contact (:data:`hpcgfmd.case.groups.MIN_CELL_PER_CONTACT`)."""
     return math.ceil(2.0 * math.sqrt(2.0 * case.depth) * nx / case.cell)
 
 
@@ -204,6 +252,7 @@ def _log2_ratio(a, b, c):
 
 
 def _check_memory(nx, automatic, branches=0):
+    """CaseError when nx nodes need more memory than this machine has."""
     memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     size = nx * (BYTES_PER_POINT + BYTES_PER_BRANCH * branches)
     if size > memory:

@@ -21,10 +21,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ...model import history_kernels
-from ...parallel import fft_kernels
-from .. import step_kernels
-from ..step_kernels import FAST
+from ..model import history_kernels
+from ..parallel import fft_kernels
+from . import step_kernels
+from .step_kernels import FAST
 
 
 @njit(cache=True)

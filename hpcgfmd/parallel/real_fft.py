@@ -1,0 +1,74 @@
+"""The real FFT of the periodic surface as the solvers see it: one base class, three layouts.
+
+The only operation the solvers need is a mode-diagonal operator applied to a real field,
+``out = irfft(diag * rfft(v))``: the elastic stiffness, its inverse (the Green's function)
+and the history's maps are all of that form. The multiplier is real and depends on |q| only,
+and the caller folds the 1/n of the inverse transform into it, so an application is one
+forward transform, one multiply and one unnormalised backward transform. Solvers that keep
+or combine spectra between transforms (the damped-dynamics baseline) split the pair:
+``inverse(d * forward(f))`` equals ``apply_diagonal(f, d)``.
+
+Each rank owns a block of nodes in real space (``x_blocks``) and a block of modes in the
+spectrum (``spectrum_shape``, in the layout's own order; ``wavenumber`` gives each local
+mode's index m, q = 2 pi m / L). Mode-local physics does not care about the order.
+"""
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+
+class RealFFT(ABC):
+    """A planned real transform of n nodes over the ranks of ``comm`` (module docstring).
+
+    Attributes
+    ----------
+    comm : mpi4py.MPI.Comm
+    n : int
+        Grid nodes.
+    x_start, x_stop : int
+        This rank's nodes [x_start, x_stop).
+    x_blocks : list of (int, int)
+        Every rank's node block, in rank order.
+    spectrum_shape : tuple of int
+        Shape of this rank's block of the spectrum.
+    wavenumber : ndarray of int
+        The mode index m of each local spectrum entry.
+    spectrum : ndarray of complex128
+        A persistent spectrum buffer of ``spectrum_shape`` to pass to :meth:`forward` and
+        :meth:`inverse`.
+    pairs : int
+        Forward and backward pairs done (``apply_diagonal`` and ``inverse`` count one each).
+    communication_time : float
+        Seconds spent in MPI calls.
+    """
+
+    pairs: int
+    communication_time: float
+
+    @abstractmethod
+    def apply_diagonal(self, field, diagonal, out):
+        """Collective: ``out = irfft(diagonal * rfft(field))`` on this rank's blocks."""
+
+    @abstractmethod
+    def forward(self, field, spectrum_out):
+        """Collective: the unnormalised rfft of this rank's block into its spectrum block."""
+
+    @abstractmethod
+    def inverse(self, spectrum, field_out):
+        """Collective: the unnormalised irfft of this rank's spectrum block."""
+
+    def close(self):
+        """Collective: release shared resources (nothing by default)."""
+
+    def half_wavenumbers(self, cell: float):
+        """|q|/2 = pi |m| / L of each local mode (1/length), in the local order."""
+        return np.pi * np.abs(self.wavenumber) / cell
+
+    def counters(self) -> dict:
+        """The transform pairs done (a counter of the run's state, :mod:`hpcgfmd.state`)."""
+        return {"fft_pairs": self.pairs}
+
+    def restore_counters(self, counters: dict):
+        self.pairs = int(counters["fft_pairs"])
