@@ -5,7 +5,7 @@
                         adhesion=1e-4, numerics={"nx": 2048})
     result = hpcgfmd.run(case)                 # in memory; or run(case, "out.h5")
     result.pull_off().lbar, result.series.load, result.snapshots.surface
-    hpcgfmd.open("out.h5")                     # a finished or running case file
+    hpcgfmd.open("out.h5")                     # a finished or running result file
 
 The same validation, solver and file layout as ``python -m hpcgfmd run``; errors are raised
 as the exceptions of :mod:`hpcgfmd.errors` (a :class:`~hpcgfmd.errors.CaseError` names the key,
@@ -101,7 +101,7 @@ def run(case, path=None, comm=None, overwrite=False, planner_effort="FFTW_MEASUR
 
 
 def open_result(path) -> Result:
-    """The results in the case file ``path``, finished or still being written
+    """The results in the result file ``path``, finished or still being written
     (``hpcgfmd.open``).
 
     Parameters

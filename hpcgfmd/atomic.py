@@ -53,6 +53,19 @@ def replacing(path, *, durable: bool = False):
         raise
 
 
+def publish(temporary, path, *, previous=None):
+    """Rename a completely written ``temporary`` onto ``path`` durably (data, then the
+    directory entry, synced); with ``previous``, the file ``path`` held is first renamed
+    there (a generation kept: the checkpoint's). For writers that cannot use
+    :func:`replacing` (a file written collectively by several processes, then published by
+    one)."""
+    _sync(temporary)
+    if previous is not None and os.path.exists(path):
+        os.replace(path, previous)
+    os.replace(temporary, path)
+    _sync(os.path.dirname(os.path.abspath(path)))
+
+
 def _sync(path):
     """fsync a file or a directory."""
     fd = os.open(path, os.O_RDONLY)

@@ -223,7 +223,7 @@ def build_parser():
                           help="run every case of a sweep file (task farm)")
     farm.add_argument("sweep", help="sweep file (TOML): base case plus [grid] / [[cases]]")
     farm.add_argument("-o", "--output", default=None,
-                      help="directory of the case files and summary (default: [farm] output,"
+                      help="directory of the result files and summary (default: [farm] output,"
                            " else the sweep file's name)")
     farm.add_argument("--ranks-per-case", type=int, default=None,
                       help="ranks sharing one case (default: [farm] ranks_per_case, else 1)")
@@ -232,7 +232,7 @@ def build_parser():
     farm.add_argument("--dry-run", action="store_true",
                       help="list the cases, their groups and estimated cost; run nothing")
     farm.set_defaults(func=cmd_farm)
-    info = sub.add_parser("info", parents=[common], help="summarise a case file's results")
+    info = sub.add_parser("info", parents=[common], help="summarise a result file")
     info.add_argument("file")
     info.set_defaults(func=cmd_info)
     plot = sub.add_parser("plot", parents=[common],

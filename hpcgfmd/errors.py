@@ -44,11 +44,11 @@ class OutputExistsError(UsageError, FileExistsError):
 
 
 class ResultFileError(ValueError):
-    """A file that cannot be read as an hpcgfmd case file (exit 2 from ``info`` and ``plot``).
+    """A file that cannot be read as an hpcgfmd result file (exit 2 from ``info`` and ``plot``).
 
     Raised by the reader (:mod:`hpcgfmd.storage.reader`, :func:`hpcgfmd.open`) for a missing
     path, a directory, an unreadable, empty or non-HDF5 file, an HDF5 file of another program,
-    and a case file that is cut short or whose series are shorter than ``steps_complete``. The
+    and a result file that is cut short or whose series are shorter than ``steps_complete``. The
     message names the path, what is wrong and what is expected.
     """
 

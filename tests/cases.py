@@ -71,7 +71,7 @@ def whole_run(text):
     first, and the finished run, closed)."""
     from mpi4py import MPI
 
-    from hpcgfmd.model.case import parse_case
+    from hpcgfmd.case import parse_case
     from hpcgfmd.runs.protocol import Retraction
 
     sim = Retraction(parse_case(text), MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
@@ -89,7 +89,7 @@ def pull_off_run(text):
 
     The pull-off is the most tensile load over the run (preload included) in load scales.
     """
-    from hpcgfmd.model.case import parse_case
+    from hpcgfmd.case import parse_case
 
     records, sim = whole_run(text)
     return min(r.load for r in records) / parse_case(text).load_scale, sim

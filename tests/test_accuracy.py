@@ -7,7 +7,7 @@ import pytest
 from hpcgfmd.model import accuracy
 from hpcgfmd.model.grid import grid_label, smallest_grid
 from hpcgfmd.errors import CaseError
-from hpcgfmd.model.case import parse_case
+from hpcgfmd.case import parse_case
 
 from cases import case_text, pull_off_run
 
@@ -45,7 +45,7 @@ def test_fast_grid_resolves_the_zone_over_the_widening():
     points = case.zone_width / case.dx
     want = accuracy.zone_points(5e-3) / 110.25 ** (1 / 3)
     assert want <= points < 2 * want and case.numerics.nx == 16384
-    assert accuracy.zone_points(5e-3, case.chi_ve, case.k, case.lambda0,
+    assert accuracy.zone_points(5e-3, case.chi_ve, case.modulus_ratio, case.maugis,
                                 widen=False) == accuracy.zone_points(5e-3)
 
 
@@ -70,7 +70,7 @@ def test_creeping_grid_resolves_the_zone_by_the_creep_factor():
     case = parse_case(case_text("accuracy = 5e-3", maugis=3.5, modulus_ratio=0.2,
                                 velocity=0.01, depth=0.1, cell=3.578, adhesion=5e-5))
     points = case.zone_width / case.dx
-    want = accuracy.zone_points(5e-3) * accuracy.creep_factor(case.chi_ve, case.k)
+    want = accuracy.zone_points(5e-3) * accuracy.creep_factor(case.chi_ve, case.modulus_ratio)
     assert want <= points < 4 / 3 * want
     assert points > 2 * accuracy.zone_points(5e-3)  # finer than the elastic law's grid
 

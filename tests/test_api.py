@@ -11,8 +11,7 @@ import pytest
 
 import hpcgfmd
 from hpcgfmd.errors import CaseError
-from hpcgfmd.model.case import parse_case
-from hpcgfmd.model.numerics import SOLVERS
+from hpcgfmd.case import parse_case
 from hpcgfmd.solvers import registered
 
 from cases import GROUPS, case_text, physical_text
@@ -158,8 +157,20 @@ def test_the_example_runs_and_draws(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["example.png"]  # nothing else left
 
 
-def test_every_case_file_solver_is_registered():
-    assert registered() == SOLVERS
+def test_every_registered_solver_and_its_keys_are_accepted():
+    # the registry is the case files' vocabulary: each solver by name, with its own keys
+    from hpcgfmd.case.numerics import numerics_keys
+    from hpcgfmd.solvers import solver_class
+
+    assert registered()[0] == "cg"  # the default
+    for name in registered():
+        keys = {key.name: key.smallest for key in solver_class(name).KEYS}
+        assert set(keys) <= set(numerics_keys())
+        numerics = "\n".join([f'solver = "{name}"', "nx = 1024"]
+                              + [f"{key} = {smallest}" for key, smallest in keys.items()])
+        case = parse_case(case_text(numerics))
+        assert case.numerics.solver == name
+        assert dict(case.numerics.solver_settings) == keys
 
 
 def test_quiet_and_log_file(tmp_path):

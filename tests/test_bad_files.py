@@ -18,7 +18,7 @@ import pytest
 
 import hpcgfmd
 from hpcgfmd.errors import ResultFileError
-from hpcgfmd.storage.casefile import SERIES
+from hpcgfmd.storage.result_file import SERIES
 
 import cases
 

@@ -114,7 +114,7 @@ def test_rows_with_the_grid_from_the_accuracy(serial):
 
 
 def test_grid_from_the_accuracy_is_the_knobs_and_no_nx_is_given():
-    from hpcgfmd.model.case import parse_case
+    from hpcgfmd.case import parse_case
     from hpcgfmd.studies.benchmark import auto_grid_cases
 
     geometry = {k: GROUPS[k] for k in ("modulus_ratio", "depth", "cell", "adhesion")}

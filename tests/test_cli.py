@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from hpcgfmd.model import accuracy
-from hpcgfmd.model.case import parse_case
+from hpcgfmd.case import parse_case
 from hpcgfmd.storage.reader import read_series
 
 import cases
@@ -112,7 +112,7 @@ def test_automatic_nx_is_the_smallest_grid_size_resolving_the_zone(knob):
     case = parse_case(case_text(maugis="7.0", numerics=f"accuracy = {knob}"))
     assert case.numerics.nx_automatic
     nx = case.numerics.nx
-    want = accuracy.zone_points(knob, case.chi_ve, case.k, case.lambda0)
+    want = accuracy.zone_points(knob, case.chi_ve, case.modulus_ratio, case.maugis)
     assert case.zone_width / case.dx >= want
     # every size f 2^a (f = 1, 3, 9) below nx leaves the zone under-resolved
     sizes = {f * 2**a for f in (1, 3, 9) for a in range(1, 30)}

@@ -10,7 +10,7 @@ import pytest
 from mpi4py import MPI
 
 from cases import case_text
-from hpcgfmd.model.case import parse_case
+from hpcgfmd.case import parse_case
 from hpcgfmd.runs import coarse_start
 from hpcgfmd.runs.protocol import Retraction
 

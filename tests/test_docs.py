@@ -24,8 +24,11 @@ from pathlib import Path
 import pytest
 
 from hpcgfmd.errors import SweepError
-from hpcgfmd.model.case import OUTPUT_KEYS, parse_case
-from hpcgfmd.model.numerics import NUMERICS_KEYS
+from hpcgfmd.case import parse_case
+from hpcgfmd.case.numerics import numerics_keys
+from hpcgfmd.case.output import OUTPUT_KEYS
+
+NUMERICS_KEYS = numerics_keys()
 from hpcgfmd.runs.sweep import parse_sweep
 
 from cases import case_text, physical_text
@@ -148,8 +151,8 @@ def namespace(case):
     return {"dmax": case.dmax * u.length, "v_z": case.indenter_speed * u.length / u.time,
             "h0": case.depth * u.length, "tau": u.time, "L": case.cell * u.length, "R": u.length,
             "w": case.zone_width * u.length, "nx": num.nx, "dt": num.dt * u.time,
-            "fixed": num.step_control == "fixed", "accuracy": num.accuracy, "k": case.k,
-            "chi_ve": case.chi_ve, "lambda0": case.lambda0, "compliant": case.compliant,
+            "fixed": num.step_control == "fixed", "accuracy": num.accuracy, "k": case.modulus_ratio,
+            "chi_ve": case.chi_ve, "lambda0": case.maugis, "compliant": case.compliant,
             "ceil": math.ceil,
             "log2": math.log2, "sqrt": math.sqrt, "min": min, "max": max, "round": round}
 
@@ -159,6 +162,8 @@ def parsed(case, key):
     u, num, out = case.units, case.numerics, case.output
     if key in ("dt", "dt_min", "dt_max"):
         return getattr(num, key) * u.time
+    if key in dict(num.solver_settings):
+        return num.setting(key)
     if key in NUMERICS_KEYS:
         return getattr(num, key)
     if key == "snapshot_times":

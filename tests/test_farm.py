@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from hpcgfmd.storage.reader import read_series
-from hpcgfmd.model.case import parse_case
+from hpcgfmd.case import parse_case
 from hpcgfmd.errors import SweepError
 from hpcgfmd.runs.sweep import parse_sweep
 from cases import FIXED_STEPS, case_text
@@ -86,7 +86,7 @@ def test_bad_sweep_files_are_rejected(text, words):
 def test_base_from_a_case_file(tmp_path):
     (tmp_path / "case.toml").write_text(case_text("nx = 1024"))
     sweep = parse_sweep('base = "case.toml"\n[grid]\nvelocity = [1.0, 2.0]\n', str(tmp_path))
-    assert [c.case.Vz for c in sweep.cases] == [1.0, 2.0]
+    assert [c.case.velocity for c in sweep.cases] == [1.0, 2.0]
 
 
 # --- the farm as a user runs it ------------------------------------------------------------

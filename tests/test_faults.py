@@ -19,7 +19,7 @@ import pytest
 from mpi4py import MPI
 
 from hpcgfmd.errors import Interrupted
-from hpcgfmd.model.case import parse_case
+from hpcgfmd.case import parse_case
 from hpcgfmd.runs.single_case import run_case
 from hpcgfmd.storage.checkpoint import (checkpoint_path, checkpoint_problem, previous_path,
                                         usable_checkpoint, write_checkpoint)
@@ -324,8 +324,8 @@ def poison(monkeypatch, at_step, velocity=None):
     advance = Retraction._advance
 
     def poisoned(self, dt, end=None):
-        if self.step_index + 1 == at_step and velocity in (None, self.case.Vz):
-            self.substrate_traction[5] = np.nan
+        if self.surface.step_index + 1 == at_step and velocity in (None, self.case.velocity):
+            self.substrate.traction[5] = np.nan
         return advance(self, dt, end)
 
     monkeypatch.setattr(Retraction, "_advance", poisoned)
@@ -338,7 +338,7 @@ def test_non_finite_value_fails_the_case_naming_step_and_quantity(tmp_path, monk
                  stop=StopAtStep(10**9))
     message = str(err.value)
     assert "\n" not in message and message.startswith("step 7 (t = 0.35 tau)")
-    assert "non-finite values in: u, history, substrate_traction" in message
+    assert "non-finite values in: u, history, substrate traction" in message
     s = read_series(tmp_path / "case.h5")  # the steps before it are kept, unfinished
     assert not s.attrs["finished"] and s.time.size == 7
 

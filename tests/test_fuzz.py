@@ -29,8 +29,11 @@ from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 from hpcgfmd.errors import CaseError, SweepError  # noqa: E402
-from hpcgfmd.model.case import CASE_KEYS, OUTPUT_KEYS, PHYSICAL_KEYS, parse_case  # noqa: E402
-from hpcgfmd.model.numerics import MIN_TOLERANCE, NUMERICS_KEYS  # noqa: E402
+from hpcgfmd.case import parse_case  # noqa: E402
+from hpcgfmd.case.groups import GROUP_KEYS as CASE_KEYS  # noqa: E402
+from hpcgfmd.case.numerics import MIN_TOLERANCE, numerics_keys  # noqa: E402
+from hpcgfmd.case.output import OUTPUT_KEYS  # noqa: E402
+from hpcgfmd.case.units import PHYSICAL_KEYS  # noqa: E402
 from hpcgfmd.runs.single_case import describe  # noqa: E402
 from hpcgfmd.runs.sweep import parse_sweep  # noqa: E402
 
@@ -154,7 +157,7 @@ VALID = {
                "checkpoint_steps": st.integers(0, 1000).map(str)},
 }
 assert set(VALID["case"]) == set(CASE_KEYS) and set(VALID["physical"]) == set(PHYSICAL_KEYS)
-assert set(VALID["numerics"]) == set(NUMERICS_KEYS) and set(VALID["output"]) == set(OUTPUT_KEYS)
+assert set(VALID["numerics"]) == set(numerics_keys()) and set(VALID["output"]) == set(OUTPUT_KEYS)
 ALL_KEYS = sorted({k for keys in VALID.values() for k in keys})
 
 
@@ -463,7 +466,7 @@ def check_case(case, where="case"):
         assert math.isfinite(value) and value > 0, (where, name, value)
     assert 0 < n.dt_min <= n.dt_max, where
     assert 0 < n.accuracy < 0.1 and MIN_TOLERANCE <= n.tolerance < 0.01, where
-    assert n.max_iterations >= 1 and n.equilibration_steps >= 1, where
+    assert n.max_iterations >= 1 and all(v >= 1 for _, v in n.solver_settings), where
     assert n.solver in ("cg", "paper") and n.step_control in ("adaptive", "fixed"), where
     o = case.output
     # (inf: a time beyond the float range in units of tau, never reached)

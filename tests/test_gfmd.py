@@ -19,7 +19,7 @@ from mpi4py import MPI
 from hpcgfmd.parallel.fft import plan_real_fft
 from hpcgfmd.solvers.verlet import DampedVerletGFMD, contraction, pseudo_step
 from hpcgfmd.model.interface import DugdaleMaugis
-from hpcgfmd.model.material import StepOperators
+from hpcgfmd.model.halfspace import StepOperators
 from hpcgfmd.solvers.base import SolveResult
 
 SIZES = [2, 16, 30, 64, 96, 1000, 2**12]
@@ -142,7 +142,9 @@ def test_elastic_indentation_matches_constrained_cg(grid_factory, modulus):
     assert np.all(u <= wall) and abs(u.mean()) < 1e-15 * depth
 
 
-def test_solver_interface_delegates_to_constrained_cg(grid_factory):
+def test_the_measure_of_a_state_is_the_cg_solvers(grid_factory):
+    # the step problem's residual, multiplier and K u of the Verlet's result (StepProblem
+    # .measure) against a CG solve started there, which converges at once to the same
     grid = grid_factory(256, 4.0)
     n, depth = grid.n, 0.04
     ops = StepOperators.from_modulus(grid.half_q, 1.0, n)
@@ -156,11 +158,13 @@ def test_solver_interface_delegates_to_constrained_cg(grid_factory):
     cg = grid.solver(sigma_a=0.1, dmax=0.01, scale=0.1)
     cg.solve(u.copy(), wall, ops, history)  # sets cg's K u at (almost) the same u
     p, p_cg = np.empty(n), np.empty(n)
-    solver.interface_traction(u, wall, history, result.mean_traction, p)
-    cg.interface_traction(u, wall, history, result.mean_traction, p_cg)
+    solver.problem.interface_traction(u, solver.elastic_traction(), wall, history,
+                                      result.mean_traction, p)
+    cg.problem.interface_traction(u, cg.elastic_traction(), wall, history,
+                                  result.mean_traction, p_cg)
     np.testing.assert_allclose(p, p_cg, rtol=0, atol=1e-10)
-    assert solver.energy(u, wall, ops, history) == pytest.approx(
-        cg.energy(u, wall, ops, history), rel=1e-12)
+    assert solver.problem.energy(u, wall, ops, history) == pytest.approx(
+        cg.problem.energy(u, wall, ops, history), rel=1e-12)
 
 
 @pytest.mark.parametrize("sigma_a", [0.0, 0.1])
@@ -273,7 +277,7 @@ def test_retraction_with_few_pseudo_steps_lags_cg_only_slightly():
     # of CG's (relative), residual 8e-8; before the last pseudo step was projected exactly
     # the first step's load was -33.06 instead of +11.89 (contact lost in the evaluation).
     from cases import case_text
-    from hpcgfmd.model.case import parse_case
+    from hpcgfmd.case import parse_case
     from hpcgfmd.runs.protocol import Retraction
 
     def run(numerics):
@@ -299,7 +303,7 @@ def test_whole_retraction_same_branch_as_cg():
     steps per step (the slowest mode contracts by ~1e-3 per step, and the previous step's
     lag carries over only through that mode)."""
     from cases import case_text
-    from hpcgfmd.model.case import parse_case
+    from hpcgfmd.case import parse_case
     from hpcgfmd.runs.protocol import Retraction
 
     def run(numerics):

@@ -1,4 +1,4 @@
-"""The SLS history's time error (hpcgfmd.solvers.stepping.HistoryError) against the exact
+"""The SLS history's time error (hpcgfmd.solvers.history_error.HistoryError) against the exact
 convolution of a prescribed displacement history.
 
 One Fourier mode u(x, t) = g(t) cos(2 pi x / L) on a relaxed start (g(0) = g'(0) = 0), whose
@@ -16,10 +16,11 @@ import pytest
 from mpi4py import MPI
 from scipy.integrate import quad
 
-from hpcgfmd.model.material import StandardLinearSolid, ViscoelasticHalfSpace
+from hpcgfmd.model.halfspace import MaxwellHalfSpace
+from hpcgfmd.model.material import GeneralizedMaxwell
 from hpcgfmd.parallel.domain import Domain
 from hpcgfmd.parallel.fft import aligned_empty, plan_real_fft
-from hpcgfmd.solvers.stepping import CURVATURE_AGE, CURVATURE_LIFETIME, HistoryError
+from hpcgfmd.solvers.history_error import CURVATURE_AGE, CURVATURE_LIFETIME, HistoryError
 
 N, CELL, E0, EINF, TAU = 64, 1.0, 1.0, 10.0, 1.0
 
@@ -34,7 +35,9 @@ class Mode:
         self.shape = np.cos(2 * np.pi * self.domain.x / CELL)
         half_q = np.pi * np.abs(self.fft.wavenumber) / CELL
         self.half_q_mode = np.pi / CELL  # |q|/2 of the mode
-        self.substrate = ViscoelasticHalfSpace(StandardLinearSolid(E0, EINF, TAU), half_q, N)
+        self.half_q = half_q
+        self.substrate = MaxwellHalfSpace(GeneralizedMaxwell.standard_linear(E0, EINF, TAU),
+                                          half_q, N, N)
         self.estimator = HistoryError(self.substrate, self.fft, self.domain, crossing_reach)
         self.state = np.where(self.shape > 0, 2, 0).astype(np.int8)
         self.contact_weight = self.shape[self.state == 2].sum() * self.domain.dx
@@ -54,13 +57,17 @@ class Mode:
         return 2.0 * np.mean(p * self.shape)
 
     def step(self, u_before, p, dt, u_after):
-        """The protocol's step: p_{n+1} = K u_{n+1} + H(u_n, p_n)."""
+        """The protocol's step from the state (u_n, p_n): p_{n+1} = K u_{n+1} + H(u_n, p_n),
+        the substrate's new state."""
+        sub = self.substrate
+        sub.traction[:] = p
+        self.fft.apply_diagonal(u_before, self.half_q * (1.0 / N), sub.relaxed)  # G_n
         history = aligned_empty(N)
-        self.substrate.start(self.fft, u_before)
-        self.substrate.history(self.fft, u_before, p, dt, history)
+        sub.history(dt, history)
         elastic = aligned_empty(N)
-        self.fft.apply_diagonal(u_after, self.substrate.operators(dt).stiffness, elastic)
-        return elastic + history
+        self.fft.apply_diagonal(u_after, sub.operators(dt).stiffness, elastic)
+        sub.update(elastic, history, dt)
+        return sub.traction
 
     def run(self, h, steps, corrected=True):
         """Steps of length h from the exact state at t = 2h (the estimate needs two states
@@ -77,9 +84,10 @@ class Mode:
             estimates.append(e / abs(self.contact_weight))
             self.kept.append(kept / abs(self.contact_weight))
             if corrected:
-                self.estimator.correct(p)
+                self.estimator.correct()  # (into the substrate's traction, which is p)
             else:
                 self.estimator.forget()
+            p = p.copy()
             errors.append(self.amplitude(p) - self.exact((j + 1) * h))
         return np.array(errors), np.array(estimates)
 

@@ -14,8 +14,9 @@ from hpcgfmd.storage import checkpoint as ckpt
 from hpcgfmd.storage.reader import read_series
 from hpcgfmd.storage.checkpoint import (checkpoint_path, read_checkpoint, remove_checkpoint,
                                 write_checkpoint)
-from hpcgfmd.model.case import parse_case
-from hpcgfmd.storage.casefile import SERIES, SERIES_UNITS, CaseFile
+from hpcgfmd.case import parse_case
+from hpcgfmd.parallel.domain import Domain
+from hpcgfmd.storage.result_file import SERIES, SERIES_UNITS, ResultFile
 
 from cases import case_text, physical_text
 
@@ -37,6 +38,12 @@ def grid(case):
     return n, (np.arange(n) - n // 2) * case.cell / n
 
 
+def domain(case):
+    """The one-rank grid of ``case``."""
+    n = case.numerics.nx
+    return Domain(COMM, n, case.cell, [(0, n)])
+
+
 def values(k):
     return {name: (k + 1 if name == "iterations" else 1.5 * k + j) for j, name in enumerate(SERIES)}
 
@@ -52,7 +59,7 @@ def test_case_file_round_trip(tmp_path, text):
     scale = {"time": u.time, "length": u.length, "load": u.load, None: 1.0}
     n, x = grid(case)
     path = tmp_path / "case.h5"
-    out = CaseFile(path, case, x, COMM, 0, n)
+    out = ResultFile(path, case, domain(case), COMM)
     for k in range(3):
         out.append_step(values(k))
     out.add_snapshot(0.5, *fields(x, 1))
@@ -75,15 +82,15 @@ def test_case_file_round_trip(tmp_path, text):
                                     (u.length, u.stress, u.length)):
             assert np.array_equal(snaps[name][()], [want * unit])
     with pytest.raises(FileExistsError):
-        CaseFile(path, case, x, COMM, 0, n)
-    CaseFile(path, case, x, COMM, 0, n, overwrite=True).close()
+        ResultFile(path, case, domain(case), COMM)
+    ResultFile(path, case, domain(case), COMM, overwrite=True).close()
     assert len(read_series(path).time) == 0
 
 
 def test_reopen_truncates(tmp_path, case):
     n, x = grid(case)
     path = tmp_path / "case.h5"
-    out = CaseFile(path, case, x, COMM, 0, n)
+    out = ResultFile(path, case, domain(case), COMM)
     for k in range(5):
         out.append_step(values(k))
         if k in (0, 3):
@@ -91,8 +98,8 @@ def test_reopen_truncates(tmp_path, case):
     out.finish({"steps": 4})
     out.close()
     with pytest.raises(ValueError, match="cannot resume"):
-        CaseFile.reopen(path, case, COMM, 0, n, steps=6, snapshots=1)
-    out = CaseFile.reopen(path, case, COMM, 0, n, steps=3, snapshots=1)
+        ResultFile.reopen(path, case, domain(case), COMM, steps=6, snapshots=1)
+    out = ResultFile.reopen(path, case, domain(case), COMM, steps=3, snapshots=1)
     assert read_series(path).attrs["finished"] is False
     out.append_step(values(10))
     out.add_snapshot(9.0, *fields(x, 9))
@@ -146,7 +153,7 @@ def test_checkpoint_round_trip(tmp_path):
 
 def test_checkpoint_rejects_other_files(tmp_path, case):
     n, x = grid(case)
-    CaseFile(tmp_path / "case.h5", case, x, COMM, 0, n).close()
+    ResultFile(tmp_path / "case.h5", case, domain(case), COMM).close()
     with pytest.raises(ValueError, match="not an hpcgfmd checkpoint"):
         read_checkpoint(tmp_path / "case.h5", COMM, 0, n)
     (tmp_path / "junk").write_text("junk")

@@ -11,26 +11,29 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "hpcgfmd"
 
 # Which parts each part may import (besides itself). The foundation (``errors``, ``signals``,
-# the package's ``__version__``) may be imported by every part. The bare package is not: a
+# ``state``, ``atomic``, the package's ``__version__``) may be imported by every part. The bare package is not: a
 # ``from hpcgfmd import x`` counts as an import of ``hpcgfmd.x``, and an ``import hpcgfmd``
 # (whose attribute uses cannot be followed here) only its own __init__ may make.
-FOUNDATION = {"errors", "signals", "__version__"}
+FOUNDATION = {"errors", "signals", "state", "atomic", "__version__"}
 ALLOWED = {
     "errors": set(),
     "signals": set(),
+    "state": set(),
+    "atomic": set(),
     "model": set(),
     "parallel": set(),
     "solvers": {"model", "parallel"},
+    "case": {"model", "solvers"},
     "storage": {"model"},
-    "runs": {"model", "parallel", "solvers", "storage"},
-    "studies": {"model", "parallel", "solvers", "storage", "runs"},
-    "paper": {"model", "runs", "storage", "studies"},
-    "api": {"model", "storage", "runs"},
+    "runs": {"model", "parallel", "solvers", "case", "storage"},
+    "studies": {"model", "parallel", "solvers", "case", "storage", "runs"},
+    "paper": {"model", "case", "runs", "storage", "studies"},
+    "api": {"model", "case", "storage", "runs"},
     "logs": set(),
-    "cli": {"model", "runs", "storage", "studies", "paper", "logs"},
+    "cli": {"model", "case", "runs", "storage", "studies", "paper", "logs"},
     "entry": {"cli"},
     "__main__": {"entry"},
-    "hpcgfmd": {"api", "model", "storage"},  # __init__: the lazy API names
+    "hpcgfmd": {"api", "case", "storage"},  # __init__: the lazy API names
 }
 
 
@@ -110,10 +113,10 @@ def test_imports_follow_the_layers(path):
 
 def test_an_upward_import_is_caught():
     # The checker itself: the model importing the protocol, or the storage a solver.
-    case = PACKAGE / "model" / "case.py"
+    case = PACKAGE / "model" / "material.py"
     assert violations(case, case.read_text() + "\nfrom ..runs.protocol import Retraction\n") \
         == ["hpcgfmd.runs.protocol"]
-    casefile = PACKAGE / "storage" / "casefile.py"
+    casefile = PACKAGE / "storage" / "result_file.py"
     assert violations(casefile, "from hpcgfmd.solvers import cg\n") == ["hpcgfmd.solvers"]
     assert violations(casefile, "def f():\n    from ..runs import farm\n") == ["hpcgfmd.runs"]
 
@@ -121,7 +124,7 @@ def test_an_upward_import_is_caught():
 def test_an_import_through_the_package_root_is_caught():
     # From the package root, the names imported decide the part: the root itself is not the
     # foundation, only its __version__ is.
-    case = PACKAGE / "model" / "case.py"
+    case = PACKAGE / "model" / "material.py"
     assert violations(case, "from hpcgfmd import runs\n") == ["hpcgfmd.runs"]
     assert violations(case, "from hpcgfmd import errors, runs as r, solvers\n") \
         == ["hpcgfmd.runs", "hpcgfmd.solvers"]

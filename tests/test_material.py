@@ -1,42 +1,56 @@
-"""Standard linear solid: exact step, creep against J(t), one elastic mode."""
+"""The standard linear solid as the one-branch half-space: exact step, creep against J(t),
+one elastic mode."""
 import math
 
 import numpy as np
 import pytest
 
-from hpcgfmd.model.material import StandardLinearSolid, ViscoelasticHalfSpace
+from hpcgfmd.model.halfspace import MaxwellHalfSpace
+from hpcgfmd.model.material import GeneralizedMaxwell
 
-SLS = StandardLinearSolid(e_relaxed=1.0, e_instantaneous=10.0, relaxation_time=1.0)
+SLS = GeneralizedMaxwell.standard_linear(1.0, 10.0, 1.0)
 
 
 def test_step_limits():
+    # dt -> 0: the instantaneous modulus; dt = inf: the relaxed solid without history (M7)
     assert SLS.step_factors(1e-9).e_eff == pytest.approx(10.0, rel=1e-8)
     relaxed = SLS.step_factors(math.inf)
-    assert (relaxed.e_eff, relaxed.decay, relaxed.e_history) == (1.0, 0.0, 0.0)
+    assert (relaxed.e_eff, relaxed.decays, relaxed.e_history) == (1.0, (0.0,), 0.0)
+
+
+def test_step_factors_are_the_closed_form_sls_step():
+    # (M7)-(M8) written out: a = exp(-dt/tau), Eeff = E0 + (Einf - E0) tau (1 - a) / dt
+    for dt in (1e-3, 0.3, 7.0):
+        a = math.exp(-dt)
+        e_eff = 1.0 + 9.0 * (1.0 - a) / dt
+        factors = SLS.step_factors(dt)
+        assert factors.e_eff == pytest.approx(e_eff, rel=1e-12)
+        assert factors.e_history == pytest.approx(1.0 * (1.0 - a) - e_eff, rel=1e-12)
 
 
 def creep_error(grid, dt, t_end, mode=3, amplitude=1e-3):
     """Max error of u(t) of one mode under a step traction, against (2p/|q|) J(t).
 
-    Runs the real solver path: ViscoelasticHalfSpace history + ConstrainedCG with an applied
+    Runs the real solver path: the half-space's history and a ConstrainedCG with an applied
     traction and the wall far away. The state starts just after the step (t = 0+): the
-    instantaneous response u = p/(s Einf), history consistent with a relaxed past.
+    instantaneous response u = p/(s Einf), history consistent with a relaxed past
+    (G = s u, p the applied traction).
     """
-    half_space = ViscoelasticHalfSpace(SLS, grid.half_q, grid.n)
+    half_space = MaxwellHalfSpace(SLS, grid.half_q, grid.n, grid.n)
     solver = grid.solver(tolerance=1e-13, scale=amplitude)
     s = grid.half_q[mode]
     applied = amplitude * np.cos(2 * math.pi * mode * grid.x / grid.cell)
     u = applied / (s * SLS.e_instantaneous)
-    p_sub = applied.copy()
+    half_space.traction[:] = applied
+    half_space.relaxed[:] = s * u
     wall = np.full(grid.n, 1.0)
     history = np.empty(grid.n)
-    half_space.start(grid.fft, u)
     err = 0.0
     for i in range(1, int(round(t_end / dt)) + 1):
-        half_space.history(grid.fft, u, p_sub, dt, history)
+        half_space.history(dt, history)
         res = solver.solve(u, wall, half_space.operators(dt), history, applied=applied)
         assert res.converged
-        half_space.update(solver.elastic_traction(), history, dt, p_sub)
+        half_space.update(solver.elastic_traction(), history, dt)
         exact = applied / s * SLS.creep_compliance(i * dt)
         err = max(err, np.abs(u - exact).max() / (amplitude / s))
     return err
@@ -53,7 +67,8 @@ def test_creep_of_one_mode_second_order_in_dt(grid_factory):
 
 def test_one_mode_elastic_amplitude_to_roundoff(grid_factory):
     grid = grid_factory(256, 2.0)
-    half_space = ViscoelasticHalfSpace(StandardLinearSolid(2.5, 2.5, 1.0), grid.half_q, grid.n)
+    elastic = GeneralizedMaxwell.standard_linear(2.5, 2.5, 1.0)
+    half_space = MaxwellHalfSpace(elastic, grid.half_q, grid.n, grid.n)
     solver = grid.solver(tolerance=1e-14)
     for mode in (1, 17, 128):
         q = 2 * math.pi * mode / grid.cell

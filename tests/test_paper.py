@@ -120,7 +120,7 @@ def test_instantaneous_limit_and_convergence_checks_on_known_curves():
 
 def elastic_case(maugis):
     """The elastic case of Fig. 4's tiny sweep (:data:`TINY`) at ``maugis``."""
-    from hpcgfmd.model.case import parse_case
+    from hpcgfmd.case import parse_case
 
     return parse_case(case_text("accuracy = 1e-2", maugis=maugis, modulus_ratio=1.0,
                                 depth=0.05, cell=4.0))
@@ -146,7 +146,7 @@ def elastic_run(maugis):
               ("time", "indenter", "load", "contact_half_width", "cohesive_half_width",
                "iterations", "residual", "dt")}
     attrs = {"beta": case.beta, "load_scale": case.load_scale, "time_unit": 1.0,
-             "length_unit": 1.0, "lambda0": case.lambda0, "k": case.k, "Vz": case.Vz,
+             "length_unit": 1.0, "lambda0": case.maugis, "k": case.modulus_ratio, "Vz": case.velocity,
              "chi_ve": case.chi_ve, "depth": case.depth, "cell": case.cell}
     return curves.Retraction.from_series(Series(attrs=attrs, **column))
 
@@ -231,8 +231,8 @@ def test_shipped_study_merges_shared_runs():
     assert len(members["9"]) == 6 and len(members["5"]) == 8 and len(members["4"]) == 4
     # every case carries the paper's groups: k = 0.1 (1 for Fig. 4), L/R = 10, alpha = 5e-5
     for item in sweep.cases:
-        assert item.case.cell == 10.0 and item.case.alpha == 5e-5
-        assert item.case.k == (1.0 if item.name in members["4"] else 0.1)
+        assert item.case.cell == 10.0 and item.case.adhesion == 5e-5
+        assert item.case.modulus_ratio == (1.0 if item.name in members["4"] else 0.1)
     assert {c.case.numerics.accuracy for c in sweep.cases} == {study.DEFAULT_ACCURACY}
     # what docs/paper.md states: 33 runs at accuracy 1e-2, the output directory "paper"
     assert len(sweep.cases) == 33 and study.DEFAULT_ACCURACY == 1e-2

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from hpcgfmd.model.case import parse_case
+from hpcgfmd.case import parse_case
 from hpcgfmd.parallel.domain import Domain
+from hpcgfmd.state import State
 from hpcgfmd.runs.protocol import Retraction
 from hpcgfmd.solvers.predictor import Predictor, lagrange_weights
 from hpcgfmd.solvers.step_kernels import quadratic_guess
@@ -81,18 +82,18 @@ def test_state_round_trip_keeps_the_quadratic():
         u = _motion(times[i - 1], domain.x)
         _start(first, u, wall, times[i - 1], times[i],
                None if i == 1 else times[i - 1] - times[i - 2], _motion(times[i], domain.x))
-    fields, attrs = first.state(np.zeros(N))
+    state = first.state()
     second = Predictor(domain, window=0.1)
-    second.restore({k: v.copy() for k, v in fields.items()}, attrs)
+    second.restore(State({k: v.copy() for k, v in state.arrays.items()}, dict(state.scalars)))
     u = _motion(times[2], domain.x)
     exact = _motion(times[3], domain.x)
     _start(second, u, wall, times[2], times[3], times[2] - times[1], exact)
     np.testing.assert_allclose(u, exact, rtol=0, atol=1e-14)
-    # a checkpoint without u_{n-2} (written before the quadratic guess) starts linear
+    # without u_{n-2} (after a segment's start, or the preload's first step) it starts linear
+    older = State({k: v.copy() for k, v in state.arrays.items()},
+                  dict(state.scalars, has_before_previous=False))
     old = Predictor(domain, window=0.1)
-    old.restore({"u_previous": fields["u_previous"].copy()},
-                {k: attrs[k] for k in ("has_previous", "rejected_predictions",
-                                       "predictor_choice")})
+    old.restore(older)
     assert old.u_before_previous is None
     u = _motion(times[2], domain.x)
     _start(old, u, wall, times[2], times[3], times[2] - times[1], exact)

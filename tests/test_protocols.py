@@ -25,7 +25,7 @@ from mpi4py import MPI
 from cases import PHYSICAL, case_text, whole_run
 from hpcgfmd.errors import CaseError
 from hpcgfmd.model import theory
-from hpcgfmd.model.case import parse_case
+from hpcgfmd.case import parse_case
 from hpcgfmd.runs.protocol import Retraction
 
 CYCLE = """
@@ -46,11 +46,11 @@ def records_of(text, energy=False):
 
     def total_energy():
         """Pi = (1/2) int u K u dx + int phi(g) dx, phi = -dgamma0 + sigma_a g in the zone."""
-        u = sim.u
-        elastic = 0.5 * sim.dx * np.dot(u, np.fft.irfft(half_q * np.fft.rfft(u), n=sim.n))
-        gap = sim.gap()
-        phi = np.where(gap < case.dmax, -case.alpha + case.sigma_a * np.maximum(gap, 0.0), 0.0)
-        return elastic + sim.dx * phi.sum()
+        u = sim.surface.u
+        elastic = 0.5 * sim.domain.dx * np.dot(u, np.fft.irfft(half_q * np.fft.rfft(u), n=sim.n))
+        gap = sim.equilibrium.gap()
+        phi = np.where(gap < case.dmax, -case.adhesion + case.sigma_a * np.maximum(gap, 0.0), 0.0)
+        return elastic + sim.domain.dx * phi.sum()
 
     try:
         records = [sim.preload()]
@@ -240,7 +240,7 @@ def test_protocol_units_and_identity():
                       + "velocity = 2.0\n")
     approach, dwell, retract = case.protocol
     assert approach.target == -0.03 and approach.rate == case.indenter_speed
-    assert dwell.target == 1.0 and retract.rate == 2.0 * case.alpha ** (2.0 / 3.0)
+    assert dwell.target == 1.0 and retract.rate == 2.0 * case.adhesion ** (2.0 / 3.0)
     assert case.identity() != parse_case(case_text()).identity()
     assert parse_case(case.text).identity() == case.identity()
     physical = parse_case(PHYSICAL + "\n[[protocol]]\napproach = 1e-5\nvelocity = 1e-6\n"
@@ -277,7 +277,7 @@ def test_a_segment_starts_with_the_linear_step():
         while not sim.finished():
             segments.append(sim.step().segment)
             quadratic.append(sim.substrate.last_step_quadratic)
-            estimated.append(sim.history_window.error.has_previous)
+            estimated.append(sim.window.error.has_previous)
     finally:
         sim.close()
     steps = range(1, len(segments))

@@ -11,7 +11,7 @@ import pytest
 from mpi4py import MPI
 
 from hpcgfmd.storage.reader import read_series
-from hpcgfmd.model.case import parse_case
+from hpcgfmd.case import parse_case
 from hpcgfmd.errors import Interrupted, NonConvergenceError
 from hpcgfmd.runs.single_case import run_case
 from hpcgfmd.storage.checkpoint import checkpoint_path, read_checkpoint_attrs
@@ -82,27 +82,6 @@ def test_interrupted_and_resumed_equals_uninterrupted_bitwise(tmp_path, text, st
             np.testing.assert_array_equal(b["snapshots"][name][:], a["snapshots"][name][:])
 
 
-def test_a_state_without_the_relaxed_traction_is_restored_from_u():
-    # checkpoints written before the SLS kept G = (|q|/2) u (commit 371c31c and older) have
-    # no "relaxed_traction": restore transforms u once, and the run goes on as before
-    from hpcgfmd.runs.protocol import Retraction
-    case = parse_case(case_text("nx = 1024"))
-    sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
-    sim.preload()
-    for _ in range(5):
-        sim.step()
-    fields, attrs = sim.state()
-    fields = {name: block.copy() for name, block in fields.items()}
-    kept = fields.pop("relaxed_traction")
-    resumed = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
-    resumed.restore(fields, attrs)
-    scale = np.abs(kept).max()
-    assert np.abs(resumed.substrate.relaxed_traction - kept).max() <= 1e-12 * scale
-    loads = [sim.step().load for _ in range(3)]
-    resumed_loads = [resumed.step().load for _ in range(3)]
-    np.testing.assert_allclose(resumed_loads, loads, rtol=1e-9)
-
-
 def test_a_run_stopped_at_its_iteration_cap_resumes_with_a_higher_cap(tmp_path):
     # The cap's error says "raise [numerics] max_iterations": the run checkpoints its last
     # accepted step as it stops (here its only checkpoint: none by steps, none in 600 s),
@@ -121,7 +100,7 @@ def test_a_run_stopped_at_its_iteration_cap_resumes_with_a_higher_cap(tmp_path):
     stopped = read_series(tmp_path / "parts.h5").load.size
     assert stopped > 100  # stopped late, not at once
     checkpoint = read_checkpoint_attrs(checkpoint_path(tmp_path / "parts.h5"))
-    assert checkpoint["step_index"] == stopped - 1
+    assert checkpoint["surface.step_index"] == stopped - 1
     run_case(uncapped, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, resume=True,
              stop=StopAtStep(10**9))
     whole, parts = read_series(tmp_path / "whole.h5"), read_series(tmp_path / "parts.h5")
@@ -129,27 +108,36 @@ def test_a_run_stopped_at_its_iteration_cap_resumes_with_a_higher_cap(tmp_path):
         np.testing.assert_array_equal(getattr(parts, name), getattr(whole, name), err_msg=name)
 
 
-def test_the_identities_of_the_version_that_hashed_the_cap_are_owned():
-    # identities written by the versions that hashed the cap (computed on commit 4cc8f77) of
-    # this case under its default cap there (5000 + the contact's 251 nodes, today's
-    # default too), under the default 5000 of the versions before 56eb886, and under a cap
-    # of 30: a run of theirs stopped at a default cap continues under a raised one (20000),
-    # one with a cap of its own only under that cap. Their default solver tolerance was
-    # 1e-3 at this accuracy (2.5e-3 now): their runs continue with that tolerance given,
-    # and a case left to today's default is another case
-    old = "nx = 1024\ntolerance = 1e-3"
-    case = parse_case(case_text(old, velocity=9.0))
-    raised = parse_case(case_text(old + "\nmax_iterations = 20000", velocity=9.0))
-    capped = parse_case(case_text(old + "\nmax_iterations = 30", velocity=9.0))
-    today = parse_case(case_text("nx = 1024", velocity=9.0))
-    assert today.numerics.tolerance == 2.5e-3
-    assert not today.owns_identity("dbd0e40dc01236e4")
-    assert case.numerics.max_iterations == 5251
-    for owner in (case, raised):
-        assert owner.owns_identity(case.identity())
-        assert owner.owns_identity("dbd0e40dc01236e4") and owner.owns_identity("2a3b33f48065b670")
-        assert not owner.owns_identity("20ae078e533b8320")
-    assert capped.owns_identity("20ae078e533b8320")
-    other = parse_case(case_text(old, velocity=8.0))
-    assert not other.owns_identity(case.identity())
-    assert not other.owns_identity("dbd0e40dc01236e4")
+def test_the_identity_leaves_out_the_cap_and_the_output():
+    # what changes the series changes the identity; the iteration cap (a run stopped by it
+    # continues under a raised one) and [output] (what is written) do not
+    case = parse_case(case_text("nx = 1024", velocity=9.0))
+    same = [case_text("nx = 1024\nmax_iterations = 30", velocity=9.0),
+            case_text("nx = 1024", "progress_interval = 1.0", velocity=9.0)]
+    other = [case_text("nx = 1024\ntolerance = 1e-3", velocity=9.0),
+             case_text("nx = 1024", velocity=8.0), case_text("nx = 2048", velocity=9.0),
+             case_text('nx = 1024\nsolver = "paper"', velocity=9.0)]
+    assert all(parse_case(text).identity() == case.identity() for text in same)
+    assert len({parse_case(text).identity() for text in other} | {case.identity()}) == 5
+
+
+def test_a_checkpoint_of_another_format_is_refused_in_one_line(tmp_path):
+    # written by another version of hpcgfmd: the case starts again (--overwrite)
+    import h5py
+
+    from hpcgfmd.errors import UsageError
+    from hpcgfmd.runs.resume import prepare_output
+    from hpcgfmd.storage.checkpoint import FORMAT_VERSION, checkpoint_path
+
+    case = parse_case(case_text("nx = 1024"))
+    out = tmp_path / "case.h5"
+    with pytest.raises(Interrupted):
+        run_case(case, out, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE", stop=StopAtStep(3))
+    with h5py.File(checkpoint_path(out), "r+") as f:
+        f.attrs["hpcgfmd_checkpoint"] = FORMAT_VERSION - 1
+    with pytest.raises(UsageError) as err:
+        prepare_output(MPI.COMM_SELF, case, str(out), overwrite=False)
+    message = str(err.value)
+    assert "\n" not in message
+    assert f"checkpoint format {FORMAT_VERSION - 1}, written by another version" in message
+    assert "start the case again" in message

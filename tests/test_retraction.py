@@ -16,7 +16,7 @@ from mpi4py import MPI
 
 from hpcgfmd.model import theory
 from hpcgfmd.storage.reader import read_series
-from hpcgfmd.model.case import parse_case
+from hpcgfmd.case import parse_case
 from hpcgfmd.runs.single_case import run_case
 
 from cases import case_text

@@ -6,7 +6,7 @@ import pytest
 
 from hpcgfmd.model import theory
 from hpcgfmd.model.interface import edge_positions
-from hpcgfmd.model.material import StepOperators
+from hpcgfmd.model.halfspace import StepOperators
 from hpcgfmd.solvers.projection import project_feasible
 
 from cases import FIXED_STEPS, case_text, pull_off_run
@@ -37,7 +37,8 @@ def hertz(grid, depth):
     res = solver.solve(u, wall, ops, np.zeros(grid.n))
     assert res.converged
     p = np.empty(grid.n)
-    solver.interface_traction(u, wall, np.zeros(grid.n), res.mean_traction, p)
+    solver.problem.interface_traction(u, solver.elastic_traction(), wall, np.zeros(grid.n),
+                                      res.mean_traction, p)
     left, right = edge_positions(grid.domain, wall - u, 0.0, 1.5)
     return -p.sum() * grid.dx, 0.5 * (right - left), res.iterations
 
@@ -79,13 +80,13 @@ def test_every_iteration_lowers_the_energy(k, velocity):
     # through the preload from flat (many wall contacts) and a retraction step.
     from mpi4py import MPI
 
-    from hpcgfmd.model.case import parse_case
+    from hpcgfmd.case import parse_case
     from hpcgfmd.runs.protocol import Retraction
 
     case = parse_case(case_text("nx = 2048", modulus_ratio=k, velocity=velocity))
     sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
     solver = sim.solver
-    np.add(sim.profile, sim.indenter, out=sim.wall)
+    np.add(sim.profile, sim.surface.indenter, out=sim.equilibrium.wall)
     ops = sim.substrate.operators(math.inf)
     start = np.zeros(sim.n)
     for phase in ("preload", "retraction"):
@@ -93,8 +94,9 @@ def test_every_iteration_lowers_the_energy(k, velocity):
         for m in range(0, 60):
             u = start.copy()
             solver.max_iterations, solver.tolerance = m, 0.0
-            solver.solve(u, sim.wall, ops, sim.history)
-            energies.append(solver.energy(u, sim.wall, ops, sim.history))
+            solver.solve(u, sim.equilibrium.wall, ops, sim.equilibrium.history)
+            energies.append(solver.problem.energy(u, sim.equilibrium.wall, ops,
+                                                  sim.equilibrium.history))
         rises = np.diff(energies)
         scale = np.abs(energies).max()
         assert np.all(rises <= 1e-12 * scale), (phase, rises.max() / scale)
@@ -105,11 +107,11 @@ def test_every_iteration_lowers_the_energy(k, velocity):
         sim.preload()
         for _ in range(20):
             sim.step()
-        start = sim.u.copy()
+        start = sim.surface.u.copy()
         dt = case.numerics.dt
-        sim.substrate.history(sim.fft, sim.u, sim.substrate_traction, dt, sim.history)
-        sim.indenter += case.indenter_speed * dt
-        np.add(sim.profile, sim.indenter, out=sim.wall)
+        sim.substrate.history(dt, sim.equilibrium.history)
+        sim.surface.indenter += case.indenter_speed * dt
+        np.add(sim.profile, sim.surface.indenter, out=sim.equilibrium.wall)
         ops = sim.substrate.operators(dt)
 
 

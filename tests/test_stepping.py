@@ -6,9 +6,10 @@ import math
 import pytest
 from mpi4py import MPI
 
-from hpcgfmd.model.case import parse_case
+from hpcgfmd.case import parse_case
 from hpcgfmd.runs.protocol import Retraction
-from hpcgfmd.solvers.stepping import KEPT_SHARE, AdaptiveSteps, tip_lag_error
+from hpcgfmd.solvers.stepping import KEPT_SHARE, AdaptiveSteps, StepOutcome
+from hpcgfmd.solvers.tip_lag import tip_lag_error
 
 from cases import case_text, pull_off_run
 
@@ -20,6 +21,13 @@ def controller(**kw):
     return AdaptiveSteps(**args)
 
 
+def judge(c, dt, time, load, edge_motion, history_error=0.0, zone_width=math.nan,
+          history_kept=None):
+    """The controller's verdict on a step of these outcomes."""
+    return c.judge(StepOutcome(dt, time, load, edge_motion, history_error, history_kept,
+                               zone_width))
+
+
 def grid(dt):
     """The step grid dt_min 2^(j/4) below dt (dt_min = 1/64)."""
     return 2.0 ** (math.floor(4 * math.log2(dt * 64) + 1e-9) / 4) / 64
@@ -27,11 +35,11 @@ def grid(dt):
 
 def test_quiet_steps_double_up_to_dt_max():
     c = controller()
-    dt, t = c.first_dt(), 0.0
+    dt, t = c.dt, 0.0
     c.accept(0.0, 0.0)
     for _ in range(8):
         t += dt
-        d = c.judge(dt, t, 0.0, 0.0)  # nothing moves, load stays on the line
+        d = judge(c, dt, t, 0.0, 0.0)  # nothing moves, load stays on the line
         assert d.accepted
         c.accept(t, 0.0)
         assert d.next_dt == min(2 * dt, 16.0)
@@ -41,13 +49,13 @@ def test_quiet_steps_double_up_to_dt_max():
 
 def test_edge_motion_sets_the_step_first_order():
     c = controller()
-    d = c.judge(1.0, 1.0, 0.0, 0.5)  # half the allowance: 0.9 / 0.5
+    d = judge(c, 1.0, 1.0, 0.0, 0.5)  # half the allowance: 0.9 / 0.5
     assert d.accepted and d.next_dt == grid(1.8)
-    d = c.judge(1.0, 1.0, 0.0, 1.5)  # above the allowance, below the rejection bound
+    d = judge(c, 1.0, 1.0, 0.0, 1.5)  # above the allowance, below the rejection bound
     assert d.accepted and d.next_dt == grid(0.6)
-    d = c.judge(1.0, 1.0, 0.0, 3.0)  # more than twice: rejected, retried shorter
+    d = judge(c, 1.0, 1.0, 0.0, 3.0)  # more than twice: rejected, retried shorter
     assert not d.accepted and d.next_dt == grid(0.3)
-    d = c.judge(1.0, 1.0, 0.0, math.inf)  # contact vanished in the step: shortest retry
+    d = judge(c, 1.0, 1.0, 0.0, math.inf)  # contact vanished in the step: shortest retry
     assert not d.accepted and d.next_dt == grid(0.25) == 0.25
 
 
@@ -55,11 +63,11 @@ def test_load_deviation_second_order_and_dt_min_accepts():
     c = controller()
     c.accept(0.0, 0.0)
     c.accept(1.0, 1.0)
-    d = c.judge(1.0, 2.0, 2.0 + 0.25, 0.0)  # off the line by 1/4 tolerance: 0.9 / sqrt(0.25)
+    d = judge(c, 1.0, 2.0, 2.0 + 0.25, 0.0)  # off the line by 1/4 tolerance: 0.9 / sqrt(0.25)
     assert d.accepted and d.next_dt == grid(1.8)
-    d = c.judge(1.0, 2.0, 2.0 + 9.0, 0.0)  # 9 tolerances: rejected, 0.9 / 3
+    d = judge(c, 1.0, 2.0, 2.0 + 9.0, 0.0)  # 9 tolerances: rejected, 0.9 / 3
     assert not d.accepted and d.next_dt == grid(0.3)
-    d = c.judge(1 / 64, 1.01, 50.0, 10.0)  # a genuine jump at dt_min is taken
+    d = judge(c, 1 / 64, 1.01, 50.0, 10.0)  # a genuine jump at dt_min is taken
     assert d.accepted and d.next_dt == 1 / 64
 
 
@@ -69,7 +77,7 @@ def _history_steps(c, kept_errors, t=0.0):
     decisions = []
     for kept in kept_errors:
         t += 1.0
-        decisions.append(c.judge(1.0, t, 0.0, 0.0, history_error=0.0, history_kept=kept))
+        decisions.append(judge(c, 1.0, t, 0.0, 0.0, history_error=0.0, history_kept=kept))
         c.accept(t, 0.0)
     return decisions
 
@@ -82,10 +90,10 @@ def test_history_bounds_the_step_error_and_the_kept_errors_summed_over_the_memor
     share = -math.expm1(-0.1)
     c = controller(history_allowance=2.0, memory_time=10.0)
     # the step's own error: all of the allowance, second order
-    d = c.judge(1.0, 1.0, 0.0, 0.0, history_error=1.0, history_kept=0.02)
+    d = judge(c, 1.0, 1.0, 0.0, 0.0, history_error=1.0, history_kept=0.02)
     assert d.history_error == pytest.approx(0.5, rel=1e-12)
     assert d.next_dt == grid(0.9 / math.sqrt(0.5))
-    d = c.judge(1.0, 1.0, 0.0, 0.0, history_error=-9.0, history_kept=0.02)  # either sign
+    d = judge(c, 1.0, 1.0, 0.0, 0.0, history_error=-9.0, history_kept=0.02)  # either sign
     assert not d.accepted
     # a coherent kept error fills the sum up to e / share ...
     c = controller(history_allowance=2.0, memory_time=10.0)
@@ -108,17 +116,17 @@ def test_history_bounds_the_step_error_and_the_kept_errors_summed_over_the_memor
     c = controller(history_allowance=2.0, memory_time=10.0)
     _history_steps(c, [0.2] * 60)
     assert c.kept_history > 1.0
-    assert not c.judge(1.0, 61.0, 0.0, 0.0, history_error=0.0, history_kept=0.5).accepted
-    assert c.judge(1.0, 61.0, 0.0, 0.0, history_error=0.0, history_kept=0.01).accepted
-    assert c.judge(1.0, 61.0, 0.0, 0.0, history_error=0.0, history_kept=-0.5).accepted
+    assert not judge(c, 1.0, 61.0, 0.0, 0.0, history_error=0.0, history_kept=0.5).accepted
+    assert judge(c, 1.0, 61.0, 0.0, 0.0, history_error=0.0, history_kept=0.01).accepted
+    assert judge(c, 1.0, 61.0, 0.0, 0.0, history_error=0.0, history_kept=-0.5).accepted
     # no kept estimate: the step's whole error is taken as kept
     c = controller(history_allowance=2.0, memory_time=10.0)
-    c.judge(1.0, 1.0, 0.0, 0.0, history_error=0.05)
+    judge(c, 1.0, 1.0, 0.0, 0.0, history_error=0.05)
     c.accept(1.0, 0.0)
     assert c.kept_history == pytest.approx(0.05, rel=1e-12)
     # a rejected step leaves the sum as it was; a restored controller continues it
     saved = c.state()
-    c.judge(1.0, 2.0, 0.0, 0.0, history_error=0.0, history_kept=0.3)
+    judge(c, 1.0, 2.0, 0.0, 0.0, history_error=0.0, history_kept=0.3)
     restored = controller(history_allowance=2.0, memory_time=10.0)
     restored.restore(saved)
     assert restored.kept_history == c.kept_history == pytest.approx(0.05, rel=1e-12)
@@ -126,8 +134,8 @@ def test_history_bounds_the_step_error_and_the_kept_errors_summed_over_the_memor
 
 def test_steps_on_the_grid_ignore_round_off():
     c = controller()
-    a = c.judge(1.0, 1.0, 0.0, 0.5)
-    b = c.judge(1.0, 1.0, 0.0, 0.5 * (1 + 1e-12))  # another rank count's edge position
+    a = judge(c, 1.0, 1.0, 0.0, 0.5)
+    b = judge(c, 1.0, 1.0, 0.0, 0.5 * (1 + 1e-12))  # another rank count's edge position
     assert a.next_dt == b.next_dt
 
 
@@ -172,12 +180,12 @@ def test_tip_lag_sets_the_step_first_order_and_rejects_at_four():
     error = tip_lag_error(20.0, 0.5 * zone, zone, k)
     c = controller(first_dt=20.0, dt_max=64.0, edge_allowance=10 * zone, lag_allowance=2 * error,
                    zone_width=zone, modulus_ratio=k)
-    d = c.judge(20.0, 20.0, 0.0, 0.5 * zone)
+    d = judge(c, 20.0, 20.0, 0.0, 0.5 * zone)
     assert d.accepted and d.lag_error == pytest.approx(0.5)
     assert d.next_dt == grid(20.0 * 0.9 / 0.5)
     c = controller(first_dt=20.0, dt_max=64.0, edge_allowance=10 * zone, lag_allowance=error / 5,
                    zone_width=zone, modulus_ratio=k)
-    d = c.judge(20.0, 20.0, 0.0, 0.5 * zone)  # five allowances: rejected, shortest retry
+    d = judge(c, 20.0, 20.0, 0.0, 0.5 * zone)  # five allowances: rejected, shortest retry
     assert not d.accepted and d.next_dt == grid(5.0)
 
 
@@ -187,11 +195,11 @@ def test_tip_lag_uses_the_solved_zone_width_when_given():
     zone, k = 0.01, 0.1
     c = controller(first_dt=20.0, dt_max=64.0, edge_allowance=10 * zone, lag_allowance=1.0,
                    zone_width=zone, modulus_ratio=k)
-    wide = c.judge(20.0, 20.0, 0.0, 0.5 * zone, zone_width=3 * zone).lag_error
+    wide = judge(c, 20.0, 20.0, 0.0, 0.5 * zone, zone_width=3 * zone).lag_error
     assert wide == pytest.approx(tip_lag_error(20.0, 0.5 * zone, 3 * zone, k), rel=1e-12)
     for unknown in (math.nan, 0.0, math.inf):  # the relaxed w stands in
         c.dt = 20.0
-        lag = c.judge(20.0, 20.0, 0.0, 0.5 * zone, zone_width=unknown).lag_error
+        lag = judge(c, 20.0, 20.0, 0.0, 0.5 * zone, zone_width=unknown).lag_error
         assert lag == pytest.approx(tip_lag_error(20.0, 0.5 * zone, zone, k), rel=1e-12)
     assert wide < lag
 
@@ -200,7 +208,7 @@ def test_state_round_trip():
     c = controller()
     c.accept(0.0, 1.0)
     c.accept(0.5, 2.0)
-    c.judge(0.5, 1.0, 3.0, 0.2)
+    judge(c, 0.5, 1.0, 3.0, 0.2)
     other = controller()
     other.restore(c.state())
     assert other.dt == c.dt and other.points == c.points
@@ -231,10 +239,10 @@ def test_default_adaptive_pull_off_and_cost(converged):
     for accuracy in (5e-3, 1e-2):
         value, sim = pull_off(f"nx = 2048\naccuracy = {accuracy}")
         assert value == pytest.approx(reference, rel=0.5 * accuracy)
-        assert sim.step_index < fixed.step_index
+        assert sim.surface.step_index < fixed.surface.step_index
         value, sim = pull_off(f"nx = 2048\naccuracy = {accuracy}\ntolerance = {0.02 * accuracy}")
         assert value == pytest.approx(reference, rel=0.5 * accuracy)
-        assert sim.step_index < fine.step_index / 2
+        assert sim.surface.step_index < fine.surface.step_index / 2
 
 
 def test_error_falls_with_the_edge_allowance(converged):
@@ -284,7 +292,7 @@ def test_creeping_retraction_time_error_within_the_steps_share():
     loose, _ = pull_off("nx = 2048\ntime_tolerance = 1")
     assert abs(value / reference - 1) < 2.5e-3
     assert abs(loose / reference - 1) > 2e-2
-    assert sim.step_index < fine.step_index / 3
+    assert sim.surface.step_index < fine.surface.step_index / 3
 
 
 @pytest.mark.slow
@@ -310,8 +318,8 @@ def test_abandoned_solves_change_nothing_but_the_cost(monkeypatch):
     unwatched, plain = run()
     assert watched == unwatched
     assert sim.rejected_steps == plain.rejected_steps > 0
-    assert sim.solver.abandoned > 0 == plain.solver.abandoned
-    assert sim.total_iterations < plain.total_iterations
+    assert sim.solver.count["abandoned_solves"] > 0 == plain.solver.count["abandoned_solves"]
+    assert sim.equilibrium.iterations < plain.equilibrium.iterations
 
 
 def test_history_estimate_skips_half_the_glassy_zone_around_a_crossing():
@@ -322,6 +330,6 @@ def test_history_estimate_skips_half_the_glassy_zone_around_a_crossing():
     sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
     try:
         points = case.zone_width / case.dx
-        assert sim.history_window.error.reach == math.ceil(5.0 * points) == 16
+        assert sim.window.error.reach == math.ceil(5.0 * points) == 16
     finally:
         sim.close()

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from ..errors import CaseError
 from ..model.loading import Segment, paper_protocol
 from .groups import DRIVE_KEYS, GROUP_KEYS, PRONY_KEYS, Groups, checked_groups, python_numbers
+from .files import case_arguments, read_case_file
 from .identity import case_identity
 from .keys import shown
 from .numerics import Numerics, resolve_numerics
@@ -108,8 +109,6 @@ class Case(Groups):
 
         Raises :class:`~hpcgfmd.errors.CaseError`, also for an unreadable file.
         """
-        from .files import load_case, parse_case
-
         if isinstance(source, os.PathLike) or (isinstance(source, str) and "\n" not in source):
             try:
                 return load_case(source)
@@ -180,3 +179,13 @@ def _keyword_text(groups: Groups, numerics, output, protocol) -> str:
                           numerics if isinstance(numerics, Mapping) else None,
                           protocol if isinstance(protocol, list) else None,
                           output if isinstance(output, Mapping) else None)
+
+
+def parse_case(text: str) -> Case:
+    """Validate a case file's text and build the :class:`Case` (raises :class:`CaseError`)."""
+    return Case(**case_arguments(text))
+
+
+def load_case(path) -> Case:
+    """Read and validate a case file (raises :class:`CaseError`, also for unreadable files)."""
+    return parse_case(read_case_file(path))

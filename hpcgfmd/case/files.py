@@ -1,10 +1,10 @@
-"""Case files (TOML, docs/case-file.md): read, checked section by section, made a :class:`Case`."""
+"""Case files (TOML, docs/case-file.md): read and checked section by section into the keyword
+arguments of a :class:`~.case.Case` (which checks the values)."""
 from __future__ import annotations
 
 import tomllib
 
 from ..errors import CaseError
-from .case import Case
 from .groups import DRIVE_KEYS, GROUP_KEYS, PRONY_KEYS
 from .keys import number, quoted_key, shown, stiffness, unknown_keys
 from .numerics import numerics_keys
@@ -19,8 +19,22 @@ def sections() -> dict:
             "numerics": numerics_keys(), "output": OUTPUT_KEYS}
 
 
-def parse_case(text: str) -> Case:
-    """Validate a case file's text and build the :class:`Case` (raises :class:`CaseError`)."""
+def read_case_file(path) -> str:
+    """The text of a case file (raises :class:`CaseError`, also for unreadable files)."""
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read()
+    except OSError as err:
+        raise CaseError(f"cannot read case file: {err.strerror}") from None
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise CaseError("case file is not UTF-8 text") from None
+
+
+def case_arguments(text: str) -> dict:
+    """The keyword arguments of the :class:`~.case.Case` of a case file's text, its sections
+    and keys checked (raises :class:`CaseError`)."""
     try:
         doc = tomllib.loads(text)
     except RecursionError:
@@ -49,7 +63,7 @@ def parse_case(text: str) -> Case:
     if "protocol" in doc and (not isinstance(protocol, list) or not protocol):
         raise CaseError(f"protocol = {shown(protocol)}: expected [[protocol]] tables"
                         " (approach, dwell or retract)")
-    return Case(**groups, numerics=doc.get("numerics", {}), output=doc.get("output", {}),
+    return dict(groups, numerics=doc.get("numerics", {}), output=doc.get("output", {}),
                 units=units, text=text, form=form, protocol=protocol)
 
 
@@ -66,17 +80,3 @@ def _case_groups(table) -> dict:
     if "drive_stiffness" in table:
         groups["drive_stiffness"] = stiffness(table, "case")
     return groups
-
-
-def load_case(path) -> Case:
-    """Read and validate a case file (raises :class:`CaseError`, also for unreadable files)."""
-    try:
-        with open(path, "rb") as fh:
-            raw = fh.read()
-    except OSError as err:
-        raise CaseError(f"cannot read case file: {err.strerror}") from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        raise CaseError("case file is not UTF-8 text") from None
-    return parse_case(text)

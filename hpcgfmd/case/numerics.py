@@ -157,18 +157,14 @@ def _steps(groups, table, step_control) -> dict:
 
 
 def _solver_settings(table, solver, nx) -> tuple:
-    """The chosen solver's own keys (given, or their defaults); another solver's key is
-    refused in one line."""
-    own = solver_class(solver).KEYS
-    names = {key.name for key in own}
+    """The chosen solver's own keys (given, or their defaults). Another registered solver's
+    keys are checked too and kept out: one base case may serve a study over solvers."""
     for name in registered():
         for key in solver_class(name).KEYS:
-            if key.name in table and key.name not in names:
-                raise CaseError(f"[numerics] {key.name} = {shown(table[key.name])}: a key of"
-                                f" solver = {name!r} ({key.meaning}); this case's solver is"
-                                f" {solver!r}")
-    return tuple((key.name, integer(table, "numerics", key.name, key.smallest)
-                  if key.name in table else key.default(nx)) for key in own)
+            if key.name in table:
+                integer(table, "numerics", key.name, key.smallest)
+    return tuple((key.name, table[key.name] if key.name in table else key.default(nx))
+                 for key in solver_class(solver).KEYS)
 
 
 def automatic_nx(case, accuracy, widen=True):

@@ -4,7 +4,7 @@ check every claim.
     mpirun -n 2 python -m hpcgfmd paper [-o DIR] [--figures 2,4,5,...] [--accuracy A]
                                         [--dry-run] [--draw-only]
 
-Layout of DIR (default ``paper``): ``runs/`` the farm's case files and summary (resumable:
+Layout of DIR (default ``paper``): ``runs/`` the farm's result files and summary (resumable:
 run the command again after an interruption), ``figN.png`` and ``figN.csv`` per figure,
 ``checks.txt`` and ``checks.csv`` with every claim's numbers and verdict.
 """

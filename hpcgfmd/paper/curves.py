@@ -1,4 +1,4 @@
-"""What the paper's checks measure on a retraction (pure functions of a case file's series).
+"""What the paper's checks measure on a retraction (pure functions of a result file's series).
 
 All in the paper's dgamma0 scaling (docs/model.md, "Scales and dimensionless groups"):
 abar = a_c / beta, Lbar = L_n / (R dgamma0^2 E0)^(1/3), the scaled curve
@@ -185,7 +185,7 @@ def log_ratio_statistics(measured, predicted):
 
 
 def snapshot_profiles(result, contact_levels=(5.0, 3.0)):
-    """The snapshots at (4/pi) abar_c = 5 and 3 and at zero load of one case file (the
+    """The snapshots at (4/pi) abar_c = 5 and 3 and at zero load of one result file (the
     paper's Figs. 6 and 7), each picked among the file's snapshots by its own step: the one
     whose contact half-width is nearest the level (within 2 %: the run took it when the
     contact first dropped below a width given in the case file), and the first with a

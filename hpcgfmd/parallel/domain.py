@@ -72,6 +72,10 @@ class Domain:
         self.communication_time = 0.0  # seconds in MPI calls here (waiting included)
         self.messages = 0  # collective calls made (reductions, halo exchanges, segments)
 
+    def axes(self):
+        """The global coordinates of each axis of the grid (length; the first axis first)."""
+        return ((np.arange(self.n) - self.n // 2) * self.dx,)
+
     # --- reductions ------------------------------------------------------------------
     def _allreduce(self, values, op):
         k = len(values)

@@ -10,7 +10,7 @@ rank: every rank computes, and a long case never waits behind short ones.
 
 Outputs. ``OUTDIR/<name>.h5`` per case (named from the swept values, see
 :mod:`hpcgfmd.runs.sweep`), and ``OUTDIR/summary.csv`` and ``OUTDIR/summary.h5`` with one row per
-case, written atomically by rank 0 at the end from the case files themselves (so the table is
+case, written atomically by rank 0 at the end from the result files themselves (so the table is
 complete after a resumed farm, or after the last element of a job array, too).
 
 Faults. A case that fails (invalid parameters, a cell too small, non-convergence, NaN) is
@@ -40,7 +40,7 @@ from mpi4py import MPI
 from ..errors import (EXIT_FAILED_BASE, EXIT_RESUMABLE, CaseError, CaseFailure, Interrupted,
                       UsageError)
 from ..signals import StopSignals
-from ..storage.casefile import UNIT_NAMES
+from ..storage.result_file import UNIT_NAMES
 from ..storage.checkpoint import checkpoint_path, usable_checkpoint
 from ..storage.lock import acquire_output_lock
 from ..storage.reader import read_series
@@ -54,7 +54,7 @@ SUMMARY_COLUMNS = ("index", "name", "status", "error", "lambda0", "lambda_inf", 
                    "chi_ve", "alpha", "depth", "cell", "nx", "pull_off_load", "pull_off_lbar",
                    "pull_off_contact_half_width", "pull_off_abar", "detachment_indenter",
                    "max_effective_work", "steps", "wall_time", "ranks", "file")
-# the dimension of each numeric summary column (storage.casefile.UNIT_NAMES; None: a number
+# the dimension of each numeric summary column (storage.result_file.UNIT_NAMES; None: a number
 # of its own, the groups are dimensionless); swept columns keep the sweep file's values
 SUMMARY_DIMENSIONS = {"pull_off_load": "load", "pull_off_contact_half_width": "length",
                       "detachment_indenter": "length"}
@@ -199,7 +199,7 @@ def _run_one(item, out_dir, group, say, stop):
               "ranks": group.Get_size(), "error": ""}
     if item.case is None:
         return _failed(item, record, say, item.error)
-    try:  # one writer per case file (storage/lock.py): another farm may be running it
+    try:  # one writer per result file (storage/lock.py): another farm may be running it
         lock = acquire_output_lock(group, path)
     except UsageError as err:
         # left to its writer: pending here (the summary takes it from the file once finished)
@@ -219,7 +219,7 @@ def _failed(item, record, say, error):
 
 
 def _run_locked(item, path, record, group, say, stop):
-    """Collective over ``group``: :func:`_run_one` once the case file's lock is held."""
+    """Collective over ``group``: :func:`_run_one` once the result file's lock is held."""
     # one reading of the file system for the whole group (caches may differ between nodes)
     status = group.bcast(file_status(path, item) if group.Get_rank() == 0 else None, root=0)
     if status == "finished":
@@ -329,7 +329,7 @@ def run_farm(sweep, comm, out_dir, ranks_per_case=1, only=None, stop=None) -> in
 
 
 def _case_results(path):
-    """Pull-off, detachment and effective work of a finished case file."""
+    """Pull-off, detachment and effective work of a finished result file."""
     s = read_series(path)
     i = s.pull_off()
     # Delta gamma_eff from the point (Lbar/sqrt(abar), (pi/4) abar^(3/2)) holds while the
@@ -345,7 +345,7 @@ def _case_results(path):
 
 
 def summary_rows(sweep, out_dir, records):
-    """One row per case: this run's records, completed from the case files on disk."""
+    """One row per case: this run's records, completed from the result files on disk."""
     rows = []
     for item in sweep.cases:
         path = case_file(out_dir, item)

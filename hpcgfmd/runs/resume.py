@@ -113,7 +113,7 @@ def _check_resume(case, output, restart, overwrite):
                        int(f["snapshots"].attrs["complete"]))
     except (OSError, KeyError) as err:
         raise UsageError(f"-o {output}: not the output of this checkpoint ({err})") from None
-    needed = (identity, int(saved["step_index"]) + 1, int(saved["snapshots_written"]))
+    needed = (identity, int(saved["surface.step_index"]) + 1, int(saved["snapshots_written"]))
     if written[0] != identity or written[1] < needed[1] or written[2] < needed[2]:
         raise UsageError(f"-o {output}: does not match checkpoint {checkpoint} (case"
                          f" {written[0]}, {written[1]} steps, {written[2]} snapshots written;"

@@ -23,10 +23,11 @@ from ..model import accuracy as knob
 from ..case import Case
 from ..signals import StopSignals
 from ..solvers import solver_class
-from ..storage.casefile import CaseFile
+from ..storage.result_file import ResultFile
 from ..storage.checkpoint import (checkpoint_path, read_checkpoint, remove_checkpoint,
                                   usable_checkpoint, write_checkpoint)
 from ..storage.space import free_bytes, room_for_a_step
+from .checkpoints import Checkpoints
 from .progress import Progress
 from .protocol import Retraction
 
@@ -140,7 +141,7 @@ def run_case(case: Case, path, comm, overwrite=False, resume=False,
 
 
 def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
-    """Collective: the case file to append to and the run's bookkeeping before the first step.
+    """Collective: the result file to append to and the run's bookkeeping before the first step.
 
     Resuming: the checkpoint's state and the file cut back to it. New: the preload, checked
     against the cell, then a new file with the t = 0 entry. Returns (file, snapshots written,
@@ -157,8 +158,8 @@ def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
         if dom.max(float(stop.received is not None)):  # the checkpoint is still the latest
             raise Interrupted(f"stopped by a signal while resuming; checkpoint {checkpoint}")
         try:
-            out = CaseFile.reopen(path, case, comm, dom.x_start, sim.n,
-                                  steps=sim.surface.step_index + 1, snapshots=snapshots)
+            out = ResultFile.reopen(path, case, dom, comm, steps=sim.surface.step_index + 1,
+                                    snapshots=snapshots)
         except (ValueError, KeyError) as err:  # alike on every rank: the same file
             raise CaseError(f"{path} does not match its checkpoint {checkpoint}: {err}") from None
         logger.info(f"resuming from {checkpoint} at step {sim.surface.step_index}"
@@ -181,7 +182,7 @@ def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
     if dom.max(float(stop.received is not None)):
         raise Interrupted("stopped by a signal before the first step; nothing was written")
     remove_checkpoint(checkpoint, comm)  # a stale one would pair with the new file
-    out = CaseFile(path, case, dom.x, comm, dom.x_start, sim.n, overwrite=overwrite)
+    out = ResultFile(path, case, dom, comm, overwrite=overwrite)
     out.append_step(record.as_dict())
     out.add_snapshot(record.time, sim.surface.u, sim.surface.traction, sim.equilibrium.gap())
     schedule.due(record)
@@ -214,76 +215,38 @@ def _resume_from(newest, resume, comm):
 
 def _run(sim, case, path, comm, overwrite, resume, stop, start):
     """Collective: the body of :func:`run_case` on a built :class:`Retraction`."""
-    dom = sim.domain
-    checkpoint = checkpoint_path(path)
     schedule = SnapshotSchedule(case.output)
     out, snapshots, wall_before = _open_output(sim, case, path, comm, overwrite, resume, stop,
                                                schedule)
-    every = case.output.checkpoint_steps
-    last_checkpoint = time.monotonic()
-
-    def save():
-        fields, attrs = sim.state.gather()
-        attrs.update(case_identity=case.identity(), snapshot_schedule=schedule.state(),
-                     snapshots_written=snapshots,
-                     wall_time=wall_before + time.monotonic() - start)
-        try:
-            write_checkpoint(checkpoint, comm, sim.n, dom.x_start, fields, attrs)
-        except OSError as err:  # alike on every rank: rank 0's free space was broadcast
-            if err.errno != errno.ENOSPC:
-                raise
-            raise CaseFailure(f"disk full at step {sim.surface.step_index}: {err.strerror}") from None
-
-    # the next step's output and one checkpoint must fit (storage/space.py); rank 0 asks
-    room = room_for_a_step(sim.n, sim.state.field_count())
-
-    def short_of_space():
-        return comm.Get_rank() == 0 and free_bytes(path) < room
-
-    def stop_for_space():
-        save()
-        raise CaseFailure(f"disk full: {os.path.dirname(os.path.abspath(path))} has"
-                          f" {free_bytes(path) if comm.Get_rank() == 0 else 0} bytes free, a"
-                          f" step and a checkpoint need {room}; stopped at step"
-                          f" {sim.surface.step_index} with checkpoint {checkpoint}: free space and"
-                          " run the same command again")
-
+    written = [snapshots]
+    keeper = Checkpoints(sim, path, lambda: {
+        "snapshot_schedule": schedule.state(), "snapshots_written": written[0],
+        "wall_time": wall_before + time.monotonic() - start})
+    surface = sim.surface
     try:
         progress = Progress(case.output.progress_interval, case.units)
-        if comm.bcast(short_of_space(), root=0):
-            stop_for_space()
+        if comm.bcast(keeper.short_of_space(), root=0):
+            keeper.stop_for_space()
         while not sim.finished():
             try:
                 record = sim.step()
             except NonConvergenceError as err:  # (alike on every rank: a reduced residual)
-                save()  # the last accepted step (Retraction.step undid the failed one)
-                raise NonConvergenceError(f"{err}; checkpoint {checkpoint} holds the last"
-                                          f" accepted step, {sim.surface.step_index}") from None
+                keeper.save()  # the last accepted step (Retraction.step undid the failed one)
+                raise NonConvergenceError(f"{err}; checkpoint {keeper.path_checkpoint} holds"
+                                          f" the last accepted step, {surface.step_index}"
+                                          ) from None
             out.append_step(record.as_dict())
             if schedule.due(record):
-                out.add_snapshot(record.time, sim.surface.u, sim.surface.traction,
+                out.add_snapshot(record.time, surface.u, surface.traction,
                                  sim.equilibrium.gap())
-                snapshots += 1
-            progress.update(sim.surface.step_index, record)
-            if sim.surface.indenter > MAX_INDENTER_HEIGHT and not sim.finished():
+                written[0] += 1
+            progress.update(surface.step_index, record)
+            if surface.indenter > MAX_INDENTER_HEIGHT and not sim.finished():
                 raise CaseFailure(f"no complete detachment by u_z = {MAX_INDENTER_HEIGHT} R")
-            # One reduction decides for all ranks: a signal on any rank, or rank 0's clock.
-            by_time = (comm.Get_rank() == 0
-                       and time.monotonic() - last_checkpoint >= case.output.checkpoint_interval)
-            by_step = every > 0 and sim.surface.step_index % every == 0
-            signalled, timed, short = dom.maxes(float(stop.received is not None),
-                                                float(by_time), float(short_of_space()))
-            if short:
-                stop_for_space()
-            if signalled or timed or by_step:
-                save()
-                last_checkpoint = time.monotonic()
-            if signalled:
-                raise Interrupted(f"stopped by a signal at step {sim.surface.step_index}"
-                                  f" (t = {sim.surface.time * case.units.time:.6g});"
-                                  " checkpoint"
-                                  f" {checkpoint}")
-        surface = sim.surface
+            if keeper.after_step(stop):
+                raise Interrupted(f"stopped by a signal at step {surface.step_index}"
+                                  f" (t = {surface.time * case.units.time:.6g});"
+                                  f" checkpoint {keeper.path_checkpoint}")
         out.add_snapshot(surface.time, surface.u, surface.traction, sim.equilibrium.gap())
         summary = {**sim.summary(), "wall_time": wall_before + time.monotonic() - start,
                    "ranks": comm.Get_size(),
@@ -292,7 +255,7 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
         out.finish(summary)
     finally:
         out.close()
-    remove_checkpoint(checkpoint, comm)
+    remove_checkpoint(keeper.path_checkpoint, comm)
     if case.numerics.step_control == "fixed" and comm.Get_rank() == 0:
         try:  # advice only: a finished case stays finished whatever reading it back does
             _warn_unresolved_pull_off(case, path)

@@ -1,3 +1,3 @@
-"""Files: the HDF5 case file (written collectively), checkpoints, reading results back, and plots.
+"""Files: the HDF5 result file (written collectively), checkpoints, reading results back, and plots.
 Imports :mod:`hpcgfmd.model` (the case's units) and nothing of the solvers or the protocol.
 """

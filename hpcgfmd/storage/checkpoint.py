@@ -8,7 +8,8 @@ Layout of a checkpoint file (HDF5, written collectively with the ``mpio`` driver
 
 A checkpoint is replaced atomically: the new one is written to ``<path>.tmp``, its digest
 stored, synced, the one it replaces renamed to the previous generation
-``<...>.checkpoint.previous.h5`` and the new one renamed onto ``<path>``. A crash at any moment
+``<...>.checkpoint.previous.h5`` and the new one renamed onto ``<path>``
+(:func:`hpcgfmd.atomic.publish`). A crash at any moment
 leaves a complete checkpoint under one of the two names: the newest one, except between the
 two renames, where the one before it is found as the previous generation (a stale ``.tmp``
 is ignored and overwritten by the next write).
@@ -16,8 +17,8 @@ is ignored and overwritten by the next write).
 Digest: the root attribute ``state_digest`` is the SHA-256 of every field's bytes (global
 order, sorted names) and of every other attribute, computed from the written file; a file cut
 short, with flipped bytes or otherwise altered fails :func:`checkpoint_problem` and is not
-resumed from (:func:`usable_checkpoint` then takes the previous generation). Format 1 files
-(before the digest) are read unverified.
+resumed from (:func:`usable_checkpoint` then takes the previous generation). A checkpoint of
+another format (written by another version of hpcgfmd) is refused: the case starts again.
 """
 from __future__ import annotations
 
@@ -29,17 +30,18 @@ import h5py
 import numpy as np
 
 from .. import __version__
+from ..atomic import publish
 from .hdf5 import check_blocks, open_file, read_block, write_block
 from .space import MARGIN, checkpoint_bytes, free_bytes
 
-FORMAT_VERSION = 2  # 2: with state_digest
+FORMAT_VERSION = 3  # 3: the run's parts' states (hpcgfmd.state), qualified names
 _MARK = "hpcgfmd_checkpoint"  # root attribute holding the format version
 _DIGEST = "state_digest"
 _RESERVED = (_MARK, "hpcgfmd_version", _DIGEST)
 
 
 def checkpoint_path(output_path) -> str:
-    """Checkpoint file of a case file: ``<output without .h5>.checkpoint.h5`` next to it."""
+    """Checkpoint file of a result file: ``<output without .h5>.checkpoint.h5`` next to it."""
     path = os.fspath(output_path)
     return (path[:-3] if path.endswith(".h5") else path) + ".checkpoint.h5"
 
@@ -78,19 +80,22 @@ def checkpoint_problem(path) -> str | None:
             version = f.attrs.get(_MARK)
             if version is None or "fields" not in f:
                 return "not an hpcgfmd checkpoint"
-            version = int(version)
-            if version > FORMAT_VERSION or version < 1:
-                return f"checkpoint format {version} is not one this hpcgfmd reads"
+            if int(version) != FORMAT_VERSION:
+                return format_problem(int(version))
             stored = f.attrs.get(_DIGEST)
             if stored is None:
-                if version == 1:
-                    return None  # written before the digest existed: read unverified
                 return "no state digest (its write did not complete)"
             if _digest(f) != str(stored):
                 return "its state digest does not match its content (altered or damaged)"
     except Exception as err:  # whatever damaged metadata raises, the verdict is "unusable"
         return f"unreadable ({' '.join(str(err).split())})"
     return None
+
+
+def format_problem(version: int) -> str:
+    """The one phrase refusing a checkpoint of another format."""
+    return (f"checkpoint format {version}, written by another version of hpcgfmd (this one"
+            f" reads format {FORMAT_VERSION}): start the case again")
 
 
 def usable_checkpoint(path) -> tuple[str | None, list[str]]:
@@ -135,19 +140,7 @@ def _seal(tmp, path):
     the directory synced."""
     with h5py.File(tmp, "r+") as f:
         f.attrs[_DIGEST] = _digest(f)
-    fd = os.open(tmp, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-    if os.path.exists(path):
-        os.replace(path, previous_path(path))
-    os.replace(tmp, path)
-    fd = os.open(os.path.dirname(os.path.abspath(path)), os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
+    publish(tmp, path, previous=previous_path(path))
 
 
 def write_checkpoint(path, comm, n, x_start, fields: dict, attrs: dict):
@@ -236,9 +229,8 @@ def read_checkpoint(path, comm, x_start, x_stop) -> tuple[dict, dict]:
         version = f.attrs.get(_MARK)
         if version is None or "fields" not in f:
             raise ValueError(f"{path} is not an hpcgfmd checkpoint")
-        if int(version) > FORMAT_VERSION:
-            raise ValueError(f"{path}: checkpoint format {int(version)} is newer than this"
-                             f" hpcgfmd reads ({FORMAT_VERSION})")
+        if int(version) != FORMAT_VERSION:
+            raise ValueError(f"{path}: {format_problem(int(version))}")
         n = int(f["fields"].attrs["n"])
         if not 0 <= x_start <= x_stop <= n:
             raise ValueError(f"block [{x_start}, {x_stop}) outside the checkpoint's {n} nodes")

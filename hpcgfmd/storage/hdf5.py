@@ -2,7 +2,7 @@
 
 Each rank owns a contiguous block of a global array and reads or writes only that block; every
 rank takes part in every call, also with an empty block, because H5Dwrite/H5Dread under
-``mpio`` are collective. Used by the case file and the checkpoints.
+``mpio`` are collective. Used by the result file and the checkpoints.
 """
 from __future__ import annotations
 
@@ -43,45 +43,49 @@ def _transfer(file):
     return dxpl
 
 
-def _spaces(ds, row, start, count):
-    """File and memory dataspaces selecting ``count`` entries from ``start`` (of ``row``)."""
+def _spaces(ds, row, start, shape):
+    """File and memory dataspaces selecting a block of ``shape`` whose first index along the
+    grid's first axis is ``start`` (in ``row`` of a dataset with a leading row axis)."""
     fspace = ds.id.get_space()
-    mspace = h5py.h5s.create_simple((count,))
-    if count == 0:
+    mspace = h5py.h5s.create_simple(tuple(shape) if shape else (0,))
+    if not shape or 0 in shape:
         # h5py's ds[...] skips H5Dwrite/H5Dread for an empty selection, which hangs the other
         # ranks of a collective call; an explicit "none" selection still takes part.
         fspace.select_none()
         mspace.select_none()
     elif row is None:
-        fspace.select_hyperslab((start,), (count,))
+        fspace.select_hyperslab((start,) + (0,) * (len(shape) - 1), tuple(shape))
     else:
-        fspace.select_hyperslab((row, start), (1, count))
+        fspace.select_hyperslab((row, start) + (0,) * (len(shape) - 1), (1,) + tuple(shape))
     return fspace, mspace
 
 
 def write_block(ds, start, block, row=None):
-    """Write this rank's ``block`` at ``[row,] start:start + len(block)`` of ``ds`` (collective).
+    """Write this rank's ``block`` at ``[row,] start:start + len(block), ...`` of ``ds``
+    (collective).
 
     Parameters
     ----------
     ds : h5py.Dataset
-        1D dataset, or 2D with ``row`` given; float64 or int64.
+        A dataset of the grid's shape, or with a leading row axis when ``row`` is given;
+        float64 or int64.
     start : int
-        Global index of the block's first entry.
+        Global index of the block's first entry along the grid's first axis.
     block : array_like
-        1D, possibly empty (the rank still takes part).
+        This rank's block: whole along every axis but the first; possibly empty (the rank
+        still takes part).
     row : int, optional
-        Row of a 2D dataset.
+        The row of a dataset with a leading row axis (a snapshot).
     """
     block = np.ascontiguousarray(block, dtype=ds.dtype)
-    fspace, mspace = _spaces(ds, row, start, block.shape[0])
+    fspace, mspace = _spaces(ds, row, start, block.shape)
     ds.id.write(mspace, fspace, block, dxpl=_transfer(ds.file))
 
 
 def read_block(ds, start, stop):
-    """Read entries [start, stop) of the 1D dataset ``ds`` on this rank (collective)."""
-    out = np.empty(stop - start, dtype=ds.dtype)
-    fspace, mspace = _spaces(ds, None, start, stop - start)
+    """Read entries [start, stop) along the first axis of ``ds`` on this rank (collective)."""
+    out = np.empty((stop - start,) + ds.shape[1:], dtype=ds.dtype)
+    fspace, mspace = _spaces(ds, None, start, out.shape)
     ds.id.read(mspace, fspace, out, dxpl=_transfer(ds.file))
     return out
 

@@ -1,16 +1,15 @@
-"""Reading a case file back: the series, the snapshots, the pull-off (no solver imports).
+"""Reading a result file back: the series, the snapshots, the pull-off (no solver imports).
 
-Works on finished files, on files of a running or killed case (the series are cut to the
-entries completely written, ``steps_complete``), and on files written before the datasets had
-dimension scales and units.
+Works on finished files and on files of a running or killed case (the series are cut to
+the entries completely written, ``steps_complete``).
 
 Anything else raises :class:`~hpcgfmd.errors.ResultFileError` with a one-line message naming
 the path, what is wrong and what is expected: a missing path, a directory, a file that cannot
 be opened, an empty or non-HDF5 file, an HDF5 file of another program (no ``/series`` group or
-no ``config`` attribute), a case file cut short on disk (HDF5 cannot open it or read a
+no ``config`` attribute), a result file cut short on disk (HDF5 cannot open it or read a
 dataset), and series or snapshots shorter than ``steps_complete`` (``complete``). A kill
 between two appends leaves some series one entry *longer* than ``steps_complete``
-(:mod:`hpcgfmd.storage.casefile`); such files are legitimate and read as before.
+(:mod:`hpcgfmd.storage.result_file`); such files are legitimate and read as before.
 """
 from __future__ import annotations
 
@@ -32,7 +31,7 @@ OPTIONAL_SERIES = ("drive", "applied_load", "segment")
 
 @dataclass
 class Series:
-    """The /series of a case file plus the scales needed for the paper's plots.
+    """The /series of a result file plus the scales needed for the paper's plots.
 
     All arrays in the file's units (one entry per step, t = 0 first); ``attrs`` holds the
     root attributes, among them ``beta`` and ``load_scale`` in the same units.
@@ -148,7 +147,7 @@ class Result:
     Attributes
     ----------
     path : str or None
-        The case file read (None for a run kept in memory).
+        The result file read (None for a run kept in memory).
     attrs : dict
         The file's root attributes: the case file text (``config``), the groups, the scales,
         ``finished`` and, when finished, the run summary.
@@ -226,7 +225,7 @@ def _check_file(path) -> str:
 
 
 def _read(path, snapshots: bool):
-    """(Series, Snapshots or None) of the case file ``path``; ResultFileError if unreadable."""
+    """(Series, Snapshots or None) of the result file ``path``; ResultFileError if unreadable."""
     name = _check_file(path)
     try:
         f = h5py.File(name, "r")
@@ -267,11 +266,11 @@ def _dataset(f, path, name, ndim):
 
 
 def _count(path, attrs, key, datasets, owner):
-    """Entries complete: the attribute ``key`` (every dataset must hold that many), else the
-    shortest dataset (files written before the attribute existed)."""
+    """Entries complete: the attribute ``key`` (every dataset must hold that many)."""
     lengths = {name: ds.shape[0] for name, ds in datasets.items()}
     if key not in attrs:
-        return min(lengths.values())
+        raise _bad(path, f"no attribute {owner}{key} (written by another program or an"
+                         " earlier version)", "expected an hpcgfmd result file")
     n = attrs[key]
     if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 0:
         raise _bad(path, f"attribute {owner}{key} = {n!r} is not a count")
@@ -332,7 +331,7 @@ def _snapshots(f, path) -> Snapshots:
 
 
 def read_series(path) -> Series:
-    """Read the series and root attributes of a case file (works on unfinished files too).
+    """Read the series and root attributes of a result file (works on unfinished files too).
 
     Raises
     ------
@@ -343,7 +342,7 @@ def read_series(path) -> Series:
 
 
 def read_result(path) -> Result:
-    """The series, the snapshots and the attributes of a case file (finished or not).
+    """The series, the snapshots and the attributes of a result file (finished or not).
 
     Raises
     ------

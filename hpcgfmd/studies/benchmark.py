@@ -101,12 +101,12 @@ def run(text, comm, max_steps=None, progress=None):
     records = [sim.preload()]
     preloaded = last = time.perf_counter()
     preloaded_cpu = time.process_time()
-    while not sim.finished() and (max_steps is None or sim.step_index < max_steps):
+    while not sim.finished() and (max_steps is None or sim.surface.step_index < max_steps):
         records.append(sim.step())
         if progress and time.perf_counter() - last > progress and comm.Get_rank() == 0:
             last = time.perf_counter()
             peeled = records[-1].contact_half_width / records[0].contact_half_width
-            logger.info(f"    ... step {sim.step_index}, t = {records[-1].time:.4g},"
+            logger.info(f"    ... step {sim.surface.step_index}, t = {records[-1].time:.4g},"
                         f" a_c/a_c(0) = {peeled:.3f}, {last - start:.0f} s")
     wall = comm.allreduce(time.perf_counter() - start, op=_max())
     # CPU seconds of the slowest rank: on a shared machine the wall time counts the other
@@ -116,9 +116,9 @@ def run(text, comm, max_steps=None, progress=None):
     retraction_cpu = comm.allreduce(time.process_time() - preloaded_cpu, op=_max())
     result = {"case": case, "wall_s": wall, "cpu_s": cpu, "setup_s": setup,
               "retraction_s": retraction, "retraction_cpu_s": retraction_cpu,
-              "retraction_iterations": sim.total_iterations - sim.preload_iterations,
-              "steps": sim.step_index,
-              "iterations": sim.total_iterations, "fft_pairs": sim.fft.pairs,
+              "retraction_iterations": sim.equilibrium.iterations - sim.preload_iterations,
+              "steps": sim.surface.step_index,
+              "iterations": sim.equilibrium.iterations, "fft_pairs": sim.fft.pairs,
               "time": np.array([r.time for r in records]),
               "lbar": np.array([r.load for r in records]) / case.load_scale,
               "abar": np.array([r.contact_half_width for r in records]) / case.beta,

@@ -30,7 +30,7 @@ from hpcgfmd.parallel.fft import HalvedRealFFT, SerialRealFFT, TransposedRealFFT
 from hpcgfmd.parallel.fft_halved import fits  # noqa: E402
 from hpcgfmd.solvers.verlet import DampedVerletGFMD  # noqa: E402
 from hpcgfmd.model.interface import DugdaleMaugis  # noqa: E402
-from hpcgfmd.model.material import StepOperators  # noqa: E402
+from hpcgfmd.model.halfspace import StepOperators  # noqa: E402
 from report import abort, report  # noqa: E402
 
 SIZES = (2, 16, 30, 96, 1000, 4096)

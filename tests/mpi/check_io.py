@@ -20,8 +20,9 @@ from mpi4py import MPI
 
 from hpcgfmd.storage.reader import read_series
 from hpcgfmd.storage.checkpoint import read_checkpoint, write_checkpoint
-from hpcgfmd.model.case import parse_case
-from hpcgfmd.storage.casefile import SERIES, SERIES_UNITS, CaseFile
+from hpcgfmd.case import parse_case
+from hpcgfmd.parallel.domain import Domain
+from hpcgfmd.storage.result_file import SERIES, SERIES_UNITS, ResultFile
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/: the case builder
 from cases import case_text  # noqa: E402
@@ -65,14 +66,15 @@ def main(directory):
     path = os.path.join(directory, "case.h5")
 
     # 5 steps and 3 snapshots, "crash", resume at 3 steps and 2 snapshots, 2 steps + 1 more
-    out = CaseFile(path, case, x[lo:hi], comm, lo, n)
+    grid = Domain(comm, n, case.cell, [(edges[r], edges[r + 1]) for r in range(comm.size)])
+    out = ResultFile(path, case, grid, comm)
     for k in range(5):
         out.append_step(step_values(k))
         if k % 2 == 0:
             t, fields = snapshot(x, k // 2)
             out.add_snapshot(t, *(f[lo:hi] for f in fields))
     out.close()
-    out = CaseFile.reopen(path, case, comm, lo, n, steps=3, snapshots=2)
+    out = ResultFile.reopen(path, case, grid, comm, steps=3, snapshots=2)
     for k in (3, 4):
         out.append_step(step_values(10 + k))
     t, fields = snapshot(x, 7)

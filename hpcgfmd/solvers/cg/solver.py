@@ -135,10 +135,10 @@ class ConstrainedCG(EquilibriumSolver):
         self._start = np.empty(n)
         self._scratch = np.empty(n)
         self._wall_scale = 0.0
-        self.recalled = 0    # transforms saved by StepEnergy.recall
-        self.abandoned = 0   # solves stopped by their edge watch
-        self.extensions = 0  # line-search points beyond the bound's minimiser
-        self.detached_jumps = 0  # solves ended at the detached minimum
+        # transforms saved by StepProblem.recall, solves stopped by their edge watch,
+        # line-search points beyond the bound's minimiser, solves ended detached
+        self.count = dict.fromkeys(("recalled", "abandoned_solves", "extensions",
+                                    "detached_jumps"), 0)
 
     @classmethod
     def from_case(cls, case, domain, fft, law, half_q):
@@ -155,27 +155,13 @@ class ConstrainedCG(EquilibriumSolver):
 
     def solve(self, u, wall, ops, history, applied=None,
               edge_watch: EdgeWatch | None = None) -> SolveResult:
-        """Collective: relax ``u`` in place to the equilibrium of the step (module docstring).
-
-        Parameters
-        ----------
-        u : ndarray, shape (local_n,)
-            This rank's block of the start (previous step's displacement), overwritten by
-            the solution (length).
-        wall : ndarray, shape (local_n,)
-            h(x) + u_z: the largest admissible displacement (length).
-        ops : StepOperators
-            Stiffness and preconditioner of the step.
-        history : ndarray, shape (local_n,)
-            SLS history traction H with zero mean (stress).
-        applied : ndarray, optional
-            Prescribed external traction on the surface, positive upward (stress); tests only.
-        edge_watch : EdgeWatch, optional
-            Abandon the solve once the iterate's contact edges (first and last node on the
-            wall) are farther than ``limit`` from the given edges: the caller (the adaptive
-            step control) would reject that step whatever the rest of the descent does. A
-            step beyond the fold of the attached branch otherwise descends through the whole
-            snap-off only to be repeated shorter.
+        """Collective: relax ``u`` (this rank's block of the start, length) in place to the
+        equilibrium of the step (module docstring; the arguments as in
+        :meth:`EquilibriumSolver.solve`). With ``edge_watch`` the solve is abandoned once the
+        iterate's contact edges (first and last node on the wall) are farther than its
+        ``limit`` from the given edges: the adaptive step control would reject that step
+        whatever the rest of the descent does (a step beyond the fold of the attached branch
+        otherwise descends through the whole snap-off only to be repeated shorter).
         """
         linear, on_wall_tolerance = self._begin(u, wall, ops, history, applied)
         it = _Descent(*self._points)
@@ -191,7 +177,7 @@ class ConstrainedCG(EquilibriumSolver):
                 r_max, joined_any, interacting, minus_left, right = self.domain.maxes(
                     local_max, 1.0 if joined else 0.0, interacting, -left, right)
                 if self._active.strayed(edge_watch, -minus_left, right):
-                    self.abandoned += 1
+                    self.count["abandoned_solves"] += 1
                     return SolveResult(iterations=it.iteration,
                                        residual=r_max / self.traction_scale,
                                        converged=False, mean_traction=it.mu, abandoned=True)
@@ -235,7 +221,7 @@ class ConstrainedCG(EquilibriumSolver):
         np.copyto(u, self._start)
         linear = history if applied is None else np.subtract(history, applied, out=self._linear)
         if self.problem.recall(u, ops.stiffness, self._k_u):
-            self.recalled += 1
+            self.count["recalled"] += 1
         else:
             self.fft.apply_diagonal(u, ops.stiffness, self._k_u)
         self.problem.forget()  # the kept vector lives within one step
@@ -253,14 +239,12 @@ class ConstrainedCG(EquilibriumSolver):
     def _detached_minimum(self, u, wall, ops, linear, it):
         """Collective: jump to the detached equilibrium when the iterate is detached.
 
-        Where no node is within the interaction range, the energy is the convex quadratic
-        1/2 u.K u + (H - p_applied).u, whose minimiser is u* = -K^-1 (H - p_applied) (zero
-        mean: K^-1 has no q = 0 mode). The set of displacements with every gap beyond the
-        range is convex; when both the iterate and u* lie in it, the energy falls all the
-        way from the iterate to u* within it, and u* is the minimum of that basin: the
-        equilibrium a descent from the iterate reaches, without the hundreds of iterations
-        of the snap-off's soft modes. Returns True (u = u*; the caller forms its residual)
-        or False (one FFT pair spent).
+        Where no node is within the interaction range the energy is the convex quadratic
+        1/2 u.K u + (H - p_applied).u, minimised by u* = -K^-1 (H - p_applied) (zero mean: K^-1
+        has no q = 0 mode). When both the iterate and u* lie in the convex set of detached
+        displacements, u* is the minimum of the basin the descent is in, reached without
+        the hundreds of iterations of the snap-off's soft modes. Returns True (u = u*) or
+        False (one FFT pair spent).
         """
         target = self._start
         self.fft.apply_diagonal(linear, ops.compliance, target)
@@ -277,7 +261,7 @@ class ConstrainedCG(EquilibriumSolver):
         np.add(self._k_u, linear, out=self._load)
         cur.ready = False
         it.pending = None
-        self.detached_jumps += 1
+        self.count["detached_jumps"] += 1
         return True
 
     def _residual(self, it, on_wall_tolerance):
@@ -372,7 +356,7 @@ class ConstrainedCG(EquilibriumSolver):
                 length, best, spare, taken = line_search.extend(
                     self._evaluator, cur, trial, it.probe, d, alpha, rd, d_kd, rd - t_cur_d,
                     t_trial_d, window)
-                self.extensions += taken
+                self.count["extensions"] += taken
             PointEvaluator.take(cur, best)
             it.trial, it.probe = best, spare
             it.pending = kernels.update_and_residual(
@@ -390,21 +374,15 @@ class ConstrainedCG(EquilibriumSolver):
         return self._k_u
 
     def counters(self) -> dict:
-        """projections, cut_steps, residual_steps, held_steps, recalled, abandoned_solves,
-        extensions, detached_jumps (see the module docstring and :mod:`.wall_steps`)."""
+        """The work counted (module docstring, :mod:`.wall_steps`, :mod:`..active_set`)."""
         walls = self._walls
         return {"projections": walls.projections, "cut_steps": walls.cut_steps,
                 "residual_steps": walls.residual_steps, "held_steps": self._active.held_steps,
-                "recalled": self.recalled, "abandoned_solves": self.abandoned,
-                "extensions": self.extensions, "detached_jumps": self.detached_jumps}
+                **self.count}
 
     def restore_counters(self, saved):
         walls = self._walls
-        walls.projections = int(saved["projections"])
-        walls.cut_steps = int(saved["cut_steps"])
-        walls.residual_steps = int(saved["residual_steps"])
+        walls.projections, walls.cut_steps, walls.residual_steps = (
+            int(saved[k]) for k in ("projections", "cut_steps", "residual_steps"))
         self._active.held_steps = int(saved["held_steps"])
-        self.recalled = int(saved["recalled"])
-        self.abandoned = int(saved["abandoned_solves"])
-        self.extensions = int(saved["extensions"])
-        self.detached_jumps = int(saved["detached_jumps"])
+        self.count = {key: int(saved[key]) for key in self.count}

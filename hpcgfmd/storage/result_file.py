@@ -25,7 +25,7 @@ so that netCDF tools (xarray with h5netcdf) open the groups with labelled coordi
 written before the scales existed have the same datasets and read the same way.
 
 Parallel writing: every rank of the communicator opens the file (h5py ``mpio`` driver) and
-calls every :class:`CaseFile` method collectively with identical arguments, except the field
+calls every :class:`ResultFile` method collectively with identical arguments, except the field
 blocks. Each rank owns the contiguous grid block [x_start, x_stop) (possibly empty) and writes
 only that part of ``/snapshots/x`` and of each snapshot row; rank 0 alone writes the scalar
 entries (series, snapshot times); attributes and dataset extents are set by all ranks alike
@@ -39,7 +39,7 @@ longer, and readers truncate the series to ``steps_complete`` (``/snapshots`` to
 ``complete``). HDF5 without SWMR is not journaled: a kill in the middle of a flush can still
 damage the file, which is why the checkpoint (written aside and renamed) is the restart
 point, not this file. ``finished`` is set last.
-:meth:`CaseFile.reopen` resumes such a file from a checkpoint's step and snapshot counts.
+:meth:`ResultFile.reopen` resumes such a file from a checkpoint's step and snapshot counts.
 """
 from __future__ import annotations
 
@@ -58,6 +58,7 @@ SERIES_UNITS = {"time": "time", "indenter": "length", "load": "load",
                 "applied_load": "load", "segment": None}
 _INT_SERIES = ("iterations", "segment")
 FIELDS = ("surface", "pressure", "gap")
+AXES = ("x", "y")  # the names of the grid's axes, the first axis first (its dimension scales)
 
 
 def series_names(case):
@@ -74,9 +75,9 @@ UNIT_NAMES = {"case": {"time": "tau", "length": "R", "load": "E0 R", "stress": "
                            None: "1"}}
 
 
-# --- the case file ----------------------------------------------------------------------------
+# --- the result file --------------------------------------------------------------------------
 
-class CaseFile:
+class ResultFile:
     """Writer of one case's HDF5 file; every method is collective over ``comm``.
 
     Parameters
@@ -85,55 +86,23 @@ class CaseFile:
         Output file; must not exist unless ``overwrite`` (the caller decides).
     case : hpcgfmd.case.Case
         The case (internal units); its ``units`` convert to the file's units.
-    x_local : ndarray
-        This rank's grid positions, nodes [x_start, x_start + len(x_local)) (internal length
-        units); may be empty.
+    grid : hpcgfmd.parallel.domain.Domain
+        The surface grid: its ``shape``, its ``axes`` (the global coordinates of each axis,
+        internal length units) and this rank's block ``[x_start, x_stop)`` along the first
+        axis (possibly empty).
     comm : mpi4py.MPI.Comm
         Ranks writing the file together.
-    x_start : int
-        Global index of this rank's first node.
-    n : int
-        Global number of grid nodes (nx).
     overwrite : bool
         Replace an existing file.
     """
 
-    def __init__(self, path, case, x_local, comm, x_start, n, overwrite=False):
-        check_blocks(comm, n, x_start, x_start + len(x_local))
+    def __init__(self, path, case, grid, comm, overwrite=False):
+        check_blocks(comm, grid.shape[0], grid.x_start, grid.x_stop)
         if not overwrite and os.path.exists(path):  # mpio's "w-" raises a bare OSError
             raise FileExistsError(f"{path}: file exists")
-        self._setup(open_file(path, "w" if overwrite else "w-", comm), case, comm, x_start)
-        attrs = self.file.attrs
-        attrs["hpcgfmd_version"] = __version__
-        attrs["config"] = case.text
-        attrs["case_identity"] = case.identity()  # what a resumed run or the farm compares
-        for key, value in case.groups().items():
-            attrs[key] = value
-        attrs["nx"] = case.numerics.nx
-        attrs["dt"] = case.numerics.dt * case.units.time
-        attrs["tolerance"] = case.numerics.tolerance
-        num = case.numerics
-        attrs["solver"] = num.solver
-        attrs["step_control"] = num.step_control
-        attrs["dt_min"] = num.dt_min * case.units.time
-        attrs["dt_max"] = num.dt_max * case.units.time
-        attrs["edge_fraction"] = num.edge_fraction
-        attrs["load_tolerance"] = num.load_tolerance
-        attrs["time_tolerance"] = num.time_tolerance
-        attrs["accuracy"] = num.accuracy
-        for key, value in num.solver_settings:  # the solver's own keys
-            attrs[key] = value
-        attrs["beta"] = case.beta * case.units.length
-        attrs["load_scale"] = case.load_scale * case.units.load
-        attrs["length_unit"] = case.units.length
-        attrs["stress_unit"] = case.units.stress
-        attrs["time_unit"] = case.units.time
-        attrs["vbar_convention"] = ("vbar = 2 pi rhodot tau / (k c0): retardation time tau/k,"
-                                    " see hpcgfmd.model.theory.persson_brener")
-        if case.protocol:
-            attrs["protocol_kinds"] = [segment.kind for segment in case.protocol]
-        attrs["finished"] = False
-        attrs["steps_complete"] = 0  # entries of /series fully written (readers truncate to it)
+        self._setup(open_file(path, "w" if overwrite else "w-", comm), case, comm,
+                    grid.x_start)
+        self._write_attributes(case)
         names = UNIT_NAMES[case.form]
         series = self.file.create_group("series")
         for name in series_names(case):
@@ -143,27 +112,70 @@ class CaseFile:
             ds.attrs["units"] = names[SERIES_UNITS[name]]
         _attach(series["time"], [series[name] for name in series_names(case)
                                  if name != "time"], 0)
+        self._create_snapshots(grid, names)
+        self.file.flush()
+
+    def _write_attributes(self, case):
+        """The root attributes: the case, its groups, numerics and scales (file units)."""
+        attrs, num, units = self.file.attrs, case.numerics, case.units
+        attrs["hpcgfmd_version"] = __version__
+        attrs["config"] = case.text
+        attrs["case_identity"] = case.identity()  # what a resumed run or the farm compares
+        for key, value in case.groups().items():
+            attrs[key] = value
+        attrs["nx"] = num.nx
+        attrs["dt"] = num.dt * units.time
+        attrs["tolerance"] = num.tolerance
+        attrs["solver"] = num.solver
+        attrs["step_control"] = num.step_control
+        attrs["dt_min"] = num.dt_min * units.time
+        attrs["dt_max"] = num.dt_max * units.time
+        attrs["edge_fraction"] = num.edge_fraction
+        attrs["load_tolerance"] = num.load_tolerance
+        attrs["time_tolerance"] = num.time_tolerance
+        attrs["accuracy"] = num.accuracy
+        for key, value in num.solver_settings:  # the solver's own keys
+            attrs[key] = value
+        attrs["beta"] = case.beta * units.length
+        attrs["load_scale"] = case.load_scale * units.load
+        attrs["length_unit"] = units.length
+        attrs["stress_unit"] = units.stress
+        attrs["time_unit"] = units.time
+        attrs["vbar_convention"] = ("vbar = 2 pi rhodot tau / (k c0): retardation time tau/k,"
+                                    " see hpcgfmd.model.theory.persson_brener")
+        if case.protocol:
+            attrs["protocol_kinds"] = [segment.kind for segment in case.protocol]
+        attrs["finished"] = False
+        attrs["steps_complete"] = 0  # entries of /series fully written (readers truncate to it)
+
+    def _create_snapshots(self, grid, names):
+        """/snapshots: the axes (x, y, ...) and the growing profiles of the grid's shape."""
         snaps = self.file.create_group("snapshots")
-        x = snaps.create_dataset("x", shape=(n,), dtype="f8")
-        x.attrs["units"] = names["length"]
-        write_block(x, x_start, np.asarray(x_local) * case.units.length)
+        axes = []
+        for name, values in zip(AXES, grid.axes()):
+            axis = snaps.create_dataset(name, shape=values.shape, dtype="f8")
+            axis.attrs["units"] = names["length"]
+            write_block(axis, 0, values * self.units.length if self.comm.rank == 0
+                        else np.empty(0))
+            axes.append(axis)
         times = snaps.create_dataset("time", shape=(0,), maxshape=(None,), dtype="f8",
                                      chunks=(64,))
         times.attrs["units"] = names["time"]
         meaning = {"surface": "displacement u, upward positive (length)",
                    "pressure": "traction on the substrate, attractive positive (stress)",
                    "gap": "g = h + u_z - u (length)"}
+        shape = tuple(grid.shape)
         profiles = []
         for name in FIELDS:
-            ds = snaps.create_dataset(name, shape=(0, n), maxshape=(None, n), dtype="f8",
-                                      chunks=(1, n))
+            ds = snaps.create_dataset(name, shape=(0,) + shape, maxshape=(None,) + shape,
+                                      dtype="f8", chunks=(1,) + shape)
             ds.attrs["meaning"] = meaning[name]
             ds.attrs["units"] = names[FIELD_UNITS[name]]
             profiles.append(ds)
         _attach(times, profiles, 0)
-        _attach(x, profiles, 1)
+        for dimension, axis in enumerate(reversed(axes)):  # the last axis is x
+            _attach(axis, profiles, len(shape) - dimension)
         snaps.attrs["complete"] = 0
-        self.file.flush()
 
     def _setup(self, file, case, comm, x_start):
         self.file, self.comm, self.x_start = file, comm, x_start
@@ -173,29 +185,26 @@ class CaseFile:
                        "load": case.units.load, None: 1.0}
 
     @classmethod
-    def reopen(cls, path, case, comm, x_start, n, steps, snapshots):
-        """Reopen an existing case file to resume a run (collective).
+    def reopen(cls, path, case, grid, comm, steps, snapshots):
+        """Reopen an existing result file to resume a run (collective).
 
         Parameters
         ----------
         path : str or Path
-            Case file written by an earlier (killed) run of the same case.
+            Result file written by an earlier (killed) run of the same case.
         case : hpcgfmd.case.Case
             The case (for the units).
+        grid : hpcgfmd.parallel.domain.Domain
+            The surface grid (its shape must be the file's) and this rank's block.
         comm : mpi4py.MPI.Comm
             Ranks writing from now on (any number).
-        x_start : int
-            Global index of this rank's first node; the block length is that of the blocks
-            later passed to :meth:`add_snapshot`.
-        n : int
-            Global number of grid nodes; must match the file.
         steps, snapshots : int
             Entries of /series and /snapshots to keep (those of the checkpoint resumed
             from); later ones are dropped. At most ``steps_complete`` and ``complete``.
 
         Returns
         -------
-        CaseFile
+        ResultFile
             Marked unfinished, with the case's text and identity; the next
             :meth:`append_step` writes entry ``steps``.
         """
@@ -203,15 +212,16 @@ class CaseFile:
         file = open_file(path, "r+", comm)
         try:
             have = (int(file.attrs["steps_complete"]), int(file["snapshots"].attrs["complete"]))
-            if file["snapshots/x"].shape != (n,):
-                raise ValueError(f"{path}: has {file['snapshots/x'].shape[0]} grid nodes, not {n}")
+            shape = file["snapshots/surface"].shape[1:]
+            if shape != tuple(grid.shape):
+                raise ValueError(f"{path}: has a grid of {shape} nodes, not {tuple(grid.shape)}")
             if not (0 <= steps <= have[0] and 0 <= snapshots <= have[1]):
                 raise ValueError(f"{path}: cannot resume at {steps} steps and {snapshots}"
                                  f" snapshots, the file holds {have[0]} and {have[1]}")
         except BaseException:
             file.close()
             raise
-        self._setup(file, case, comm, x_start)
+        self._setup(file, case, comm, grid.x_start)
         file.attrs["finished"] = False  # before truncating: a kill now leaves an unfinished file
         # the case as it runs on (it may differ in what its identity leaves out: [output],
         # max_iterations), under the identity of this version
@@ -223,7 +233,7 @@ class CaseFile:
         snaps = file["snapshots"]
         snaps["time"].resize((snapshots,))
         for name in FIELDS:
-            snaps[name].resize((snapshots, n))
+            snaps[name].resize((snapshots,) + shape)
         snaps.attrs["complete"] = snapshots
         file.flush()
         return self
@@ -255,20 +265,21 @@ class CaseFile:
         time : float
             Time of the snapshot (internal units; rank-independent).
         surface, pressure, gap : ndarray
-            This rank's blocks (nodes [x_start, x_stop), possibly empty) of the surface
+            This rank's blocks (flat, or of its block's shape; possibly empty) of the surface
             displacement (length), the traction on the substrate (stress) and the gap
             (length), internal units.
         """
         snaps = self.file["snapshots"]
         i = snaps["time"].shape[0]
-        n = snaps["x"].shape[0]
+        shape = snaps["surface"].shape[1:]
         snaps["time"].resize((i + 1,))
         write_block(snaps["time"], i, [time * self.units.time] if self.comm.rank == 0 else [])
         for name, field, scale in (("surface", surface, self.units.length),
                                    ("pressure", pressure, self.units.stress),
                                    ("gap", gap, self.units.length)):
-            snaps[name].resize((i + 1, n))
-            write_block(snaps[name], self.x_start, np.asarray(field) * scale, row=i)
+            snaps[name].resize((i + 1,) + shape)
+            block = np.asarray(field).reshape((-1,) + shape[1:])  # whole but the first axis
+            write_block(snaps[name], self.x_start, block * scale, row=i)
         snaps.attrs["complete"] = i + 1
         self.file.flush()
 
