@@ -15,6 +15,7 @@ import logging
 import os
 import time
 
+from ..atomic import write_csv, write_text
 from ..errors import EXIT_FAILURE, EXIT_OK, ResultFileError, SweepError, UsageError
 from ..model.grid import grid_label
 from . import checks as claims
@@ -254,8 +255,8 @@ def _convergence(loaded):
         if "time on" in label and runs[-1][2] == 0:
             continue  # a grid without fixed-step runs
         ordered[label] = [(s, c) for s, c, _ in runs]
-    for label in panels:
-        panels[label].sort(key=lambda item: item[0])
+    for runs in panels.values():
+        runs.sort(key=lambda item: item[0])
     return panels, ordered
 
 
@@ -263,17 +264,11 @@ CHECK_COLUMNS = ("figure", "claim", "supported", "measured", "quantity", "value"
 
 
 def _write_lines(path, lines):
-    with open(path + ".tmp", "w") as fh:
-        fh.write("".join(line + "\n" for line in lines))
-    os.replace(path + ".tmp", path)
+    write_text(path, "".join(line + "\n" for line in lines))
 
 
 def _write_table(path, rows):
-    with open(path + ".tmp", "w", newline="") as fh:
-        writer = csv.writer(fh)
-        writer.writerow(CHECK_COLUMNS)
-        writer.writerows(rows)
-    os.replace(path + ".tmp", path)
+    write_csv(path, CHECK_COLUMNS, rows)
 
 
 def write_checks(prefix, checks):

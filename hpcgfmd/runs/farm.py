@@ -26,7 +26,6 @@ process writing them (the same command continues); 100 + N when N cases failed (
 from __future__ import annotations
 
 import contextlib
-import csv
 import fcntl
 import logging
 import os
@@ -37,8 +36,15 @@ import h5py
 import numpy as np
 from mpi4py import MPI
 
-from ..errors import (EXIT_FAILED_BASE, EXIT_RESUMABLE, CaseError, CaseFailure, Interrupted,
-                      UsageError)
+from ..atomic import replacing, write_csv
+from ..errors import (
+    EXIT_FAILED_BASE,
+    EXIT_RESUMABLE,
+    CaseError,
+    CaseFailure,
+    Interrupted,
+    UsageError,
+)
 from ..signals import StopSignals
 from ..storage.casefile import UNIT_NAMES
 from ..storage.checkpoint import checkpoint_path, usable_checkpoint
@@ -111,8 +117,8 @@ def plan_table(sweep, out_dir, groups):
     """The dry run's listing: each case, its groups, its file's state and its estimated cost."""
     width = max([32] + [len(item.name) for item in sweep.cases])
     lines = [f"{len(sweep.cases)} cases; outputs in {out_dir}",
-             f"{'#':>3}  {'name':<{width}} {'lambda0':>8} {'k':>6} {'V_z':>8} {'chi_ve':>9}"
-             f" {'h0/R':>6} {'nx':>8} {'cost/s':>8}  file"]
+             (f"{'#':>3}  {'name':<{width}} {'lambda0':>8} {'k':>6} {'V_z':>8} {'chi_ve':>9}"
+              f" {'h0/R':>6} {'nx':>8} {'cost/s':>8}  file")]
     loads = [0.0] * max(groups, 1)
     for item in sorted(sweep.cases, key=lambda c: -c.cost()):
         loads[loads.index(min(loads))] += item.cost()  # longest first onto the freest group
@@ -374,7 +380,7 @@ def write_summary(sweep, out_dir, records):
     """summary.csv and summary.h5 (one row per case of the sweep); returns the rows.
 
     Elements of a job array (``farm --case``) finish independently and each refreshes the
-    whole table from the files on disk, under a lock and through private temporary files, so
+    whole table from the files on disk, under a lock and each file replaced atomically, so
     the last one to finish leaves the complete summary.
     """
     with open(os.path.join(out_dir, ".summary.lock"), "w") as lock:
@@ -386,19 +392,13 @@ def write_summary(sweep, out_dir, records):
 
 
 def _write_tables(out_dir, rows, swept, form):
-    """summary.csv and summary.h5 through private files; ``form``: the cases' input form
-    (the units of summary.h5's ``units`` attributes)."""
+    """summary.csv and summary.h5, each replaced atomically (:mod:`hpcgfmd.atomic`);
+    ``form``: the cases' input form (the units of summary.h5's ``units`` attributes)."""
     names = UNIT_NAMES[form]
     columns = list(SUMMARY_COLUMNS[:4]) + [k for k in swept] + list(SUMMARY_COLUMNS[4:])
-    private = f".{os.getpid()}.tmp"
-    csv_path = os.path.join(out_dir, "summary.csv")
-    with open(csv_path + private, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore", restval="")
-        writer.writeheader()
-        writer.writerows(rows)
-    os.replace(csv_path + private, csv_path)
-    h5_path = os.path.join(out_dir, "summary.h5")
-    with h5py.File(h5_path + private, "w") as f:
+    write_csv(os.path.join(out_dir, "summary.csv"), columns, rows)
+    with replacing(os.path.join(out_dir, "summary.h5")) as temporary, \
+            h5py.File(temporary, "w") as f:
         for column in columns:
             values = [row.get(column, "") for row in rows]
             numbers = [v for v in values if v != ""]
@@ -419,4 +419,3 @@ def _write_tables(out_dir, rows, swept, form):
                 else "s" if column == "wall_time"
                 else names[SUMMARY_DIMENSIONS.get(column)])
         f.attrs["columns"] = columns
-    os.replace(h5_path + private, h5_path)
