@@ -3,10 +3,10 @@
 Scheduling. The ranks of ``comm`` are split (``comm.Split``) into groups of ``ranks_per_case``
 consecutive ranks; each group runs one case at a time on its own communicator (the engine is
 the distributed one, so a group of K ranks shares one large grid). Cases are handed out
-dynamically, the most expensive first (estimated cost, :meth:`SweepCase.cost`): the next index
-comes from an atomic counter in an MPI window on rank 0 (``MPI.Win.Fetch_and_op``), fetched by
-each group's leader when the group is free and broadcast inside the group. There is no master
-rank: every rank computes, and a long case never waits behind short ones.
+dynamically, the most expensive first (estimated cost, :mod:`hpcgfmd.runs.cost`): the next
+index comes from an atomic counter in an MPI window on rank 0 (``MPI.Win.Fetch_and_op``),
+fetched by each group's leader when the group is free and broadcast inside the group. There
+is no master rank: every rank computes, and a long case never waits behind short ones.
 
 Outputs. ``OUTDIR/<name>.h5`` per case (named from the swept values, see
 :mod:`hpcgfmd.runs.sweep`), and ``OUTDIR/summary.csv`` and ``OUTDIR/summary.h5`` with one row per
@@ -50,8 +50,8 @@ from ..storage.casefile import UNIT_NAMES
 from ..storage.checkpoint import checkpoint_path, usable_checkpoint
 from ..storage.lock import acquire_output_lock
 from ..storage.reader import read_series
+from .cost import model_line
 from .single_case import run_case
-from .sweep import ITERATIONS_PER_STEP, SECONDS_PER_NODE_ITERATION
 
 logger = logging.getLogger(__name__)
 # text whatever the rows hold (an error column with no failure is empty strings, not NaN)
@@ -119,23 +119,21 @@ def plan_table(sweep, out_dir, groups):
     lines = [f"{len(sweep.cases)} cases; outputs in {out_dir}",
              (f"{'#':>3}  {'name':<{width}} {'lambda0':>8} {'k':>6} {'V_z':>8} {'chi_ve':>9}"
               f" {'h0/R':>6} {'nx':>8} {'cost/s':>8}  file")]
+    costs = [item.cost() for item in sweep.cases]
     loads = [0.0] * max(groups, 1)
-    for item in sorted(sweep.cases, key=lambda c: -c.cost()):
-        loads[loads.index(min(loads))] += item.cost()  # longest first onto the freest group
-    for item in sweep.cases:
+    for cost in sorted(costs, reverse=True):
+        loads[loads.index(min(loads))] += cost  # longest first onto the freest group
+    for item, cost in zip(sweep.cases, costs):
         if item.case is None:
             lines.append(f"{item.index:>3}  {item.name:<{width}} invalid: {item.error}")
             continue
         g = item.case.groups()
         lines.append(f"{item.index:>3}  {item.name:<{width}} {g['lambda0']:>8.4g} {g['k']:>6.3g}"
                      f" {g['Vz']:>8.4g} {g['chi_ve']:>9.4g} {g['depth']:>6.3g}"
-                     f" {item.case.numerics.nx:>8} {item.cost():>8.3g}"
+                     f" {item.case.numerics.nx:>8} {cost:>8.3g}"
                      f"  {file_status(case_file(out_dir, item), item)}")
-    total = sum(c.cost() for c in sweep.cases)
-    lines.append(f"estimated cost: {total:.3g} core-seconds (model:"
-                 f" {SECONDS_PER_NODE_ITERATION * 2**17 * 1e3:.2g} ms per CG iteration at"
-                 f" 2^17 nodes, {ITERATIONS_PER_STEP:g} iterations per step); about"
-                 f" {max(loads):.3g} s on {groups} group(s) of ranks, longest first")
+    lines.append(f"estimated cost: {sum(costs):.3g} core-seconds (model: {model_line()});"
+                 f" about {max(loads):.3g} s on {groups} group(s) of ranks, longest first")
     return "\n".join(lines)
 
 
