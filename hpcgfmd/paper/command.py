@@ -110,8 +110,9 @@ def cmd_paper(comm, args):
         check_farm_directory(comm, runs_dir)
         logger.info(f"paper: {len(sweep.cases)} runs for Figs. {', '.join(figures)} in"
                     f" {runs_dir}, {size} ranks")
+        # one farm of every figure's runs: its progress lines count k of N over all of them
         status = run_farm(sweep, comm, runs_dir, ranks_per_case=args.ranks_per_case,
-                          stop=args.stop)
+                          stop=args.stop, label="paper", noun="runs")
     drawn = EXIT_OK
     if comm.Get_rank() == 0:
         # rank 0 alone draws; whatever fails there, the others must hear its status

@@ -8,6 +8,12 @@ index comes from an atomic counter in an MPI window on rank 0 (``MPI.Win.Fetch_a
 fetched by each group's leader when the group is free and broadcast inside the group. There
 is no master rank: every rank computes, and a long case never waits behind short ones.
 
+Progress. After each case that ends (finished, failed or skipped) its group's leader prints
+"k of N cases done, ... ETA ..." (:func:`progress_line`): k counts the cases done by all
+groups (tallies beside the counter in the same window, ``MPI.Win.Fetch_and_op``), the ETA
+is the estimated cost of the cases not done over the groups, times the wall time per
+estimated second measured on the cases done so far.
+
 Outputs. ``OUTDIR/<name>.h5`` per case (named from the swept values, see
 :mod:`hpcgfmd.runs.sweep`), and ``OUTDIR/summary.csv`` and ``OUTDIR/summary.h5`` with one row per
 case, written atomically by rank 0 at the end from the case files themselves (so the table is
@@ -51,6 +57,7 @@ from ..storage.checkpoint import checkpoint_path, usable_checkpoint
 from ..storage.lock import acquire_output_lock
 from ..storage.reader import read_series
 from .cost import model_line
+from .progress import duration_text
 from .single_case import run_case
 
 logger = logging.getLogger(__name__)
@@ -137,24 +144,36 @@ def plan_table(sweep, out_dir, groups):
     return "\n".join(lines)
 
 
-class _Counter:
-    """Dynamic hand-out of ``order``: an atomic next-position counter in a window on rank 0.
+# the counter window's slots: the next position of the order, then the tallies of the cases
+# done (count, their estimated cost, and of those timed from their start: estimated cost and
+# wall seconds; costs and seconds in milliseconds)
+NEXT, DONE, DONE_COST, TIMED_COST, TIMED_WALL = range(5)
+TALLIES = 4
 
-    Built by :meth:`create` (collective); :meth:`next` is called by group leaders only.
+
+class _Counter:
+    """Dynamic hand-out of ``order``: an atomic next-position counter in a window on rank 0,
+    beside the farm's tallies of the cases done (:meth:`report`).
+
+    Built by :meth:`create` (collective); :meth:`next` and :meth:`report` are called by group
+    leaders only, each one atomic operation on rank 0's window.
     """
 
     def __init__(self, comm, order):
         itemsize = MPI.INT64_T.Get_size()
         self.order = order
-        self.window = MPI.Win.Allocate(itemsize if comm.Get_rank() == 0 else 0, itemsize,
-                                       comm=comm)
+        self.window = MPI.Win.Allocate((1 + TALLIES) * itemsize if comm.Get_rank() == 0 else 0,
+                                       itemsize, comm=comm)
         if comm.Get_rank() == 0:
             self.window.Lock(0)
-            self.window.Put(np.zeros(1, dtype=np.int64), 0)
+            self.window.Put(np.zeros(1 + TALLIES, dtype=np.int64), 0)
             self.window.Unlock(0)
         comm.Barrier()
         self._one = np.ones(1, dtype=np.int64)
         self._value = np.zeros(1, dtype=np.int64)
+        self._tallies = np.zeros(TALLIES, dtype=np.int64)
+        self.total = len(order)
+        self.shared = True
 
     @classmethod
     def create(cls, comm, order, group_index, n_groups, say):
@@ -174,26 +193,70 @@ class _Counter:
     def next(self):
         """The next case index, or None when all are handed out; one atomic operation."""
         self.window.Lock(0)
-        self.window.Fetch_and_op(self._one, self._value, 0, op=MPI.SUM)
+        self.window.Fetch_and_op(self._one, self._value, 0, NEXT, op=MPI.SUM)
         self.window.Unlock(0)
         position = int(self._value[0])
         return self.order[position] if position < len(self.order) else None
+
+    def report(self, cost, wall=None):
+        """Add one case done (its estimated ``cost``; ``wall``: its wall seconds when it ran
+        from its start, else None) to the farm's tallies; returns them with it:
+        (cases done, their estimated cost, estimated cost and wall seconds of the timed)."""
+        add = np.array([1, round(1e3 * cost), round(1e3 * cost) if wall is not None else 0,
+                        round(1e3 * wall) if wall is not None else 0], dtype=np.int64)
+        self.window.Lock(0)  # exclusive: the four additions are one atomic update
+        for slot in range(TALLIES):
+            self.window.Fetch_and_op(add[slot:slot + 1], self._tallies[slot:slot + 1], 0,
+                                     DONE + slot, op=MPI.SUM)
+        self.window.Unlock(0)
+        done, cost_done, timed_cost, timed_wall = (self._tallies + add).tolist()
+        return done, 1e-3 * cost_done, 1e-3 * timed_cost, 1e-3 * timed_wall
 
     def free(self):
         self.window.Free()
 
 
 class _StaticQueue:
-    """Fallback: the longest-first order dealt round-robin to the groups (no messages)."""
+    """Fallback: the longest-first order dealt round-robin to the groups (no messages); the
+    tallies are this group's own."""
 
     def __init__(self, order, group_index, n_groups):
         self.mine = [i for k, i in enumerate(order) if k % n_groups == group_index]
+        self.total = len(self.mine)
+        self.shared = False
+        self.tallies = [0, 0.0, 0.0, 0.0]
 
     def next(self):
         return self.mine.pop(0) if self.mine else None
 
+    def report(self, cost, wall=None):
+        timed = wall is not None
+        self.tallies = [self.tallies[0] + 1, self.tallies[1] + cost,
+                        self.tallies[2] + (cost if timed else 0.0),
+                        self.tallies[3] + (wall if timed else 0.0)]
+        return tuple(self.tallies)
+
     def free(self):
         pass
+
+
+def progress_line(label, noun, done, total, elapsed, cost_left, timed_cost, timed_wall,
+                  groups):
+    """The farm's line after a case ends: k of N done, the time elapsed and the time left.
+
+    The time left is the estimated cost of the cases not done, ``cost_left`` core-seconds
+    (:mod:`hpcgfmd.runs.cost`), shared by the ``groups``, times the ratio of wall seconds to
+    estimated cost measured on the cases timed so far (``timed_wall`` / ``timed_cost``: the
+    ones run from their start; 1, the model alone, before the first), so it corrects itself.
+    """
+    measured = timed_cost > 0.0 and timed_wall > 0.0
+    ratio = timed_wall / timed_cost if measured else 1.0
+    cost_left = max(cost_left, 0.0) if done < total else 0.0
+    left = cost_left * ratio / max(groups, 1)
+    basis = f"x {ratio:.2f} measured/estimated" if measured else "the estimate alone"
+    return (f"{label}: {done} of {total} {noun} done, {duration_text(elapsed)} elapsed, ETA"
+            f" {duration_text(left)} ({cost_left:.3g} estimated core-s left over {groups}"
+            f" group(s), {basis})")
 
 
 def _run_one(item, out_dir, group, say, stop):
@@ -253,7 +316,8 @@ def _run_locked(item, path, record, group, say, stop):
         return _failed(item, record, say, f"{type(err).__name__}: {err}")
     say(f"[{item.index}] {item.name}: finished, {summary['steps']} steps,"
         f" {time.monotonic() - started:.1f} s")
-    return dict(record, status="finished")
+    # a case run from its start measures the cost model (a resumed one ran only its rest)
+    return dict(record, status="finished", timed=status != "resumable")
 
 
 @contextlib.contextmanager
@@ -270,24 +334,29 @@ def _quiet_case():
             one.setLevel(level)
 
 
-def run_farm(sweep, comm, out_dir, ranks_per_case=1, only=None, stop=None) -> int:
+def run_farm(sweep, comm, out_dir, ranks_per_case=1, only=None, stop=None, label="farm",
+             noun="cases") -> int:
     """Collective: run the cases of ``sweep`` on ``comm``; returns the exit status.
 
     ``only`` runs just that case index on all of ``comm`` (one element of a job array).
     ``stop``: the process's :class:`StopSignals` (else the farm installs its own).
+    ``label`` and ``noun`` name the farm and its cases in the progress lines
+    (:func:`progress_line`: "farm: 3 of 12 cases done, ...").
     """
     if stop is None:
         with StopSignals() as own:
-            return run_farm(sweep, comm, out_dir, ranks_per_case, only, own)
+            return run_farm(sweep, comm, out_dir, ranks_per_case, only, own, label, noun)
+    started = time.monotonic()
     rank = comm.Get_rank()
     if rank == 0:
         os.makedirs(out_dir, exist_ok=True)
     comm.Barrier()
+    costs = [item.cost() for item in sweep.cases]
     if only is not None:
         group, order = comm, [only]
     else:
         group = comm.Split(color=rank // ranks_per_case, key=rank)
-        order = sorted(range(len(sweep.cases)), key=lambda i: -sweep.cases[i].cost())
+        order = sorted(range(len(sweep.cases)), key=lambda i: -costs[i])
     leader = group.Get_rank() == 0
 
     def say(line, level=logging.INFO):  # each group's leader reports its own cases
@@ -296,6 +365,7 @@ def run_farm(sweep, comm, out_dir, ranks_per_case=1, only=None, stop=None) -> in
 
     n_groups = comm.Get_size() // group.Get_size() if only is None else 1
     queue = _Counter.create(comm, order, rank // group.Get_size(), n_groups, say)
+    total_cost = sum(costs[i] for i in (order if queue.shared else queue.mine))
     records = []
     while True:
         # a signal between cases: the group agrees, then takes no new case
@@ -305,11 +375,19 @@ def run_farm(sweep, comm, out_dir, ranks_per_case=1, only=None, stop=None) -> in
         index = group.bcast(index, root=0)
         if index is None:
             break
+        case_started = time.monotonic()
         record = _run_one(sweep.cases[index], out_dir, group, say, stop)
+        if record["status"] == "interrupted":
+            if leader:
+                records.append(record)
+            break
         if leader:
             records.append(record)
-        if record["status"] == "interrupted":
-            break
+            wall = time.monotonic() - case_started if record.get("timed") else None
+            done, cost_done, timed_cost, timed_wall = queue.report(costs[index], wall)
+            say(progress_line(label, noun, done, queue.total, time.monotonic() - started,
+                              total_cost - cost_done, timed_cost, timed_wall, n_groups)
+                + ("" if queue.shared else "; this group's cases only"))
     queue.free()
     gathered = comm.gather(records, root=0)
     status = 0

@@ -247,7 +247,7 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
                           " run the same command again")
 
     try:
-        progress = Progress(case.output.progress_interval, case.units)
+        progress = Progress(case.output.progress_interval, case.units, case)
         if comm.bcast(short_of_space(), root=0):
             stop_for_space()
         while not sim.finished():
