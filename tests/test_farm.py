@@ -1,6 +1,7 @@
 """Sweep files and the task farm (`mpirun -n 2 python -m hpcgfmd farm sweep.toml`)."""
 import csv
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -10,12 +11,12 @@ import time
 import h5py
 import numpy as np
 import pytest
-
-from hpcgfmd.storage.reader import read_series
-from hpcgfmd.case import parse_case
-from hpcgfmd.errors import SweepError
-from hpcgfmd.runs.sweep import parse_sweep
 from cases import FIXED_STEPS, case_text
+
+from hpcgfmd.errors import SweepError
+from hpcgfmd.case import parse_case
+from hpcgfmd.runs.sweep import parse_sweep
+from hpcgfmd.storage.reader import read_series
 
 MPIRUN = shutil.which("mpirun")
 BASE = case_text("nx = 1024", prefix="base.")
@@ -113,7 +114,8 @@ def test_farm_records_failures_goes_on_and_resumes(tmp_path):
         BASE + "[[cases]]\nvelocity = 1.0\n[[cases]]\nvelocity = 2.0\n"
         "[[cases]]\nnx = 64\n[[cases]]\nvelocity = 0.5\nmax_iterations = 2\n")
     run = subprocess.run(farm_command(2, "sweep.toml", "-o", "out"), cwd=tmp_path,
-                         capture_output=True, text=True, timeout=300, env=environment())
+                         capture_output=True, text=True, timeout=300, env=environment(),
+                         check=False)
     assert run.returncode == 102, run.stdout + run.stderr  # 100 + 2 failed
     rows = summary(tmp_path / "out" / "summary.csv")
     assert [rows[i]["status"] for i in range(4)] == ["finished", "finished", "failed", "failed"]
@@ -134,7 +136,8 @@ def test_farm_records_failures_goes_on_and_resumes(tmp_path):
                          "status": None}
     before = os.path.getmtime(tmp_path / "out" / rows[0]["file"])
     again = subprocess.run(farm_command(2, "sweep.toml", "-o", "out"), cwd=tmp_path,
-                           capture_output=True, text=True, timeout=300, env=environment())
+                           capture_output=True, text=True, timeout=300, env=environment(),
+                           check=False)
     assert again.returncode == 102
     assert again.stdout.count("finished before, skipped") == 2
     assert os.path.getmtime(tmp_path / "out" / rows[0]["file"]) == before  # not rewritten
@@ -165,7 +168,7 @@ def test_farm_signal_checkpoints_and_the_same_command_finishes(tmp_path):
     assert interrupted, rows
     done = subprocess.run(farm_command(2, "sweep.toml", "-o", "out", "--ranks-per-case", 2),
                           cwd=tmp_path, capture_output=True, text=True, timeout=300,
-                          env=environment())
+                          env=environment(), check=False)
     assert done.returncode == 0, done.stdout + done.stderr
     assert "resuming" in done.stdout
     rows = summary(tmp_path / "out" / "summary.csv")
@@ -177,7 +180,7 @@ def test_farm_signal_checkpoints_and_the_same_command_finishes(tmp_path):
     (tmp_path / "direct.toml").write_text(item.text)
     direct = subprocess.run([sys.executable, "-m", "hpcgfmd", "run", "direct.toml", "-o",
                              "direct.h5"], cwd=tmp_path, capture_output=True, text=True,
-                            timeout=300, env=environment())
+                            timeout=300, env=environment(), check=False)
     assert direct.returncode == 0, direct.stderr
     a = read_series(tmp_path / "direct.h5")
     b = read_series(tmp_path / "out" / (item.name + ".h5"))
@@ -187,11 +190,41 @@ def test_farm_signal_checkpoints_and_the_same_command_finishes(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.mpi
+def test_group_leaders_count_k_of_n_and_both_reach_the_log_file(tmp_path):
+    # two groups of one rank, four cases: after each case its group's leader prints k of 4
+    # with the ETA, k counted over both groups; --log receives both leaders' lines, whole
+    (tmp_path / "sweep.toml").write_text(BASE + "[grid]\nvelocity = [0.5, 1.0, 2.0, 4.0]\n")
+    run = subprocess.run(farm_command(2, "sweep.toml", "-o", "out", "--log", "farm.log"),
+                         cwd=tmp_path, capture_output=True, text=True, timeout=300,
+                         env=environment(), check=False)
+    assert run.returncode == 0, run.stdout + run.stderr
+    progress = re.compile(r"^farm: (\d) of 4 cases done, \d+ s elapsed, ETA"
+                          r" (\d+ s|\d+ min \d+ s) \(\S+ estimated core-s left over 2"
+                          r" group\(s\), x \d+\.\d\d measured/estimated\)$")
+    counts = [int(m.group(1)) for m in map(progress.match, run.stdout.splitlines()) if m]
+    assert sorted(counts) == [1, 2, 3, 4], run.stdout
+    stamp = re.compile(r"^\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d{3} rank (\d) hpcgfmd\.\S+ INFO ")
+    lines = (tmp_path / "farm.log").read_text().splitlines()
+    assert lines and all(stamp.match(line) for line in lines), lines  # no line broken or mixed
+    by_rank = {}
+    for line in lines:
+        found = progress.match(line[stamp.match(line).end():])
+        if found:
+            by_rank.setdefault(stamp.match(line).group(1), []).append(int(found.group(1)))
+    assert sorted(by_rank) == ["0", "1"], lines  # both group leaders reached the file
+    assert sorted(by_rank["0"] + by_rank["1"]) == [1, 2, 3, 4]
+    assert all(ks == sorted(ks) for ks in by_rank.values())  # each leader's k only grows
+    started = [line for line in lines if ": starting on 1 rank(s)" in line]
+    assert len(started) == 4 and {stamp.match(x).group(1) for x in started} == {"0", "1"}
+
+
+@pytest.mark.slow
+@pytest.mark.mpi
 def test_one_case_of_the_sweep_for_a_job_array(tmp_path):
     (tmp_path / "sweep.toml").write_text(BASE + "[grid]\nvelocity = [1.0, 2.0]\n")
     run = subprocess.run(farm_command(2, "sweep.toml", "-o", "out", "--case", 1),
                          cwd=tmp_path, capture_output=True, text=True, timeout=300,
-                         env=environment())
+                         env=environment(), check=False)
     assert run.returncode == 0, run.stdout + run.stderr
     assert sorted(p for p in os.listdir(tmp_path / "out") if p.endswith(".h5")) == [
         "summary.h5", "velocity_2.0.h5"]
@@ -202,7 +235,7 @@ def test_one_case_of_the_sweep_for_a_job_array(tmp_path):
 def test_dry_run_lists_cases_groups_and_cost(tmp_path):
     (tmp_path / "sweep.toml").write_text(BASE + "[grid]\nvelocity = [0.045, 0.45, 4.5]\n")
     run = subprocess.run([sys.executable, "-m", "hpcgfmd", "farm", "sweep.toml", "--dry-run"],
-                         cwd=tmp_path, capture_output=True, text=True, timeout=60)
+                         cwd=tmp_path, capture_output=True, text=True, timeout=60, check=False)
     assert run.returncode == 0, run.stderr
     lines = run.stdout.splitlines()
     assert lines[0].startswith("3 cases")
@@ -221,7 +254,7 @@ def test_quiet_farm_still_reports_its_failed_cases(tmp_path):
     (tmp_path / "sweep.toml").write_text(
         BASE + "[[cases]]\nnx = 64\n[[cases]]\nmax_iterations = 2\n")
     run = subprocess.run([sys.executable, "-m", "hpcgfmd", "farm", "sweep.toml", "--quiet"],
-                         cwd=tmp_path, capture_output=True, text=True, timeout=60)
+                         cwd=tmp_path, capture_output=True, text=True, timeout=60, check=False)
     assert run.returncode == 102, run.stderr
     failed = sorted(line for line in run.stderr.splitlines() if ": failed: " in line)
     assert len(failed) == 2, run.stderr
@@ -259,7 +292,7 @@ def test_bad_farm_arguments_one_line_status_2(tmp_path, args, words):
     (tmp_path / "sweep.toml").write_text(BASE + "[grid]\nvelocity = [1.0, 2.0]\n")
     run = subprocess.run([MPIRUN, "-n", "2", sys.executable, "-m", "hpcgfmd", "farm",
                           "sweep.toml", *args], cwd=tmp_path, capture_output=True, text=True,
-                         timeout=60, env=environment())
+                         timeout=60, env=environment(), check=False)
     assert run.returncode == 2
     lines = [line for line in run.stderr.splitlines() if line.startswith("hpcgfmd:")]
     assert len(lines) == 1 and all(w in lines[0] for w in words), run.stderr

@@ -1,20 +1,20 @@
 """The paper pipeline (hpcgfmd/paper): its measures on curves with known answers, Eq. 8's limits,
 an elastic retraction against Baney-Hui, and `python -m hpcgfmd paper` on a tiny study."""
 import csv
+import re
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from cases import case_text
 from mpi4py import MPI
 
-from cases import case_text
-from hpcgfmd.errors import SweepError
+from hpcgfmd.errors import SweepError, UsageError
 from hpcgfmd.model import theory
 from hpcgfmd.paper import checks, curves, study
 from hpcgfmd.paper.command import parse_figures
-from hpcgfmd.errors import UsageError
 
 
 def synthetic(abar, lbar, depth=0.1, k=0.1, lambda0=7.0, vz=1.0):
@@ -272,7 +272,7 @@ TINY = {
 def paper(tmp_path, *args):
     return subprocess.run([sys.executable, "-m", "hpcgfmd", "paper", "--sweeps",
                            str(tmp_path / "study"), "-o", str(tmp_path / "out"), *args],
-                          capture_output=True, text=True, timeout=600)
+                          capture_output=True, text=True, timeout=600, check=False)
 
 
 @pytest.mark.slow
@@ -287,6 +287,10 @@ def test_paper_command_runs_draws_and_checks_a_tiny_study(tmp_path):
     assert not (tmp_path / "out").exists()
     done = paper(tmp_path, "--figures", figures)
     assert done.returncode == 0, done.stdout + done.stderr
+    # one farm of all the figures' runs: after each run, k of 10 and the time left
+    counted = re.findall(r"^paper: (\d+) of 10 runs done, .* elapsed, ETA \d", done.stdout,
+                         re.MULTILINE)
+    assert [int(k) for k in counted] == list(range(1, 11)), done.stdout
     out = tmp_path / "out"
     for figure in figures.split(","):
         assert (out / f"fig{figure}.png").stat().st_size > 10000

@@ -15,6 +15,7 @@ import logging
 import os
 import time
 
+from ..atomic import write_csv, write_text
 from ..errors import EXIT_FAILURE, EXIT_OK, ResultFileError, SweepError, UsageError
 from ..model.grid import grid_label
 from . import checks as claims
@@ -109,8 +110,9 @@ def cmd_paper(comm, args):
         check_farm_directory(comm, runs_dir)
         logger.info(f"paper: {len(sweep.cases)} runs for Figs. {', '.join(figures)} in"
                     f" {runs_dir}, {size} ranks")
+        # one farm of every figure's runs: its progress lines count k of N over all of them
         status = run_farm(sweep, comm, runs_dir, ranks_per_case=args.ranks_per_case,
-                          stop=args.stop)
+                          stop=args.stop, label="paper", noun="runs")
     drawn = EXIT_OK
     if comm.Get_rank() == 0:
         # rank 0 alone draws; whatever fails there, the others must hear its status
@@ -254,8 +256,8 @@ def _convergence(loaded):
         if "time on" in label and runs[-1][2] == 0:
             continue  # a grid without fixed-step runs
         ordered[label] = [(s, c) for s, c, _ in runs]
-    for label in panels:
-        panels[label].sort(key=lambda item: item[0])
+    for runs in panels.values():
+        runs.sort(key=lambda item: item[0])
     return panels, ordered
 
 
@@ -263,17 +265,11 @@ CHECK_COLUMNS = ("figure", "claim", "supported", "measured", "quantity", "value"
 
 
 def _write_lines(path, lines):
-    with open(path + ".tmp", "w") as fh:
-        fh.write("".join(line + "\n" for line in lines))
-    os.replace(path + ".tmp", path)
+    write_text(path, "".join(line + "\n" for line in lines))
 
 
 def _write_table(path, rows):
-    with open(path + ".tmp", "w", newline="") as fh:
-        writer = csv.writer(fh)
-        writer.writerow(CHECK_COLUMNS)
-        writer.writerows(rows)
-    os.replace(path + ".tmp", path)
+    write_csv(path, CHECK_COLUMNS, rows)
 
 
 def write_checks(prefix, checks):

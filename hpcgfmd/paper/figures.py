@@ -8,39 +8,34 @@ dgamma0, instantaneous = JKR with dgamma0 / k (paper Sec. 4).
 """
 from __future__ import annotations
 
-import csv
-import os
-
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from ..model import theory  # noqa: E402
-from .curves import snapshot_profiles  # noqa: E402
+from .. import atomic
+from ..model import theory
+from .curves import snapshot_profiles
 
 X_LABEL = r"$\bar L_n/\sqrt{\bar a_c}$"
 Y_LABEL = r"$(\pi/4)\,\bar a_c^{3/2}$"
 
 
 def write_csv(path, columns, rows):
-    """``rows`` (iterables in the order of ``columns``) to ``path``, atomically."""
-    tmp = path + ".tmp"
-    with open(tmp, "w", newline="") as fh:
-        writer = csv.writer(fh)
-        writer.writerow(columns)
-        for row in rows:
-            writer.writerow([f"{v:.10g}" if isinstance(v, float) else v for v in row])
-    os.replace(tmp, path)
+    """``rows`` (iterables in the order of ``columns``) to ``path``, atomically; floats in
+    10 significant digits."""
+    atomic.write_csv(path, columns, ([f"{v:.10g}" if isinstance(v, float) else v for v in row]
+                                     for row in rows))
 
 
 def _save(fig, path):
-    tmp = path + ".tmp.png"
-    fig.tight_layout()
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    os.replace(tmp, path)
+    """The figure to ``path`` (PNG, atomically), then closed."""
+    try:
+        fig.tight_layout()
+        atomic.save_figure(fig, path, dpi=110)
+    finally:
+        plt.close(fig)
 
 
 def _limits(ax, lambda0, k, top):
@@ -172,8 +167,8 @@ def draw_curves_and_work(path, runs, masks, color_key):
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
     lambda0, k, depths = _reference(runs)
     keys = sorted({c.groups[color_key] for _, c in runs})
-    styles = [dict(color=f"C{keys.index(c.groups[color_key])}", lw=1,
-                   ls="--" if c.groups["depth"] == depths[0] and len(depths) > 1 else "-")
+    styles = [{"color": f"C{keys.index(c.groups[color_key])}", "lw": 1,
+               "ls": "--" if c.groups["depth"] == depths[0] and len(depths) > 1 else "-"}
               for _, c in runs]
     _scaled_axes(ax1, runs, styles)
     _limits(ax1, lambda0, k, _top(runs))
@@ -210,8 +205,8 @@ def draw_fig9(path, runs):
     for _, curve in runs:
         chi = round(curve.groups["chi_ve"], 6)
         seen[chi] = seen.get(chi, 0) + 1
-        styles.append(dict(color=f"C{chis.index(chi)}", lw=1,
-                           ls="-" if seen[chi] == 1 else "--"))
+        styles.append({"color": f"C{chis.index(chi)}", "lw": 1,
+                       "ls": "-" if seen[chi] == 1 else "--"})
     _scaled_axes(ax, runs, styles)
     _limits(ax, lambda0, k, _top(runs))
     ax.legend(fontsize=6)

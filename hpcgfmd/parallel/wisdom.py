@@ -8,9 +8,9 @@ runs on one machine also transform with the same algorithm (the same round-off).
 The file is ``$HPCGFMD_WISDOM`` if set (``off`` disables the cache), else
 ``$XDG_CACHE_HOME/hpcgfmd/fftw-wisdom-<host>.json`` (``~/.cache`` without XDG_CACHE_HOME):
 one file per host name, as wisdom from another processor could choose a slow plan. It holds
-the wisdom of every rank that planned, merged; it is written atomically (a temporary
-file renamed over it), so concurrent writers (the groups of a farm) lose at most each other's
-additions, never the file. An unreadable file is ignored with a warning and replaced.
+the wisdom of every rank that planned, merged; it is written atomically
+(:func:`hpcgfmd.atomic.write_text`), so concurrent writers (the groups of a farm) lose at most
+each other's additions, never the file. An unreadable file is ignored with a warning and replaced.
 """
 from __future__ import annotations
 
@@ -18,10 +18,11 @@ import json
 import logging
 import os
 import platform
-import tempfile
 from pathlib import Path
 
 import pyfftw
+
+from ..atomic import write_text
 
 log = logging.getLogger(__name__)
 
@@ -91,14 +92,8 @@ def save(comm, path, known):
     merged = pyfftw.export_wisdom()
     text = json.dumps({"format": _FORMAT, "pyfftw": pyfftw.__version__,
                        "wisdom": [[part.decode("latin-1") for part in merged]]})
-    tmp = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
+        write_text(path, text)
     except OSError as err:  # a read-only or full home costs planning time, never the run
         log.warning("could not write the FFTW wisdom file %s (%s)", path, err)
-        if tmp is not None and os.path.exists(tmp):
-            os.unlink(tmp)

@@ -3,10 +3,16 @@
 Scheduling. The ranks of ``comm`` are split (``comm.Split``) into groups of ``ranks_per_case``
 consecutive ranks; each group runs one case at a time on its own communicator (the engine is
 the distributed one, so a group of K ranks shares one large grid). Cases are handed out
-dynamically, the most expensive first (estimated cost, :meth:`SweepCase.cost`): the next index
-comes from an atomic counter in an MPI window on rank 0 (``MPI.Win.Fetch_and_op``), fetched by
-each group's leader when the group is free and broadcast inside the group. There is no master
-rank: every rank computes, and a long case never waits behind short ones.
+dynamically, the most expensive first (estimated cost, :mod:`hpcgfmd.runs.cost`): the next
+index comes from an atomic counter in an MPI window on rank 0 (``MPI.Win.Fetch_and_op``),
+fetched by each group's leader when the group is free and broadcast inside the group. There
+is no master rank: every rank computes, and a long case never waits behind short ones.
+
+Progress. After each case that ends (finished, failed or skipped) its group's leader prints
+"k of N cases done, ... ETA ..." (:func:`progress_line`): k counts the cases done by all
+groups (tallies beside the counter in the same window, ``MPI.Win.Fetch_and_op``), the ETA
+is the estimated cost of the cases not done over the groups, times the wall time per
+estimated second measured on the cases done so far.
 
 Outputs. ``OUTDIR/<name>.h5`` per case (named from the swept values, see
 :mod:`hpcgfmd.runs.sweep`), and ``OUTDIR/summary.csv`` and ``OUTDIR/summary.h5`` with one row per
@@ -26,7 +32,6 @@ process writing them (the same command continues); 100 + N when N cases failed (
 from __future__ import annotations
 
 import contextlib
-import csv
 import fcntl
 import logging
 import os
@@ -37,15 +42,23 @@ import h5py
 import numpy as np
 from mpi4py import MPI
 
-from ..errors import (EXIT_FAILED_BASE, EXIT_RESUMABLE, CaseError, CaseFailure, Interrupted,
-                      UsageError)
+from ..atomic import replacing, write_csv
+from ..errors import (
+    EXIT_FAILED_BASE,
+    EXIT_RESUMABLE,
+    CaseError,
+    CaseFailure,
+    Interrupted,
+    UsageError,
+)
 from ..signals import StopSignals
 from ..storage.result_file import UNIT_NAMES
 from ..storage.checkpoint import checkpoint_path, usable_checkpoint
 from ..storage.lock import acquire_output_lock
 from ..storage.reader import read_series
+from .cost import model_line
+from .progress import duration_text
 from .single_case import run_case
-from .sweep import ITERATIONS_PER_STEP, SECONDS_PER_NODE_ITERATION
 
 logger = logging.getLogger(__name__)
 # text whatever the rows hold (an error column with no failure is empty strings, not NaN)
@@ -111,46 +124,56 @@ def plan_table(sweep, out_dir, groups):
     """The dry run's listing: each case, its groups, its file's state and its estimated cost."""
     width = max([32] + [len(item.name) for item in sweep.cases])
     lines = [f"{len(sweep.cases)} cases; outputs in {out_dir}",
-             f"{'#':>3}  {'name':<{width}} {'lambda0':>8} {'k':>6} {'V_z':>8} {'chi_ve':>9}"
-             f" {'h0/R':>6} {'nx':>8} {'cost/s':>8}  file"]
+             (f"{'#':>3}  {'name':<{width}} {'lambda0':>8} {'k':>6} {'V_z':>8} {'chi_ve':>9}"
+              f" {'h0/R':>6} {'nx':>8} {'cost/s':>8}  file")]
+    costs = [item.cost() for item in sweep.cases]
     loads = [0.0] * max(groups, 1)
-    for item in sorted(sweep.cases, key=lambda c: -c.cost()):
-        loads[loads.index(min(loads))] += item.cost()  # longest first onto the freest group
-    for item in sweep.cases:
+    for cost in sorted(costs, reverse=True):
+        loads[loads.index(min(loads))] += cost  # longest first onto the freest group
+    for item, cost in zip(sweep.cases, costs):
         if item.case is None:
             lines.append(f"{item.index:>3}  {item.name:<{width}} invalid: {item.error}")
             continue
         g = item.case.groups()
         lines.append(f"{item.index:>3}  {item.name:<{width}} {g['lambda0']:>8.4g} {g['k']:>6.3g}"
                      f" {g['Vz']:>8.4g} {g['chi_ve']:>9.4g} {g['depth']:>6.3g}"
-                     f" {item.case.numerics.nx:>8} {item.cost():>8.3g}"
+                     f" {item.case.numerics.nx:>8} {cost:>8.3g}"
                      f"  {file_status(case_file(out_dir, item), item)}")
-    total = sum(c.cost() for c in sweep.cases)
-    lines.append(f"estimated cost: {total:.3g} core-seconds (model:"
-                 f" {SECONDS_PER_NODE_ITERATION * 2**17 * 1e3:.2g} ms per CG iteration at"
-                 f" 2^17 nodes, {ITERATIONS_PER_STEP:g} iterations per step); about"
-                 f" {max(loads):.3g} s on {groups} group(s) of ranks, longest first")
+    lines.append(f"estimated cost: {sum(costs):.3g} core-seconds (model: {model_line()});"
+                 f" about {max(loads):.3g} s on {groups} group(s) of ranks, longest first")
     return "\n".join(lines)
 
 
-class _Counter:
-    """Dynamic hand-out of ``order``: an atomic next-position counter in a window on rank 0.
+# the counter window's slots: the next position of the order, then the tallies of the cases
+# done (count, their estimated cost, and of those timed from their start: estimated cost and
+# wall seconds; costs and seconds in milliseconds)
+NEXT, DONE, DONE_COST, TIMED_COST, TIMED_WALL = range(5)
+TALLIES = 4
 
-    Built by :meth:`create` (collective); :meth:`next` is called by group leaders only.
+
+class _Counter:
+    """Dynamic hand-out of ``order``: an atomic next-position counter in a window on rank 0,
+    beside the farm's tallies of the cases done (:meth:`report`).
+
+    Built by :meth:`create` (collective); :meth:`next` and :meth:`report` are called by group
+    leaders only, each one atomic operation on rank 0's window.
     """
 
     def __init__(self, comm, order):
         itemsize = MPI.INT64_T.Get_size()
         self.order = order
-        self.window = MPI.Win.Allocate(itemsize if comm.Get_rank() == 0 else 0, itemsize,
-                                       comm=comm)
+        self.window = MPI.Win.Allocate((1 + TALLIES) * itemsize if comm.Get_rank() == 0 else 0,
+                                       itemsize, comm=comm)
         if comm.Get_rank() == 0:
             self.window.Lock(0)
-            self.window.Put(np.zeros(1, dtype=np.int64), 0)
+            self.window.Put(np.zeros(1 + TALLIES, dtype=np.int64), 0)
             self.window.Unlock(0)
         comm.Barrier()
         self._one = np.ones(1, dtype=np.int64)
         self._value = np.zeros(1, dtype=np.int64)
+        self._tallies = np.zeros(TALLIES, dtype=np.int64)
+        self.total = len(order)
+        self.shared = True
 
     @classmethod
     def create(cls, comm, order, group_index, n_groups, say):
@@ -170,26 +193,70 @@ class _Counter:
     def next(self):
         """The next case index, or None when all are handed out; one atomic operation."""
         self.window.Lock(0)
-        self.window.Fetch_and_op(self._one, self._value, 0, op=MPI.SUM)
+        self.window.Fetch_and_op(self._one, self._value, 0, NEXT, op=MPI.SUM)
         self.window.Unlock(0)
         position = int(self._value[0])
         return self.order[position] if position < len(self.order) else None
+
+    def report(self, cost, wall=None):
+        """Add one case done (its estimated ``cost``; ``wall``: its wall seconds when it ran
+        from its start, else None) to the farm's tallies; returns them with it:
+        (cases done, their estimated cost, estimated cost and wall seconds of the timed)."""
+        add = np.array([1, round(1e3 * cost), round(1e3 * cost) if wall is not None else 0,
+                        round(1e3 * wall) if wall is not None else 0], dtype=np.int64)
+        self.window.Lock(0)  # exclusive: the four additions are one atomic update
+        for slot in range(TALLIES):
+            self.window.Fetch_and_op(add[slot:slot + 1], self._tallies[slot:slot + 1], 0,
+                                     DONE + slot, op=MPI.SUM)
+        self.window.Unlock(0)
+        done, cost_done, timed_cost, timed_wall = (self._tallies + add).tolist()
+        return done, 1e-3 * cost_done, 1e-3 * timed_cost, 1e-3 * timed_wall
 
     def free(self):
         self.window.Free()
 
 
 class _StaticQueue:
-    """Fallback: the longest-first order dealt round-robin to the groups (no messages)."""
+    """Fallback: the longest-first order dealt round-robin to the groups (no messages); the
+    tallies are this group's own."""
 
     def __init__(self, order, group_index, n_groups):
         self.mine = [i for k, i in enumerate(order) if k % n_groups == group_index]
+        self.total = len(self.mine)
+        self.shared = False
+        self.tallies = [0, 0.0, 0.0, 0.0]
 
     def next(self):
         return self.mine.pop(0) if self.mine else None
 
+    def report(self, cost, wall=None):
+        timed = wall is not None
+        self.tallies = [self.tallies[0] + 1, self.tallies[1] + cost,
+                        self.tallies[2] + (cost if timed else 0.0),
+                        self.tallies[3] + (wall if timed else 0.0)]
+        return tuple(self.tallies)
+
     def free(self):
         pass
+
+
+def progress_line(label, noun, done, total, elapsed, cost_left, timed_cost, timed_wall,
+                  groups):
+    """The farm's line after a case ends: k of N done, the time elapsed and the time left.
+
+    The time left is the estimated cost of the cases not done, ``cost_left`` core-seconds
+    (:mod:`hpcgfmd.runs.cost`), shared by the ``groups``, times the ratio of wall seconds to
+    estimated cost measured on the cases timed so far (``timed_wall`` / ``timed_cost``: the
+    ones run from their start; 1, the model alone, before the first), so it corrects itself.
+    """
+    measured = timed_cost > 0.0 and timed_wall > 0.0
+    ratio = timed_wall / timed_cost if measured else 1.0
+    cost_left = max(cost_left, 0.0) if done < total else 0.0
+    left = cost_left * ratio / max(groups, 1)
+    basis = f"x {ratio:.2f} measured/estimated" if measured else "the estimate alone"
+    return (f"{label}: {done} of {total} {noun} done, {duration_text(elapsed)} elapsed, ETA"
+            f" {duration_text(left)} ({cost_left:.3g} estimated core-s left over {groups}"
+            f" group(s), {basis})")
 
 
 def _run_one(item, out_dir, group, say, stop):
@@ -249,7 +316,8 @@ def _run_locked(item, path, record, group, say, stop):
         return _failed(item, record, say, f"{type(err).__name__}: {err}")
     say(f"[{item.index}] {item.name}: finished, {summary['steps']} steps,"
         f" {time.monotonic() - started:.1f} s")
-    return dict(record, status="finished")
+    # a case run from its start measures the cost model (a resumed one ran only its rest)
+    return dict(record, status="finished", timed=status != "resumable")
 
 
 @contextlib.contextmanager
@@ -266,24 +334,29 @@ def _quiet_case():
             one.setLevel(level)
 
 
-def run_farm(sweep, comm, out_dir, ranks_per_case=1, only=None, stop=None) -> int:
+def run_farm(sweep, comm, out_dir, ranks_per_case=1, only=None, stop=None, label="farm",
+             noun="cases") -> int:
     """Collective: run the cases of ``sweep`` on ``comm``; returns the exit status.
 
     ``only`` runs just that case index on all of ``comm`` (one element of a job array).
     ``stop``: the process's :class:`StopSignals` (else the farm installs its own).
+    ``label`` and ``noun`` name the farm and its cases in the progress lines
+    (:func:`progress_line`: "farm: 3 of 12 cases done, ...").
     """
     if stop is None:
         with StopSignals() as own:
-            return run_farm(sweep, comm, out_dir, ranks_per_case, only, own)
+            return run_farm(sweep, comm, out_dir, ranks_per_case, only, own, label, noun)
+    started = time.monotonic()
     rank = comm.Get_rank()
     if rank == 0:
         os.makedirs(out_dir, exist_ok=True)
     comm.Barrier()
+    costs = [item.cost() for item in sweep.cases]
     if only is not None:
         group, order = comm, [only]
     else:
         group = comm.Split(color=rank // ranks_per_case, key=rank)
-        order = sorted(range(len(sweep.cases)), key=lambda i: -sweep.cases[i].cost())
+        order = sorted(range(len(sweep.cases)), key=lambda i: -costs[i])
     leader = group.Get_rank() == 0
 
     def say(line, level=logging.INFO):  # each group's leader reports its own cases
@@ -292,6 +365,7 @@ def run_farm(sweep, comm, out_dir, ranks_per_case=1, only=None, stop=None) -> in
 
     n_groups = comm.Get_size() // group.Get_size() if only is None else 1
     queue = _Counter.create(comm, order, rank // group.Get_size(), n_groups, say)
+    total_cost = sum(costs[i] for i in (order if queue.shared else queue.mine))
     records = []
     while True:
         # a signal between cases: the group agrees, then takes no new case
@@ -301,11 +375,19 @@ def run_farm(sweep, comm, out_dir, ranks_per_case=1, only=None, stop=None) -> in
         index = group.bcast(index, root=0)
         if index is None:
             break
+        case_started = time.monotonic()
         record = _run_one(sweep.cases[index], out_dir, group, say, stop)
+        if record["status"] == "interrupted":
+            if leader:
+                records.append(record)
+            break
         if leader:
             records.append(record)
-        if record["status"] == "interrupted":
-            break
+            wall = time.monotonic() - case_started if record.get("timed") else None
+            done, cost_done, timed_cost, timed_wall = queue.report(costs[index], wall)
+            say(progress_line(label, noun, done, queue.total, time.monotonic() - started,
+                              total_cost - cost_done, timed_cost, timed_wall, n_groups)
+                + ("" if queue.shared else "; this group's cases only"))
     queue.free()
     gathered = comm.gather(records, root=0)
     status = 0
@@ -374,7 +456,7 @@ def write_summary(sweep, out_dir, records):
     """summary.csv and summary.h5 (one row per case of the sweep); returns the rows.
 
     Elements of a job array (``farm --case``) finish independently and each refreshes the
-    whole table from the files on disk, under a lock and through private temporary files, so
+    whole table from the files on disk, under a lock and each file replaced atomically, so
     the last one to finish leaves the complete summary.
     """
     with open(os.path.join(out_dir, ".summary.lock"), "w") as lock:
@@ -386,19 +468,13 @@ def write_summary(sweep, out_dir, records):
 
 
 def _write_tables(out_dir, rows, swept, form):
-    """summary.csv and summary.h5 through private files; ``form``: the cases' input form
-    (the units of summary.h5's ``units`` attributes)."""
+    """summary.csv and summary.h5, each replaced atomically (:mod:`hpcgfmd.atomic`);
+    ``form``: the cases' input form (the units of summary.h5's ``units`` attributes)."""
     names = UNIT_NAMES[form]
     columns = list(SUMMARY_COLUMNS[:4]) + [k for k in swept] + list(SUMMARY_COLUMNS[4:])
-    private = f".{os.getpid()}.tmp"
-    csv_path = os.path.join(out_dir, "summary.csv")
-    with open(csv_path + private, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore", restval="")
-        writer.writeheader()
-        writer.writerows(rows)
-    os.replace(csv_path + private, csv_path)
-    h5_path = os.path.join(out_dir, "summary.h5")
-    with h5py.File(h5_path + private, "w") as f:
+    write_csv(os.path.join(out_dir, "summary.csv"), columns, rows)
+    with replacing(os.path.join(out_dir, "summary.h5")) as temporary, \
+            h5py.File(temporary, "w") as f:
         for column in columns:
             values = [row.get(column, "") for row in rows]
             numbers = [v for v in values if v != ""]
@@ -419,4 +495,3 @@ def _write_tables(out_dir, rows, swept, form):
                 else "s" if column == "wall_time"
                 else names[SUMMARY_DIMENSIONS.get(column)])
         f.attrs["columns"] = columns
-    os.replace(h5_path + private, h5_path)

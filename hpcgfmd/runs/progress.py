@@ -2,16 +2,40 @@
 from __future__ import annotations
 
 import logging
+import math
 import time
 
+from .cost import plan
+
 logger = logging.getLogger(__name__)
+MIN_DONE = 0.01  # the share of the protocol done before the time left is extrapolated
+MAX_SEGMENT_SHARE = 0.99  # a segment is never taken as done before the next one starts
+
+
+def duration_text(seconds) -> str:
+    """Seconds as a person reads them: "42 s", "12 min 05 s", "3 h 07 min"; "?" for None
+    or a non-finite value."""
+    if seconds is None or not math.isfinite(seconds):
+        return "?"
+    seconds = max(0.0, seconds)
+    if seconds < 60.0:
+        return f"{seconds:.0f} s"
+    minutes, rest = divmod(round(seconds), 60)
+    if minutes < 60:
+        return f"{minutes} min {rest:02d} s"
+    hours, minutes = divmod(minutes, 60)
+    return f"{hours} h {minutes:02d} min"
 
 
 class Progress:
-    """Logs one line every ``interval`` seconds of wall time: step, time, load, contact width.
+    """Logs one line every ``interval`` seconds of wall time: step, time, load, contact width,
+    the step's iterations, the time elapsed and the time left.
 
-    The estimate of the time left extrapolates the fraction of the initial contact width
-    that has been peeled off.
+    The time left extrapolates the share of the protocol done since the first line's step:
+    each segment weighs its estimated cost (:func:`hpcgfmd.runs.cost.plan`), and the current
+    one counts the share of its travel the drive has made (from its start to its target, or
+    to the estimated detachment of a retraction "until detachment"; a dwell: its time).
+    Every protocol has one, from the paper's retraction to an approach, dwell and cycles.
 
     Parameters
     ----------
@@ -19,29 +43,73 @@ class Progress:
         Wall seconds between lines.
     units : hpcgfmd.case.Units
         The case's units (the line shows time, load and width in them).
+    case : hpcgfmd.case.Case, optional
+        The case, for its protocol's plan; without it the time left is "?".
     """
 
-    def __init__(self, interval, units):
+    def __init__(self, interval, units, case=None):
         self.interval = interval
         self.units = units
         self.start = time.monotonic()
         self.last = self.start
-        self.first_width = None
+        try:
+            self.plan = plan(case) if case is not None else None
+        except (ArithmeticError, ValueError):  # an estimate must never stop a run
+            self.plan = None
+        self.segment = 0
+        self.segment_start = (0.0, self.plan[0].start if self.plan else math.nan)
+        self.previous = self.segment_start
+        self.first_done = None
+
+    def done(self, record) -> float:
+        """The share of the protocol's estimated cost done at ``record`` (0 to 1; NaN
+        without a plan). Call with every record in order (segment starts are tracked)."""
+        if record.segment != self.segment:
+            self.segment, self.segment_start = record.segment, self.previous
+        self.previous = (record.time, record.drive)
+        if not self.plan or self.segment >= len(self.plan):
+            return math.nan
+        weights = [max(segment.seconds, 1e-12) for segment in self.plan]
+        current = self.plan[self.segment]
+        start_time, start_value = self.segment_start
+        if current.kind == "dwell":
+            share = (record.time - start_time) / current.duration if current.duration else 1.0
+        else:
+            if math.isnan(start_value):
+                start_value = current.start
+            # a retraction until detachment: the estimated travel from where it started
+            end = (start_value + current.end - current.start if current.detaches
+                   else current.end)
+            span = end - start_value
+            share = (record.drive - start_value) / span if span else 1.0
+        share = min(max(share, 0.0), MAX_SEGMENT_SHARE)
+        return (math.fsum(weights[:self.segment]) + share * weights[self.segment]) / math.fsum(
+            weights)
+
+    def left(self, done, elapsed):
+        """Seconds left, extrapolated from the share done since the first line, or None."""
+        if self.first_done is None or not math.isfinite(done):
+            return None
+        gained = done - self.first_done
+        if gained < MIN_DONE:
+            return None
+        return elapsed * (1.0 - done) / gained
 
     def update(self, step, record):
         """Called after every accepted step with its :class:`~.protocol.StepRecord`."""
         now = time.monotonic()
-        if self.first_width is None:
-            self.first_width = record.contact_half_width
+        done = self.done(record)
+        if self.first_done is None:
+            self.first_done = done if math.isfinite(done) else None
         if now - self.last < self.interval:
             return
         self.last = now
         elapsed = now - self.start
-        done = 1.0 - record.contact_half_width / self.first_width if self.first_width else 0.0
-        eta = f"{elapsed * (1.0 - done) / done:.0f} s" if done > 0.02 else "?"
         u = self.units
+        share = f" ({done:.0%} of the protocol)" if math.isfinite(done) else ""
         logger.info(f"step {step:6d}  t = {record.time * u.time:.5g}"
                     f"  load = {record.load * u.load:.5g}"
                     f"  a_c = {record.contact_half_width * u.length:.5g}"
                     f"  iterations = {record.iterations:4d}"
-                    f"  elapsed {elapsed:.0f} s, left ~{eta} (from contact width)")
+                    f"  elapsed {duration_text(elapsed)}, left ~"
+                    f"{duration_text(self.left(done, elapsed))}{share}")

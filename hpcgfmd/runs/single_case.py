@@ -224,7 +224,7 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
         "wall_time": wall_before + time.monotonic() - start})
     surface = sim.surface
     try:
-        progress = Progress(case.output.progress_interval, case.units)
+        progress = Progress(case.output.progress_interval, case.units, case)
         if comm.bcast(keeper.short_of_space(), root=0):
             keeper.stop_for_space()
         while not sim.finished():

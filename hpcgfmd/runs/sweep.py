@@ -19,10 +19,11 @@ A sweep file is TOML::
 A key is a key of any section of the base (``velocity``, ``nx``, ``checkpoint_steps``) or
 ``section.key`` (``numerics.nx``, a TOML dotted key), or ``protocol``: a whole loading
 protocol, a list of segment tables (``protocol = [{approach = 0.1}, {dwell = 1.0},
-{retract = inf}]`` in a ``[[cases]]`` entry, a list of such lists in ``[grid]``). Each combination becomes a complete case
-file, validated like any other; a case that does not validate is kept and reported as failed
-with its error, so one bad value does not stop the study. Each case's output file is named
-from the swept values (``velocity_0.45-depth_0.1.h5``).
+{retract = inf}]`` in a ``[[cases]]`` entry, a list of such lists in ``[grid]``). Each
+combination becomes a complete case file, validated like any other; a case that does not
+validate is kept and reported as failed with its error, so one bad value does not stop the
+study. Each case's output file is named from the swept values
+(``velocity_0.45-depth_0.1.h5``).
 """
 from __future__ import annotations
 
@@ -38,17 +39,9 @@ from ..errors import CaseError, SweepError
 from ..case import Case, parse_case
 from ..case.files import sections
 from ..case.keys import quoted_key
-from ..case.numerics import DEFAULT_STEP_PER_RANGE
+from .cost import estimated_cost
 
 FARM_KEYS = ("ranks_per_case", "output")
-# Cost model of the dry run and of the longest-first order: seconds per CG iteration and
-# node, iterations per step, the indenter's travel before detachment in units of h0, and the
-# adaptive steps as a fraction of the fixed default's count; calibrated on the default case
-# at 2^17 on one rank (docs/results.md, "Task farm").
-SECONDS_PER_NODE_ITERATION = 4.35e-3 / 2**17
-ITERATIONS_PER_STEP = 15.6
-TRAVEL_PER_DEPTH = 1.2
-ADAPTIVE_PER_FIXED_STEPS = 0.5
 
 
 @dataclass
@@ -79,20 +72,9 @@ class SweepCase:
     error: str | None = None
 
     def cost(self) -> float:
-        """Estimated single-core seconds (the model above; 0 for an invalid case)."""
-        if self.case is None:
-            return 0.0
-        c = self.case
-        num = c.numerics
-        travel_time = TRAVEL_PER_DEPTH * c.depth / c.indenter_speed
-        if num.step_control == "fixed":
-            steps = travel_time / num.dt
-        else:  # about half the steps of the fixed default, and at least travel / dt_max
-            default_dt = DEFAULT_STEP_PER_RANGE * c.dmax / c.indenter_speed
-            steps = max(ADAPTIVE_PER_FIXED_STEPS * travel_time / default_dt,
-                        travel_time / num.dt_max)
-        per_step = ITERATIONS_PER_STEP if num.solver == "cg" else num.equilibration_steps
-        return steps * per_step * num.nx * SECONDS_PER_NODE_ITERATION
+        """Estimated single-core seconds (:func:`hpcgfmd.runs.cost.estimated_cost`; 0 for
+        an invalid case)."""
+        return 0.0 if self.case is None else estimated_cost(self.case)
 
 
 @dataclass

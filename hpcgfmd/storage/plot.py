@@ -1,15 +1,14 @@
 """PNG of a case in the paper's scaling (Fig. 5a) and of load against indenter position."""
 from __future__ import annotations
 
-import os
-
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from .reader import read_series  # noqa: E402
+from ..atomic import save_figure
+from .reader import read_series
 
 
 def plot_case(path, output):
@@ -40,12 +39,7 @@ def plot_case(path, output):
     ax2.set_ylabel("load per unit length $L_n$ (compressive > 0)")
     ax2.legend(fontsize=8)
     fig.tight_layout()
-    # atomically: a reader (or a plot interrupted mid-write) never sees half a PNG
-    partial = f"{output}.{os.getpid()}.tmp"
-    try:
-        fig.savefig(partial, dpi=120, format="png")
-        os.replace(partial, output)
+    try:  # atomically: a reader (or a plot interrupted mid-write) never sees half a PNG
+        save_figure(fig, output, dpi=120, format="png")
     finally:
         plt.close(fig)
-        if os.path.exists(partial):
-            os.remove(partial)

@@ -1,0 +1,124 @@
+"""The farm's cost model (hpcgfmd/runs/cost.py) against the paper's runs, run by run.
+
+    mpirun -n 2 python scripts/farm_cost.py --run paper    # python -m hpcgfmd paper -o paper,
+                                                           # each run's CPU seconds recorded
+    python scripts/farm_cost.py paper                      # the table
+
+Reads the runs of ``python -m hpcgfmd paper`` (its shipped sweep files, or ``--accuracy``)
+from DIR/runs/<name>.h5: their attributes ``steps``, ``iterations``, ``wall_time`` and
+``ranks``. With ``--run`` it first makes them (the paper command on the ranks of the mpirun,
+one rank per run; runs finished before are kept), recording each run's process CPU seconds in
+DIR/runs/cpu-seconds.jsonl: the one-core time of a run, which a machine shared with other
+work inflates less than the wall time. The table gives, per run, the predicted and measured
+steps, iterations and seconds (CPU where recorded, else the wall time) and their ratio; the
+exit status is 1 when a run's seconds are off by more than ``--limit`` (2) either way. Runs on
+more than one rank, or unfinished, are listed and not judged. FFTW's planning is paid by the
+first run of each grid size on a machine (the wisdom cache, hpcgfmd/parallel/wisdom.py): the
+model is of runs with the wisdom cached, so measure a second time after a first ``--run``.
+"""
+import argparse
+import json
+import os
+import sys
+import time
+
+
+def run(directory, accuracy):
+    """The paper command on this process's ranks, each run's CPU seconds appended."""
+    from hpcgfmd.entry import main
+    from hpcgfmd.runs import farm
+
+    record = os.path.join(directory, "runs", "cpu-seconds.jsonl")
+    original = farm.run_case
+
+    def timed(case, path, group, **options):
+        cpu, wall = time.process_time(), time.monotonic()
+        result = original(case, path, group, **options)
+        if group.Get_size() == 1:
+            with open(record, "a") as fh:  # one line, one write: ranks append whole lines
+                fh.write(json.dumps({"name": os.path.basename(path)[:-3],
+                                     "cpu": time.process_time() - cpu,
+                                     "wall": time.monotonic() - wall}) + "\n")
+        return result
+
+    farm.run_case = timed
+    sys.argv = [sys.argv[0], "paper", "-o", directory]
+    if accuracy is not None:
+        sys.argv += ["--accuracy", str(accuracy)]
+    return main()
+
+
+def table(directory, accuracy, limit):
+    """Print the table; returns the number of runs off by more than ``limit``."""
+    import h5py
+
+    from hpcgfmd.paper.study import FIGURES, paper_study
+    from hpcgfmd.runs.cost import estimated_cost, estimated_steps, plan
+
+    sweep, _ = paper_study(FIGURES, accuracy)
+    cpu = {}
+    record = os.path.join(directory, "runs", "cpu-seconds.jsonl")
+    if os.path.exists(record):
+        with open(record) as fh:
+            for line in fh:
+                entry = json.loads(line)
+                cpu[entry["name"]] = entry["cpu"]  # the last measurement of each
+    width = max(len(item.name) for item in sweep.cases)
+    print(f"{'run':<{width}} {'nx':>7} {'steps':>13} {'iterations':>15} {'wall s':>7}"
+          f" {'CPU s':>7} {'model s':>8} {'ratio':>6}")
+    off, judged, total = 0, 0, [0.0, 0.0]
+    for item in sweep.cases:
+        path = os.path.join(directory, "runs", item.name + ".h5")
+        predicted = estimated_cost(item.case)
+        steps = estimated_steps(item.case)
+        iterations = sum(segment.iterations for segment in plan(item.case))
+        try:
+            with h5py.File(path, "r") as f:
+                a = dict(f.attrs)
+        except OSError:
+            print(f"{item.name:<{width}} {item.case.numerics.nx:>7}  not run"
+                  f" {'':>36} {predicted:>8.3g}")
+            continue
+        if not a.get("finished", False) or int(a.get("ranks", 1)) != 1:
+            print(f"{item.name:<{width}} {item.case.numerics.nx:>7}  unfinished or on"
+                  f" {int(a.get('ranks', 1))} ranks: not judged")
+            continue
+        measured = cpu.get(item.name, float(a["wall_time"]))
+        ratio = predicted / measured
+        judged += 1
+        total[0] += predicted
+        total[1] += measured
+        off += not 1.0 / limit <= ratio <= limit
+        print(f"{item.name:<{width}} {item.case.numerics.nx:>7}"
+              f" {steps:>6.0f}/{int(a['steps']):<6d}"
+              f" {iterations:>7.0f}/{int(a['iterations']):<7d}"
+              f" {float(a['wall_time']):>7.1f}"
+              f" {cpu[item.name] if item.name in cpu else float('nan'):>7.1f}"
+              f" {predicted:>8.2f} {ratio:>6.2f}{'  OFF' if not 1 / limit <= ratio <= limit else ''}")
+    print(f"{judged} runs judged, {off} off by more than {limit:g}x; total predicted"
+          f" {total[0]:.0f} s against {total[1]:.0f} s measured"
+          f" ({'CPU' if cpu else 'wall'} seconds where recorded)")
+    return off
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("directory", help="the paper command's -o directory")
+    parser.add_argument("--run", action="store_true",
+                        help="run the paper's study first (under mpirun: one run per rank)")
+    parser.add_argument("--accuracy", type=float, default=None,
+                        help="[numerics] accuracy of every run (default: the sweep files')")
+    parser.add_argument("--limit", type=float, default=2.0,
+                        help="the largest factor between predicted and measured (default 2)")
+    args = parser.parse_args()
+    if args.run:
+        status = run(args.directory, args.accuracy)
+        from mpi4py import MPI
+
+        if MPI.COMM_WORLD.Get_rank() != 0 or status != 0:
+            return status
+    return 1 if table(args.directory, args.accuracy, args.limit) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
