@@ -1,7 +1,10 @@
 """Cost of one inner CG iteration of the equilibrium solver against a bare FFT pair.
 
-    OPENBLAS_NUM_THREADS=1 python scripts/bench_iteration.py --n 17 --steps 20
+    taskset -c 0 python scripts/bench_iteration.py --n 17 --steps 20
     mpirun -n 2 python scripts/bench_iteration.py --n 17 --steps 20 --out bench.csv
+
+Prints first the date, the machine and the commit, last (at n_x = 2^17) the verdict on the
+target of at most 3 bare pairs of time per iteration (the ``per iteration`` ratio below).
 
 Builds the paper's default case (lambda0 = 7, k = 0.1, V_z = 0.45, h0/R = 0.1, L/R = 10,
 alpha = 5e-5; ``hpcgfmd/default_case.toml``) at n_x = 2**n, runs the preload and ``--steps``
@@ -46,15 +49,17 @@ import time
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import numpy as np  # noqa: E402
-import pyfftw  # noqa: E402
-import pyfftw.builders  # noqa: E402
-from mpi4py import MPI  # noqa: E402
+import numpy as np
+import pyfftw
+import pyfftw.builders
+from mpi4py import MPI
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from hpcgfmd.errors import CaseError  # noqa: E402
-from hpcgfmd.model.case import case_file_text, parse_case  # noqa: E402
-from hpcgfmd.runs.protocol import Retraction  # noqa: E402
+from hpcgfmd import atomic
+from hpcgfmd.errors import CaseError
+from hpcgfmd.model.case import case_file_text, parse_case
+from hpcgfmd.runs.protocol import Retraction
+from hpcgfmd.studies import report
 
 DEFAULT_GROUPS = {"maugis": 7.0, "modulus_ratio": 0.1, "velocity": 0.45, "depth": 0.1,
                   "cell": 10.0, "adhesion": 5e-5}
@@ -246,6 +251,8 @@ def main():
         case = parse_case(text)
     except CaseError as err:  # too coarse a grid: one line
         parser.error(f"--n {args.n}: {err}")
+    if rank == 0:
+        print(report.header("Cost per CG iteration (scripts/bench_iteration.py)"), flush=True)
     start = time.perf_counter()
     sim = Retraction(case, comm, planner_effort=args.planner)
     applied, raw = bare_pairs(sim.fft, n, args.repeats)
@@ -351,6 +358,8 @@ def main():
           f" ratio={result['ratio']:.2f} replay_ratio={result['replay_ratio']:.2f}"
           f" cpu_ratio={result['cpu_ratio']:.2f} load_last={loads[-1]:.15e}"
           f" iterations={result['iterations_total']}")
+    print(report.verdict("iteration_pairs", result["ratio"], f"{comm.Get_size()} rank(s),")
+          if n == 2**17 else report.no_target("the target is at n_x = 2^17: --n 17"))
     if args.out:
         new = not os.path.exists(args.out)
         with open(args.out, "a") as fh:
@@ -359,8 +368,7 @@ def main():
             fh.write(",".join(repr(v) if isinstance(v, float) else str(v)
                               for v in result.values()) + "\n")
     if args.record:
-        with open(args.record, "w") as fh:
-            json.dump({"loads": loads, "iterations": iterations}, fh)
+        atomic.write_text(args.record, json.dumps({"loads": loads, "iterations": iterations}))
 
 
 if __name__ == "__main__":
