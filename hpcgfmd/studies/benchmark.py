@@ -530,7 +530,8 @@ def main(comm, argv=None):
             else:
                 made = sorted({f"{r.get('machine') or 'an unrecorded machine'}, commit"
                                f" {r.get('commit') or 'unrecorded'}" for r in rows})
-                head += "\ncollected from rows measured on " + "; ".join(made)
+                head = (head.rstrip("\n") + "\ncollected from rows measured on "
+                        + "; ".join(made) + "\n")
                 write_csv(rows, args.out + ".csv")
                 print(write_markdown(rows, args.out + ".md", head), flush=True)
                 plot(rows, args.out + ".png", args.clock)
