@@ -358,7 +358,7 @@ def main():
           f" ratio={result['ratio']:.2f} replay_ratio={result['replay_ratio']:.2f}"
           f" cpu_ratio={result['cpu_ratio']:.2f} load_last={loads[-1]:.15e}"
           f" iterations={result['iterations_total']}")
-    print(report.verdict("iteration_pairs", result["ratio"], f"{comm.Get_size()} rank(s),")
+    print(report.verdict("iteration_pairs", result["ratio"], f"on {comm.Get_size()} rank(s)")
           if n == 2**17 else report.no_target("the target is at n_x = 2^17: --n 17"))
     if args.out:
         new = not os.path.exists(args.out)

@@ -281,7 +281,7 @@ def report(path, markdown=None, notes=()):
     two = table.get(2**22, {})
     if 1 in two and 2 in two:
         speedup = float(two[1]["time_per_iteration"]) / float(two[2]["time_per_iteration"])
-        verdict = targets.verdict("two_ranks", speedup, "2^22:")
+        verdict = targets.verdict("two_ranks", speedup, "2^22")
     else:
         verdict = targets.no_target("2^22 on 1 and 2 ranks not measured: --launch 1 2 --n 22")
     text = "\n".join([head.rstrip(), measured, "", *lines, "", *notes, verdict])

@@ -365,18 +365,20 @@ def markdown(rows):
 def verdicts(rows):
     """The speed targets judged on the rows of the runs as a user makes them (accuracy
     5e-3 alone, the grid the knob's: rows ``cg-auto``), one line each."""
-    lines = []
+    judged = {}
     for r in rows:
         if r["solver"] != "cg-auto" or r["accuracy"] != 5e-3:
             continue
         lam, vz = r["case"].split(":")
         subject = f"({lam}, {vz})"
-        lines.append(report.verdict("case_cpu", r["cpu_s"], subject + " in its process"))
-        lines.append(report.verdict("pull_off", r["pulloff_error"], subject))
-        lines.append(report.verdict("iterations_per_step", r["iterations_per_step"], subject))
+        judged.setdefault("case_cpu", []).append((subject + " in its process", r["cpu_s"]))
+        judged.setdefault("pull_off", []).append((subject, r["pulloff_error"]))
+        judged.setdefault("iterations_per_step", []).append(
+            (subject, r["iterations_per_step"]))
         if (float(lam), float(vz)) == (7.0, 0.045):
-            lines.append(report.verdict("creeping_steps", r["steps"], subject))
-    return lines or ["targets: none judged (no run at accuracy 5e-3 with the knob's grid)"]
+            judged.setdefault("creeping_steps", []).append((subject, r["steps"]))
+    return ([report.verdict(key, items) for key, items in judged.items()]
+            or ["targets: none judged (no run at accuracy 5e-3 with the knob's grid)"])
 
 
 def write_markdown(rows, path, head=""):

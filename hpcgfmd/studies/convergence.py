@@ -197,8 +197,8 @@ def grid_error(comm, argv=None):
         shared = [p for p in steps[spec] if p in steps[elastic] and p >= COMPARED_FROM]
         if shared:
             ratio = max(steps[spec][p] / steps[elastic][p] for p in shared)
-            lines.append(report.verdict("relaxed_steps", ratio, f"{spec} against {elastic} at"
-                                        f" w/dx {', '.join(f'{p:g}' for p in shared)}:"))
+            lines.append(report.verdict("relaxed_steps", ratio, f"{spec} against {elastic} (w/dx"
+                                        f" {', '.join(f'{p:g}' for p in shared)})"))
     print(report.markdown_table(head, rows) + "\n\n"
           + "\n".join(lines or [report.no_target("no case with its elastic counterpart")]),
           flush=True)

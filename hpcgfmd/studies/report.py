@@ -105,22 +105,28 @@ def _number(value: float, unit: str) -> str:
     return f"{value:.3g}{unit}"
 
 
-def verdict(key: str, measured: float, subject: str = "") -> str:
-    """One line: target ``key`` of :data:`TARGETS` against ``measured`` (of ``subject``),
-    met or missed, with the ratio and the difference to the limit."""
-    target = TARGETS[key]
+def _judged(target: Target, measured: float) -> str:
+    """``measured`` against ``target``: met and what is to spare, or missed and by how much."""
     within = measured <= target.limit if target.ceiling else measured >= target.limit
-    bound = "at most" if target.ceiling else "at least"
-    what = f"{subject} " if subject else ""
-    line = (f"target {target.text}, {bound} {_number(target.limit, target.unit)}:"
-            f" {what}{_number(measured, target.unit)}, ")
     gap = abs(measured - target.limit)
     if within:
-        return line + (f"met ({_number(gap, target.unit)} to spare)" if gap else "met")
+        return f"met, {_number(gap, target.unit)} to spare" if gap else "met"
     if target.limit > 0 and measured > 0:
         factor = measured / target.limit if target.ceiling else target.limit / measured
-        return line + f"MISSED by {factor:.2f}x ({_number(gap, target.unit)})"
-    return line + f"MISSED ({_number(gap, target.unit)})"
+        return f"MISSED by {factor:.2f}x, {_number(gap, target.unit)} over"
+    return f"MISSED, {_number(gap, target.unit)} over"
+
+
+def verdict(key: str, measured: float | list, subject: str = "") -> str:
+    """One line: target ``key`` of :data:`TARGETS` against ``measured`` (of ``subject``),
+    or against each ``(subject, measured)`` of a list; met or missed, with the ratio and the
+    difference to the limit."""
+    target = TARGETS[key]
+    bound = "at most" if target.ceiling else "at least"
+    items = measured if isinstance(measured, list) else [(subject, measured)]
+    judged = "; ".join(f"{what + ' ' if what else ''}{_number(value, target.unit)}"
+                       f" {_judged(target, value)}" for what, value in items)
+    return f"target {target.text}, {bound} {_number(target.limit, target.unit)}: {judged}"
 
 
 def no_target(reason: str = "") -> str:
