@@ -324,3 +324,23 @@ def test_small_modes_print_their_tables(tmp_path):
     assert done.returncode == 0, done.stderr
     assert_reported(done.stdout, "The paper's method: lag against pseudo steps")
     assert re.search(r"^\| 10 \| \d\.\d\de-\d\d \|", done.stdout, re.MULTILINE)
+
+
+@pytest.mark.slow
+def test_grid_and_convergence_modes(tmp_path):
+    # grid: a case with its elastic counterpart is judged on the grids of 8 points and more
+    done = hpcgfmd_bench("grid", "1:0.1:10:0.1", "1:1:10:0.1", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert_reported(done.stdout, "Grid error of the pull-off")
+    assert re.search(r"^target steps of a nearly relaxed case .*: 1:0.1:10:0.1 against"
+                     r" 1:1:10:0.1 \(w/dx 8.28, 16.56\) [\d.]+x (met|MISSED)", done.stdout,
+                     re.MULTILINE)
+    # convergence: a grid too coarse for a case leaves its cells empty
+    done = hpcgfmd_bench("convergence", "--cases", "7:9", "7:0.045", "--nx", "16384",
+                         "--dt-factors", "4", "--dt-nx", "16384", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "7:0.045 nx 2^14 dt x 1: skipped" in done.stdout
+    assert re.search(r"^\| 7, 9 \| -8\.\d{4} \| -8\.\d{4} \| dt [\d.]+ % \|$", done.stdout,
+                     re.MULTILINE)
+    assert "| 7, 0.045 |  |  |  |" in done.stdout
+    assert list(tmp_path.iterdir()) == []  # in memory: no file written
