@@ -245,7 +245,7 @@ def build_parser():
 
     add_paper_parser(sub, common)
     sub.add_parser("bench", add_help=False,
-                   help="speed against error of the fast solver and the paper's method"
+                   help="the measurements of docs/results.md, one mode per table"
                         " (python -m hpcgfmd bench --help)")
     return parser
 
@@ -260,8 +260,9 @@ def _parse(comm, argv):
 
 
 def _bench(comm, argv, stop, common):
-    """Collective: ``python -m hpcgfmd bench`` (its own options; ``common``: --quiet, --log)."""
-    from .studies.benchmark import main as bench_main
+    """Collective: ``python -m hpcgfmd bench [MODE]`` (its own options; ``common``: --quiet,
+    --log)."""
+    from .studies.bench import main as bench_main
 
     # no checkpoints to write: SIGTERM/SIGUSR1 end the benchmark as usual (it keeps the
     # tables of the cases done and the reference runs)
@@ -297,7 +298,7 @@ def main(comm, argv=None, stop=None):
     """
     argv = sys.argv[1:] if argv is None else list(argv)
     common, rest = _common_options().parse_known_args(argv)
-    if rest[:1] == ["bench"]:  # its own options (hpcgfmd.studies.benchmark)
+    if rest[:1] == ["bench"]:  # its own modes and options (hpcgfmd.studies.bench)
         return _bench(comm, rest[1:], stop, common)
     args = _parse(comm, argv)
     if not _configure_logs(comm, args):

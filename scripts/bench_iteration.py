@@ -1,7 +1,12 @@
 """Cost of one inner CG iteration of the equilibrium solver against a bare FFT pair.
 
-    OPENBLAS_NUM_THREADS=1 python scripts/bench_iteration.py --n 17 --steps 20
+    taskset -c 0 python scripts/bench_iteration.py --n 17 --steps 20
     mpirun -n 2 python scripts/bench_iteration.py --n 17 --steps 20 --out bench.csv
+
+Prints first the date, the machine and the commit, last (at n_x = 2^17) the verdict on the
+target of at most 3 bare pairs of time per iteration, in CPU time (the ``CPU time`` ratio
+below: the wall time's on an idle machine, and on a shared one not inflated by the time
+other processes hold the core).
 
 Builds the paper's default case (lambda0 = 7, k = 0.1, V_z = 0.45, h0/R = 0.1, L/R = 10,
 alpha = 5e-5; ``hpcgfmd/default_case.toml``) at n_x = 2**n, runs the preload and ``--steps``
@@ -46,15 +51,17 @@ import time
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import numpy as np  # noqa: E402
-import pyfftw  # noqa: E402
-import pyfftw.builders  # noqa: E402
-from mpi4py import MPI  # noqa: E402
+import numpy as np
+import pyfftw
+import pyfftw.builders
+from mpi4py import MPI
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from hpcgfmd.errors import CaseError  # noqa: E402
-from hpcgfmd.model.case import case_file_text, parse_case  # noqa: E402
-from hpcgfmd.runs.protocol import Retraction  # noqa: E402
+from hpcgfmd import atomic
+from hpcgfmd.errors import CaseError
+from hpcgfmd.case import case_file_text, parse_case
+from hpcgfmd.runs.protocol import Retraction
+from hpcgfmd.studies import report
 
 DEFAULT_GROUPS = {"maugis": 7.0, "modulus_ratio": 0.1, "velocity": 0.45, "depth": 0.1,
                   "cell": 10.0, "adhesion": 5e-5}
@@ -142,17 +149,16 @@ class Profile:
         best = np.inf
         u = np.empty_like(start)
         solver = self.sim.solver
-        counters = {name: getattr(solver, name) for name in STATISTICS if hasattr(solver, name)}
+        counters = solver.counters()
         pairs = self.sim.fft.pairs
         for _ in range(self.replays):
             u[:] = start
-            self.sim.solver.energy(u, wall, ops, history)
+            self.sim.solver.problem.energy(u, wall, ops, history)
             self.sim.domain.comm.Barrier()
             begin = time.perf_counter()
             solve(u, wall, ops, history, *rest, **kwargs)
             best = min(best, time.perf_counter() - begin)
-        for name, value in counters.items():  # the statistics count the real solves only
-            setattr(solver, name, value)
+        solver.restore_counters(counters)  # the counters count the real solves only
         self.sim.fft.pairs = pairs
         return best
 
@@ -246,6 +252,8 @@ def main():
         case = parse_case(text)
     except CaseError as err:  # too coarse a grid: one line
         parser.error(f"--n {args.n}: {err}")
+    if rank == 0:
+        print(report.header("Cost per CG iteration (scripts/bench_iteration.py)"), flush=True)
     start = time.perf_counter()
     sim = Retraction(case, comm, planner_effort=args.planner)
     applied, raw = bare_pairs(sim.fft, n, args.repeats)
@@ -307,7 +315,7 @@ def main():
         "mpi_ms_per_iteration": 1e3 * comm.allreduce(profile.mpi_time, op=MPI.MAX) / its,
         "load_last": loads[-1], "iterations_total": int(sum(iterations[1:])),
         "iterations_preload": int(iterations[0]),
-        **{key: sim.solver.statistics()[key] for key in STATISTICS},
+        **{key: sim.solver.counters()[key] for key in STATISTICS},
         "pairs_outside_solves": sim.fft.pairs - start_pairs - profile.pairs,
         "setup_s": setup, "load_average": os.getloadavg()[0],
     }
@@ -335,7 +343,7 @@ def main():
           f" collectives {result['collective_ms_per_iteration']:.3f} ms"
           f" ({100 * result['collective_share']:.0f} %); MPI calls in the collectives and"
           f" transforms {result['mpi_ms_per_iteration']:.3f} ms")
-    stats = sim.solver.statistics()
+    stats = sim.solver.counters()
     print(f"  solver: {stats['projections']} projections, {stats['cut_steps']} cut steps,"
           f" {stats['residual_steps']} along the residual,"
           f" {stats['held_steps']} with held nodes,"
@@ -351,6 +359,11 @@ def main():
           f" ratio={result['ratio']:.2f} replay_ratio={result['replay_ratio']:.2f}"
           f" cpu_ratio={result['cpu_ratio']:.2f} load_last={loads[-1]:.15e}"
           f" iterations={result['iterations_total']}")
+    # judged in CPU time: equal to the wall time's ratio on an idle machine, and on a shared
+    # one not inflated by the time other processes hold the core
+    print(report.verdict("iteration_pairs", result["cpu_ratio"],
+                         f"on {comm.Get_size()} rank(s), in CPU time")
+          if n == 2**17 else report.no_target("the target is at n_x = 2^17: --n 17"))
     if args.out:
         new = not os.path.exists(args.out)
         with open(args.out, "a") as fh:
@@ -359,8 +372,7 @@ def main():
             fh.write(",".join(repr(v) if isinstance(v, float) else str(v)
                               for v in result.values()) + "\n")
     if args.record:
-        with open(args.record, "w") as fh:
-            json.dump({"loads": loads, "iterations": iterations}, fh)
+        atomic.write_text(args.record, json.dumps({"loads": loads, "iterations": iterations}))
 
 
 if __name__ == "__main__":

@@ -32,6 +32,9 @@ OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1``)
 
         python scripts/bench_scaling.py --report bench.csv --markdown bench.md
 
+    Before the table the date, the machine and the commit are printed, after it the verdict
+    on the target of 2 ranks against 1 per iteration at 2^22 (when both were measured).
+
 How to read the table
     ``ms/iteration`` (timed wall time / inner CG iterations, per-step work included) is the
     figure to compare between rank counts: the iteration count of a step can differ by a few
@@ -60,9 +63,11 @@ import time
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):  # one BLAS thread, as the CLI
     os.environ.setdefault(_var, "1")
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from hpcgfmd.model.grid import grid_label  # noqa: E402  (no MPI: the model layer only)
+from hpcgfmd import atomic
+from hpcgfmd.model.grid import grid_label  # (no MPI: the model layer only)
+from hpcgfmd.studies import report as targets  # (no MPI either)
 
 # mpi4py (and hpcgfmd, which imports it) is imported only where a measurement runs: --launch
 # and --report must not initialise MPI, or the mpirun they start would inherit a singleton's
@@ -105,7 +110,7 @@ def measure(comm, nx, steps, planner):
     """
     from mpi4py import MPI
 
-    from hpcgfmd.model.case import parse_case
+    from hpcgfmd.case import parse_case
     from hpcgfmd.runs.protocol import Retraction
 
     row = {"started": datetime.datetime.now().isoformat(timespec="seconds"),
@@ -119,7 +124,7 @@ def measure(comm, nx, steps, planner):
     comm.Barrier()
     t2 = time.perf_counter()
     fft, dom = sim.fft, sim.domain
-    before = (sim.total_iterations, fft.pairs, dom.messages, fft.communication_time,
+    before = (sim.equilibrium.iterations, fft.pairs, dom.messages, fft.communication_time,
               dom.communication_time)
     done = 0
     record = preload
@@ -133,7 +138,7 @@ def measure(comm, nx, steps, planner):
     t4 = time.perf_counter()
     own = comm.allreduce(time.process_time() - own, op=MPI.SUM)  # busy-waiting included
     busy = busy_seconds() - busy
-    after = (sim.total_iterations, fft.pairs, dom.messages, fft.communication_time,
+    after = (sim.equilibrium.iterations, fft.pairs, dom.messages, fft.communication_time,
              dom.communication_time)
     iterations, pairs, messages = (a - b for a, b in zip(after[:3], before[:3]))
     # Slowest rank decides; the barriers make the ranks' wall times nearly equal anyway.
@@ -210,7 +215,8 @@ def _levels(row):
 
 
 def uptime():
-    return subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
+    return subprocess.run(["uptime"], capture_output=True, text=True,
+                          check=False).stdout.strip()
 
 
 def launch(args):
@@ -227,7 +233,7 @@ def launch(args):
             command = [mpirun, "-n", str(ranks), sys.executable, os.path.abspath(__file__),
                        "--n", str(n), "--steps", str(args.steps), "--planner", args.planner,
                        "--out", args.out]
-            status = subprocess.run(command, env=env).returncode
+            status = subprocess.run(command, env=env, check=False).returncode
             if status != 0:  # the measurement printed its own error
                 sys.exit(f"bench_scaling: n = 2^{n} on {ranks} rank(s) failed (exit status"
                          f" {status}); rows measured before it, if any, are in {args.out}")
@@ -268,14 +274,20 @@ def report(path, markdown=None, notes=()):
                      f"{load:.10g}", f"{abs(load - load0) / abs(load0):.1e}",
                      f"{float(r['other_cpu']):.2f}"]
             lines.append("| " + " | ".join(cells) + " |")
-    cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo")
-                if line.startswith("model name")), "unknown CPU")
-    text = "\n".join([f"Scaling of the default case ({path}; {os.cpu_count()} cores, {cpu})",
-                      "", *lines, "", *notes])
+    table = latest_rows(path)
+    started = sorted(r["started"] for by_ranks in table.values() for r in by_ranks.values())
+    head = targets.header(f"Scaling of the default case (scripts/bench_scaling.py, {path})")
+    measured = f"rows measured from {started[0]} to {started[-1]}" if started else "no rows"
+    two = table.get(2**22, {})
+    if 1 in two and 2 in two:
+        speedup = float(two[1]["time_per_iteration"]) / float(two[2]["time_per_iteration"])
+        verdict = targets.verdict("two_ranks", speedup, "2^22")
+    else:
+        verdict = targets.no_target("2^22 on 1 and 2 ranks not measured: --launch 1 2 --n 22")
+    text = "\n".join([head.rstrip(), measured, "", *lines, "", *notes, verdict])
     print(text, flush=True)
     if markdown:
-        with open(markdown, "w") as fh:
-            fh.write(text + "\n")
+        atomic.write_text(markdown, text + "\n")
 
 
 def main():

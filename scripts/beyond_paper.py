@@ -35,7 +35,7 @@ import numpy as np
 
 import hpcgfmd
 from hpcgfmd.model import theory
-from hpcgfmd.model.case import case_file_text
+from hpcgfmd.case import case_file_text
 from hpcgfmd.paper.curves import Retraction
 from hpcgfmd.studies.benchmark import code_identity
 
@@ -69,7 +69,7 @@ def run(text, runs: Path, name: str):
 def predicted_work(case, rhodot):
     """Persson-Brener dgamma_eff / dgamma0 of the case's solid at peel speeds rhodot (R/tau_r)."""
     material = case.material()
-    c0 = case.beta / (np.pi * case.lambda0**2)
+    c0 = case.beta / (np.pi * case.maugis**2)
     return np.array([theory.persson_brener_modulus(max(r, 0.0), c0, material.complex_modulus)
                      for r in rhodot])
 
@@ -225,13 +225,13 @@ def cycle_figure(out: Path, runs: Path, plt):
         scale = case.load_scale
         (cycle,) = series.cycles()
         ax_l.plot(series.indenter, series.load / scale, color=color, lw=1,
-                  label=f"{label}: loop {cycle.work / (case.alpha * case.beta):.3g}"
+                  label=f"{label}: loop {cycle.work / (case.adhesion * case.beta):.3g}"
                         " dgamma0 beta")
         ax_t.plot(series.time, series.load / scale, color=color, lw=1, label=label)
         contact = np.flatnonzero(series.contact_half_width > 0)
         lines.append(f"{label}: {series.time.size - 1}, {cycle.lbar:.5g},"
                      f" {series.load[contact[0]] / scale:.5g}, {cycle.work:.5g},"
-                     f" {cycle.work / (case.alpha * case.beta):.5g}")
+                     f" {cycle.work / (case.adhesion * case.beta):.5g}")
     ax_l.set(xlabel="indenter u_z / R", ylabel="Lbar", xlim=(-0.032, 0.008),
              title="(a) approach, dwell, retraction: hysteresis loops")
     ax_l.legend(fontsize=8)

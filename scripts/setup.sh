@@ -49,4 +49,4 @@ if [ "$(cat "$stamp" 2>/dev/null || true)" != "$want" ] || ! "$vpy" -c 'import h
 fi
 "$vpy" -c 'import h5py, sys; sys.exit(0 if h5py.get_config().mpi else "setup: h5py has no MPI support")'
 # Compile the solver's kernels once into numba's cache (a few seconds), so that no run pays it.
-"$vpy" -c "from hpcgfmd.solvers.cg.kernels import compile_all; compile_all()"
+"$vpy" -c "from hpcgfmd.solvers.kernels import compile_all; compile_all()"

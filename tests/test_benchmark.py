@@ -1,14 +1,16 @@
-"""`python -m hpcgfmd bench` (speed against error) on a small geometry, on 1 and 2 ranks.
+"""`python -m hpcgfmd bench` (speed against error) on a small geometry, on 1 and 2 ranks,
+and its other modes: what each prints around its table (date, machine, commit; targets).
 
 The paper's geometry at 2^17 takes hours; these runs use the tests' small case (lambda0 =
 3.5, V_z = 1, h0/R = 0.03, L/R = 2, alpha = 1e-4) at nx = 1024 and 2048. What the benchmark
 reports is checked against runs made independently of it, through the Python API: the
 pull-off loads and their errors, and the paper method's extrapolated cost against a full run
-of that method.
+of that method. No timing is checked here (timings belong to the benchmarks).
 """
 import csv
 import math
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -16,6 +18,7 @@ import sys
 import pytest
 
 import hpcgfmd
+from hpcgfmd.studies import report
 
 MPIRUN = shutil.which("mpirun")
 GROUPS = {"maugis": 3.5, "modulus_ratio": 0.1, "velocity": 1.0, "depth": 0.03, "cell": 2.0,
@@ -30,20 +33,39 @@ def bench(tmp_path, ranks, *extra):
                OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
     launcher = [MPIRUN, "-n", str(ranks)] if ranks > 1 else []
     out = tmp_path / f"sve{ranks}"
-    proc = subprocess.run([*launcher, sys.executable, "-m", "hpcgfmd", "bench", *SMALL,
-                           "--out", str(out), *extra], capture_output=True, text=True,
-                          timeout=600, env=env, cwd=tmp_path)
+    proc = subprocess.run([*launcher, sys.executable, "-m", "hpcgfmd", "bench", "speed",
+                           *SMALL, "--out", str(out), *extra], capture_output=True,
+                          text=True, timeout=600, env=env, cwd=tmp_path, check=False)
     assert proc.returncode == 0, proc.stderr[-2000:]
     with open(f"{out}.csv") as fh:
         rows = list(csv.DictReader(fh))
     assert os.path.getsize(f"{out}.png") > 10000
-    with open(f"{out}.md") as fh:  # the docs' table: a header, then one line per row
-        table = fh.read().splitlines()
-    assert len(table) == len(rows) + 2
+    with open(f"{out}.md") as fh:  # what it printed: the header, the table, the verdicts
+        text = fh.read()
+    assert_reported(text, "Speed against error")
+    assert_reported(proc.stdout, "Speed against error")
+    table = [line for line in text.splitlines() if line.startswith("|")]
+    assert len(table) == len(rows) + 2  # a header line, then one line per row
     assert all(line.count("|") == 13 for line in table)
     assert [line.split(" | ")[4] for line in table[2:]] == [
         f"{row['steps']}" for row in rows]
+    # the small case has no run at 5e-3 on the knob's grid (finer than the reference's)
+    assert text.rstrip().endswith("targets: none judged (no run at accuracy 5e-3 with the"
+                                  " knob's grid)")
+    assert {row["commit"] for row in rows} == {report.commit() + f" (code {CODE})"}
     return rows
+
+
+CODE = report.code_identity()
+
+
+def assert_reported(text, title):
+    """``text`` starts with the title, the date, the machine and the commit of this code."""
+    lines = text.splitlines()
+    assert lines[0].startswith(title), lines[0]
+    assert re.match(r"date \d{4}-\d\d-\d\d \d\d:\d\d UTC; machine .*, load average .*;"
+                    r" commit \S+ \(code [0-9a-f]{16}\)$", lines[1]), lines[1]
+    assert f"(code {CODE})" in lines[1] and report.machine() in lines[1]
 
 
 @pytest.fixture(scope="module")
@@ -202,7 +224,7 @@ def test_two_ranks_same_numbers(serial, tmp_path):
 def test_bad_case_one_line_status_2(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "hpcgfmd", "bench", "--cases", "seven",
                            "--out", str(tmp_path / "x")], capture_output=True, text=True,
-                          timeout=60, cwd=tmp_path)
+                          timeout=60, cwd=tmp_path, check=False)
     assert proc.returncode == 2
     assert proc.stderr.strip().count("\n") == 0 and "seven" in proc.stderr
     assert list(tmp_path.iterdir()) == []
@@ -210,7 +232,8 @@ def test_bad_case_one_line_status_2(tmp_path):
 
 def test_collect_without_tables_one_line_status_2(tmp_path):
     run = subprocess.run([sys.executable, "-m", "hpcgfmd", "bench", "--collect", "--out",
-                          "nothing"], cwd=tmp_path, capture_output=True, text=True, timeout=60)
+                          "nothing"], cwd=tmp_path, capture_output=True, text=True, timeout=60,
+                         check=False)
     assert run.returncode == 2
     assert run.stderr.count("\n") == 1 and "nothing-<lambda0>-<V_z>.csv" in run.stderr
     assert list(tmp_path.iterdir()) == []  # nothing written
@@ -237,3 +260,87 @@ def test_curve_distance_follows_the_attached_branch_past_the_pull_off():
     # reference's jump: distance to the branch's end (a = 0.5, L = -0.75) at least
     detached = load_area_distances([0.0], [-0.5], a_ref, l_ref)
     assert detached[0] >= 0.5 / scale_a - 1e-12
+
+
+def hpcgfmd_bench(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "hpcgfmd", "bench", *args], cwd=cwd,
+                          capture_output=True, text=True, timeout=300, check=False)
+
+
+def test_verdicts_state_the_target_and_the_amount():
+    assert report.verdict("case_cpu", 2.0, "(7, 9)") == (
+        "target CPU time of a paper case at accuracy 5e-3 (no nx), at most 5 s: (7, 9) 2 s"
+        " met, 3 s to spare")
+    assert report.verdict("case_cpu", [("(7, 9)", 2.0), ("(7, 0.045)", 20.0)]).endswith(
+        ": (7, 9) 2 s met, 3 s to spare; (7, 0.045) 20 s MISSED by 4.00x, 15 s over")
+    assert report.verdict("two_ranks", 1.5, "2^22").endswith("2^22 1.5x MISSED by 1.07x,"
+                                                              " 0.1x over")
+    assert report.verdict("knob", 0).endswith("at most 0: 0 met")
+
+
+def test_cases_mode_runs_each_case_in_its_process_and_judges_the_targets(tmp_path):
+    # the small case instead of the paper's: its row, CPU time from the child process,
+    # iterations split as the targets count them, the verdicts after the table
+    out = tmp_path / "cases"
+    done = hpcgfmd_bench("cases", "--cases", "3.5:1", "--geometry", "0.03", "2", "1e-4",
+                         "--numerics", "nx=1024", "--default-ranks", "0", "--out", str(out),
+                         cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert_reported(done.stdout, "The paper's four cases at the default accuracy")
+    assert (tmp_path / "cases.md").read_text().strip() == done.stdout.strip()
+    row = next(line for line in done.stdout.splitlines() if line.startswith("| (3.5, 1)"))
+    cells = [cell.strip() for cell in row.strip("|").split("|")]
+    case = hpcgfmd.Case(**GROUPS, numerics={"nx": 1024})
+    run = hpcgfmd.run(case)
+    # (round-off of other plans may move a step decision: the steps within a few)
+    assert cells[1] == "2^10" and int(cells[2]) == pytest.approx(run.attrs["steps"], rel=0.05)
+    assert float(cells[7]) > 0  # the child's CPU seconds
+    assert float(cells[9]) == pytest.approx(run.pull_off().lbar, rel=1e-4)
+    verdicts = [line for line in done.stdout.splitlines() if line.startswith("target ")]
+    assert len(verdicts) == 2  # CPU and iterations per step (no reference: no error)
+    assert all(": (3.5, 1) " in line for line in verdicts)
+
+
+@pytest.mark.parametrize("args, error", [
+    (("cases", "--cases", "seven"), "--cases seven"),
+    (("cases", "--numerics", "accuracy"), "--numerics accuracy: expected key=value"),
+    (("grid", "1:0.1"), "1:0.1: expected lambda0:k:V_z:h0/R"),
+    (("convergence", "--cases", "7:0.45"), "give --nx or --dt-nx"),
+    (("fft", "--sizes", "15"), "expected even lengths"),
+])
+def test_modes_refuse_bad_arguments_in_one_line(tmp_path, args, error):
+    done = hpcgfmd_bench(*args, cwd=tmp_path)
+    assert done.returncode == 2 and error in done.stderr, done.stderr
+    assert len(done.stderr.splitlines()) == 1 and list(tmp_path.iterdir()) == []
+
+
+def test_small_modes_print_their_tables(tmp_path):
+    done = hpcgfmd_bench("collectives", "--nx", "2048", "--steps", "3", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert_reported(done.stdout, "Collective calls per CG iteration")
+    assert "| 1 | 2048 | 3 |" in done.stdout
+    assert done.stdout.rstrip().endswith("targets: none for this table")
+    done = hpcgfmd_bench("lag", "--steps", "1", "--equilibration", "10", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert_reported(done.stdout, "The paper's method: lag against pseudo steps")
+    assert re.search(r"^\| 10 \| \d\.\d\de-\d\d \|", done.stdout, re.MULTILINE)
+
+
+@pytest.mark.slow
+def test_grid_and_convergence_modes(tmp_path):
+    # grid: a case with its elastic counterpart is judged on the grids of 8 points and more
+    done = hpcgfmd_bench("grid", "1:0.1:10:0.1", "1:1:10:0.1", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert_reported(done.stdout, "Grid error of the pull-off")
+    assert re.search(r"^target steps of a nearly relaxed case .*: 1:0.1:10:0.1 against"
+                     r" 1:1:10:0.1 \(w/dx 8.28, 16.56\) [\d.]+x (met|MISSED)", done.stdout,
+                     re.MULTILINE)
+    # convergence: a grid too coarse for a case leaves its cells empty
+    done = hpcgfmd_bench("convergence", "--cases", "7:9", "7:0.045", "--nx", "16384",
+                         "--dt-factors", "4", "--dt-nx", "16384", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "7:0.045 nx 2^14 dt x 1: skipped" in done.stdout
+    assert re.search(r"^\| 7, 9 \| -8\.\d{4} \| -8\.\d{4} \| dt [\d.]+ % \|$", done.stdout,
+                     re.MULTILINE)
+    assert "| 7, 0.045 |  |  |  |" in done.stdout
+    assert list(tmp_path.iterdir()) == []  # in memory: no file written

@@ -130,7 +130,7 @@ def test_same_answer_on_a_grid_of_nine_times_a_power_of_two(tmp_path):
 
 
 @pytest.mark.parametrize("groups", [
-    # the branch tractions are real-space blocks of each rank (hpcgfmd.model.prony)
+    # the branch tractions are real-space blocks of each rank (hpcgfmd.model.halfspace)
     dict(modulus_ratio=None, relaxation_moduli=[3.0, 6.0], relaxation_times=[0.1, 1.45]),
     # the indenter's search: every rank takes the same decisions from reduced loads
     dict(drive_stiffness=0.3),

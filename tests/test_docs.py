@@ -7,8 +7,11 @@
   default_case.toml and of four other cases (the [physical] form, fixed steps, a creeping
   retraction and a compliant drive).
 - Every `python -m hpcgfmd ...` in a ```sh block uses a subcommand and options that the
-  command's --help lists; every scripts/ and jobs/ path named there is tracked by git (so a
-  clone has it; outside a git checkout: exists).
+  command's --help lists (``bench MODE``: that mode's --help), every `python scripts/x.py`
+  options that the script's --help lists; every scripts/ and jobs/ path named there is
+  tracked by git (so a clone has it; outside a git checkout: exists). Every command
+  docs/results.md names anywhere exists: its scripts/ paths, its ``bench`` modes. Every link
+  to a section of a doc names a heading there.
 - The Python examples of README.md and docs/api.md print what their comments state.
 """
 import math
@@ -17,11 +20,12 @@ import shlex
 import subprocess
 import sys
 import tomllib
-from functools import lru_cache
+from functools import cache
 from importlib import resources
 from pathlib import Path
 
 import pytest
+from cases import case_text, physical_text
 
 from hpcgfmd.errors import SweepError
 from hpcgfmd.case import parse_case
@@ -30,8 +34,7 @@ from hpcgfmd.case.output import OUTPUT_KEYS
 
 NUMERICS_KEYS = numerics_keys()
 from hpcgfmd.runs.sweep import parse_sweep
-
-from cases import case_text, physical_text
+from hpcgfmd.studies.bench import MODES
 
 REPO = Path(__file__).resolve().parents[1]
 DOCS = [REPO / "README.md"] + sorted((REPO / "docs").glob("*.md"))
@@ -46,7 +49,7 @@ def blocks(language):
     for path in DOCS:
         text = path.read_text()
         for i, match in enumerate(re.finditer(rf"^```{language}\n(.*?)^```", text,
-                                              re.M | re.S)):
+                                              re.MULTILINE | re.DOTALL)):
             found.append((path.relative_to(REPO), i, match.group(1)))
     return found
 
@@ -66,9 +69,50 @@ TOML = blocks("toml")
 def test_every_script_answers_help(script):
     # --help prints the usage or the docstring and runs nothing (hand-parsed scripts too)
     done = subprocess.run([sys.executable, str(REPO / "scripts" / script), "--help"],
-                          capture_output=True, text=True, timeout=120)
+                          capture_output=True, text=True, timeout=120, check=False)
     assert done.returncode == 0 and done.stderr == "", done.stderr
     assert done.stdout.startswith("usage:") or len(done.stdout.splitlines()) > 3
+
+
+@pytest.mark.parametrize("mode", sorted(MODES))
+def test_every_bench_mode_answers_help(mode):
+    # each table of docs/results.md comes from a mode; --help runs nothing and exits 0
+    assert help_text("bench", mode).startswith("usage: python -m hpcgfmd bench")
+
+
+def test_every_command_of_the_results_page_exists():
+    # docs/results.md names its commands in ```sh blocks and in its text: every scripts/
+    # path is in the repository and every `hpcgfmd bench WORD` is a mode
+    text = (REPO / "docs" / "results.md").read_text()
+    paths = set(re.findall(r"\bscripts/[\w./-]+", text))
+    modes = set(re.findall(r"hpcgfmd bench ([a-z][\w-]*)", text))
+    assert paths and modes
+    assert [p for p in sorted(paths) if not in_repository(p.rstrip("."))] == []
+    assert modes - set(MODES) == set()
+    assert len(text.splitlines()) < 600
+
+
+def anchor(heading):
+    """GitHub's anchor of a Markdown heading."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def test_linked_anchors_exist():
+    # every [text](name.md#anchor) of the docs names a heading of that file
+    anchors = {}
+    for path in DOCS:
+        text = re.sub(r"^```.*?^```", "", path.read_text(), flags=re.MULTILINE | re.DOTALL)
+        anchors[path.resolve()] = {anchor(line.lstrip("#")) for line in text.splitlines()
+                                   if line.startswith("#")}
+    linked, missing = 0, []
+    for path in DOCS:
+        for name, target in re.findall(r"\]\(([\w./-]*\.md)?#([\w-]+)\)", path.read_text()):
+            linked_file = (path.parent / name).resolve() if name else path.resolve()
+            if linked_file in anchors:
+                linked += 1
+                if target not in anchors[linked_file]:
+                    missing.append((str(path.relative_to(REPO)), name, target))
+    assert linked > 20 and missing == []
 
 
 def test_cited_sections_exist():
@@ -98,8 +142,8 @@ def test_python_examples_print_what_their_comments_state():
     for source in ("README.md", "docs/api.md"):
         block = next(text for path, _, text in blocks("python")
                      if str(path) == source and "hpcgfmd.Case(" in text)
-        case = re.search(r"^case = (hpcgfmd\.Case\(.*?\))\n", block, re.M | re.S).group(1)
-        prints = re.findall(r"^print\((.*)\)\s+# (.*)$", block, re.M)
+        case = re.search(r"^case = (hpcgfmd\.Case\(.*?\))\n", block, re.MULTILINE | re.DOTALL).group(1)
+        prints = re.findall(r"^print\((.*)\)\s+# (.*)$", block, re.MULTILINE)
         assert prints, source
         examples.append((source, case, prints))
     assert len({case for _, case, _ in examples}) == 1, "the examples run different cases"
@@ -117,7 +161,7 @@ def test_python_examples_print_what_their_comments_state():
 
 @pytest.mark.parametrize("source, index, text", TOML, ids=[f"{s}#{i}" for s, i, _ in TOML])
 def test_toml_blocks_parse(source, index, text, tmp_path):
-    if re.search(r"^(base|\[grid\]|\[\[cases\]\])", text, re.M):
+    if re.search(r"^(base|\[grid\]|\[\[cases\]\])", text, re.MULTILINE):
         (tmp_path / "case.toml").write_text(case_text("nx = 1024"))
         try:
             sweep = parse_sweep(text, str(tmp_path))
@@ -125,8 +169,8 @@ def test_toml_blocks_parse(source, index, text, tmp_path):
             pytest.fail(f"{source} block {index}: {err}")
         assert sweep.cases
         return
-    if not re.search(r"^\[(case|physical)\]", text, re.M):  # a [numerics]/[output] fragment
-        assert re.search(r"^\[(numerics|output)\]", text, re.M), text
+    if not re.search(r"^\[(case|physical)\]", text, re.MULTILINE):  # a [numerics]/[output] fragment
+        assert re.search(r"^\[(numerics|output)\]", text, re.MULTILINE), text
         text = DEFAULT_CASE.split("[numerics]")[0] + text
     parse_case(text)
 
@@ -196,7 +240,7 @@ def test_documented_defaults_are_the_parsed_ones(name):
         for key, expression in default_rows(section).items():
             if key in given:  # set by this case file, not a default
                 continue
-            want = eval(expression, {"__builtins__": {}, **namespace(case)})  # noqa: S307
+            want = eval(expression, {"__builtins__": {}, **namespace(case)})
             got = parsed(case, key)
             if isinstance(want, float) or isinstance(got, float):
                 assert got == pytest.approx(want, rel=1e-12), (name, key, expression)
@@ -207,12 +251,27 @@ def test_documented_defaults_are_the_parsed_ones(name):
     assert checked >= 10
 
 
-@lru_cache(maxsize=None)
-def help_text(subcommand):
-    command = [sys.executable, "-m", "hpcgfmd"] + ([subcommand] if subcommand else []) + ["--help"]
-    done = subprocess.run(command, capture_output=True, text=True, timeout=120, cwd=REPO)
+@cache
+def help_text(*words):
+    """The --help of ``python -m hpcgfmd WORDS`` (a subcommand, ``bench``'s mode), or of the
+    script ``scripts/x.py`` when that is the one word."""
+    words = [word for word in words if word]
+    if words and words[0].startswith("scripts/"):
+        command = [sys.executable, str(REPO / words[0]), "--help"]
+    else:
+        command = [sys.executable, "-m", "hpcgfmd", *words, "--help"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=120, cwd=REPO,
+                          check=False)
     assert done.returncode == 0, done.stderr
     return done.stdout
+
+
+def assert_options_listed(source, line, words, text, what):
+    for word in words:
+        if word.startswith("-") and word != "-":
+            option = word.split("=")[0]
+            assert re.search(rf"(^|[\s,\[]){re.escape(option)}\b", text), \
+                f"{source}: {line}: {option} is not an option of {what}"
 
 
 def commands():
@@ -229,14 +288,14 @@ def commands():
 COMMANDS = commands()
 
 
-@lru_cache(maxsize=None)
+@cache
 def tracked_files():
     """The paths git tracks in the repository, or None outside a git checkout (or without git)."""
     if not (REPO / ".git").exists():
         return None
     try:
         done = subprocess.run(["git", "-C", str(REPO), "ls-files", "-z"], capture_output=True,
-                              text=True, timeout=60)
+                              text=True, timeout=60, check=False)
     except OSError:
         return None
     return set(done.stdout.split("\0")) - {""} if done.returncode == 0 else None
@@ -258,15 +317,18 @@ def test_shell_commands_exist(source, line):
     for word in words:  # repository paths named in the command
         if re.match(r"(scripts|jobs)/", word):
             assert in_repository(word), f"{source}: {word} is not in the repository (git)"
+    script = next((word for word in words if re.fullmatch(r"scripts/\w+\.py", word)), None)
+    if script is not None and "python" in " ".join(words[:words.index(script)]):
+        rest = words[words.index(script) + 1:]
+        assert_options_listed(source, line, rest, help_text(script), script)
+        return
     if "hpcgfmd" not in words or "-m" not in words:
         return
     rest = words[words.index("hpcgfmd") + 1:]
     subcommand = rest[0] if rest and not rest[0].startswith("-") else None
     if subcommand is not None:
         assert subcommand in ("run", "farm", "info", "plot", "paper", "bench"), (source, line)
-    text = help_text(subcommand)
-    for word in rest:
-        if word.startswith("-") and word != "-":
-            option = word.split("=")[0]
-            assert re.search(rf"(^|[\s,\[]){re.escape(option)}\b", text), \
-                f"{source}: {line}: {option} is not an option of {subcommand or 'hpcgfmd'}"
+    mode = rest[1] if subcommand == "bench" and len(rest) > 1 and rest[1] in MODES else None
+    text = help_text(subcommand, mode)
+    assert_options_listed(source, line, rest, text,
+                          " ".join(w for w in ("hpcgfmd", subcommand, mode) if w))

@@ -111,7 +111,7 @@ def _back_pair(ykr, yki, ycr, yci, tr, ti):
 
 def compile_all():
     """Compile these passes into numba's cache (scripts/setup.sh, via
-    :func:`hpcgfmd.solvers.cg.kernels.compile_all`)."""
+    :func:`hpcgfmd.solvers.kernels.compile_all`)."""
     a, b = np.linspace(-1.0, 1.0, 8), np.linspace(0.0, 1.0, 8)
     twist = np.exp(-1j * np.linspace(0.0, 1.0, 4))
     v = np.zeros(4, dtype=np.complex128)

@@ -3,7 +3,7 @@
 A step's own work (the predictor's guesses and their energies, the history's time-error
 estimate) is a few passes over this rank's block each;
 with numpy each pass is one call and often one temporary. These kernels do each stretch in
-one loop (numba, cached as :mod:`hpcgfmd.solvers.cg.kernels` is). They are local (no MPI):
+one loop (numba, cached as :mod:`hpcgfmd.solvers.kernels` is). They are local (no MPI):
 the callers reduce their sums. Sums may be reassociated (vectorised), as in the CG kernels:
 the same block gives the same bits every time. NaN propagates as it did through numpy: a
 non-finite displacement is never replaced by the wall.

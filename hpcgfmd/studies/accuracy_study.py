@@ -11,10 +11,12 @@ run per rank at a time, each on its own communicator); a run is saved by its cas
 the code's identity as the study starts (sources edited meanwhile do not make it run again),
 and reused by a later call of the same code.
 
-    mpirun -n 2 python scripts/accuracy_study.py --out docs/figures/accuracy \\
+    mpirun -n 2 python -m hpcgfmd bench accuracy --out docs/figures/accuracy \\
         --cases 1:0.1:1:0.02 3.5:0.2:0.01:0.1 --accuracies 1e-2 5e-3 1e-3
 
-writes PREFIX.csv and the Markdown table PREFIX.md.
+writes PREFIX.csv and PREFIX.md: the table between the header of
+:func:`hpcgfmd.studies.report.header` and the verdict on the runs outside their accuracy, as
+it prints them.
 """
 from __future__ import annotations
 
@@ -25,11 +27,12 @@ import math
 import os
 import sys
 
+from .. import atomic
 from ..errors import CaseError
 from ..case import parse_case
 from ..model.grid import grid_label
 from ..case.numerics import automatic_nx
-from . import benchmark
+from . import benchmark, report
 
 ACCURACIES = (1e-2, 5e-3, 1e-3)
 REFERENCE_ACCURACY = 2e-4
@@ -84,8 +87,8 @@ def _row(spec, accuracy, result, reference):
 
 def markdown(rows):
     """The table of docs/results.md ("The accuracy knob")."""
-    lines = ["| lambda0 | k | V_z | h0/R | accuracy | nx | steps | it/step | CPU s |"
-             " pull-off Lbar | pull-off error | curve error | within |",
+    lines = [("| lambda0 | k | V_z | h0/R | accuracy | nx | steps | it/step | CPU s |"
+              " pull-off Lbar | pull-off error | curve error | within |"),
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['lambda0']:g} | {r['k']:g} | {r['Vz']:g} | {r['depth']:g} |"
@@ -97,7 +100,7 @@ def markdown(rows):
 
 
 def _parser():
-    parser = argparse.ArgumentParser(prog="scripts/accuracy_study.py",
+    parser = argparse.ArgumentParser(prog="python -m hpcgfmd bench accuracy",
                                      description=__doc__.split("\n")[0])
     parser.add_argument("--cases", nargs="+", required=True, metavar="L:K:V:H",
                         help="lambda0:k:V_z:h0/R, e.g. 3.5:0.2:0.01:0.1")
@@ -138,14 +141,20 @@ def main(comm, argv=None):
     """Collective over ``comm``: the study; 0, or 2 for bad arguments."""
     from mpi4py import MPI
 
-    args = _parser().parse_args(argv)
+    try:
+        args = _parser().parse_args(argv)
+    except SystemExit as exit_:
+        return int(exit_.code or 0)
     specs, error = _specs(args)
     if error:
         if comm.Get_rank() == 0:
             print(f"accuracy_study: error: {error}", file=sys.stderr)
         return 2
     folder = f"{args.out}-runs"
+    head = report.header("The accuracy knob's validation (python -m hpcgfmd bench accuracy)"
+                         ) if comm.Get_rank() == 0 else ""
     if comm.Get_rank() == 0:
+        print(head, flush=True)
         os.makedirs(folder, exist_ok=True)
     # the code's identity once, on one rank: the runs of this study are keyed by the code it
     # started with, even if the sources change while it runs
@@ -167,14 +176,22 @@ def main(comm, argv=None):
                                  MPI.COMM_SELF, folder, identity)
                 rows.append(_row(spec, accuracy, result, reference))
         benchmark.write_csv(rows, f"{args.out}.csv", COLUMNS)
-        tmp = f"{args.out}.md.tmp"
-        with open(tmp, "w") as fh:
-            fh.write(markdown(rows))
-        os.replace(tmp, f"{args.out}.md")
-        print(markdown(rows), end="")
-        bad = [r for r in rows if not r["within"]]
-        print(f"{len(rows) - len(bad)} of {len(rows)} runs within their accuracy")
+        table = markdown(rows) + "\n".join(verdicts(rows)) + "\n"
+        atomic.write_text(f"{args.out}.md", f"{head}\n{table}")
+        print(table, end="")
     return 0
+
+
+def verdicts(rows):
+    """The knob's target on the rows: how many runs are outside their accuracy, and the
+    largest share of its accuracy a run's pull-off and curve errors reach."""
+    bad = [r for r in rows if not r["within"]]
+    share = max((error / r["accuracy"] for r in rows
+                 for error in (r["pulloff_error"], r["curve_error"]) if not math.isnan(error)),
+                default=math.nan)
+    return [(f"{len(rows) - len(bad)} of {len(rows)} runs within their accuracy; the largest"
+             f" error {share:.2f} of its accuracy"),
+            report.verdict("knob", len(bad))]
 
 
 def read_rows(path):

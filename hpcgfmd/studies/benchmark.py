@@ -1,6 +1,6 @@
 """Speed against error: the fast solver and the paper's method on the paper's hard cases.
 
-``python -m hpcgfmd bench`` (or ``scripts/speed_vs_error.py``) runs, for each case
+``python -m hpcgfmd bench speed`` (``bench`` without a mode) runs, for each case
 (lambda0, V_z) at h0/R = 0.1, L/R = 10, alpha = 5e-5, k = 0.1 (docs/model.md, "Scales and
 dimensionless groups"):
 
@@ -32,27 +32,30 @@ curve error: the largest distance of the run's points (abar_c, Lbar) up to its p
 the (much denser) reference's polyline, both coordinates divided by the reference's (abar_c at
 t = 0, |Lbar| at pull-off).
 Wall times include set-up (FFTW planning) and preload. Everything is collective over
-``comm``; rank 0 writes the CSV and the PNG.
+``comm``; rank 0 writes the CSV, the table and the PNG, and prints the table between the
+header of :func:`hpcgfmd.studies.report.header` and the verdicts of the runs as a user makes
+them (accuracy alone) on the speed targets.
 """
 from __future__ import annotations
 
 import argparse
 import csv
-import hashlib
 import logging
 import math
 import os
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
+from .. import atomic
 from ..errors import CaseError
 from ..case import case_file_text, parse_case
 from ..model.grid import grid_label
 from ..runs.protocol import Retraction
+from . import report
 from .distance import load_area_distances
+from .report import code_identity  # the studies' saved runs are keyed by it
 
 logger = logging.getLogger(__name__)
 
@@ -82,7 +85,7 @@ COLUMNS = ("case", "lambda0", "Vz", "solver", "label", "accuracy", "nx", "tolera
            "step_control", "edge_fraction", "equilibration_steps", "dt", "steps", "iterations",
            "iterations_per_step", "fft_pairs", "wall_s", "cpu_s", "setup_s", "ms_per_iteration",
            "pulloff_Lbar", "pulloff_error",
-           "curve_error", "extrapolated", "ranks")
+           "curve_error", "extrapolated", "ranks", "machine", "commit")
 
 
 def case_text(lambda0, vz, numerics, geometry=GEOMETRY):
@@ -193,7 +196,7 @@ def measure_paper(lambda0, vz, nx, reference, comm, geometry, equilibrations, st
     # [numerics] equilibration_steps): far too long to run even shortened; its error is at
     # most that of the largest E measured (the lag only shrinks with E).
     authors = parse_case(case_text(lambda0, vz, {"nx": nx, "solver": "paper"},
-                                   geometry)).numerics.equilibration_steps
+                                   geometry)).numerics.setting("equilibration_steps")
     if rows and authors > max(equilibrations):
         last = rows[-1]
         per_pseudo = last["ms_per_iteration"] * 1e-3
@@ -245,17 +248,6 @@ def _row(label, result, reference, solver="cg"):
             "curve_error": curve_error(reference, result), "extrapolated": False}
 
 
-def code_identity() -> str:
-    """Hash of the package's Python sources (16 hex digits): a study that caches its runs
-    keys them by it too, so that a run made by other code is not reused."""
-    root = Path(__file__).resolve().parents[1]
-    digest = hashlib.sha256()
-    for path in sorted(root.rglob("*.py")):
-        digest.update(str(path.relative_to(root)).encode())
-        digest.update(path.read_bytes())
-    return digest.hexdigest()[:16]
-
-
 def cached_run(text, comm, path):
     """:func:`run`, or its result saved in ``path`` (.npz) by an earlier run of the same text.
 
@@ -272,10 +264,10 @@ def cached_run(text, comm, path):
                 return result
     result = run(text, comm, progress=60.0)
     if path and comm.Get_rank() == 0:
-        tmp = path + ".tmp.npz"
-        np.savez(tmp, text=text, **{key: result[key] for key in ("time", "lbar", "abar", "dt")},
-                 **{key: result[key] for key in SCALARS})
-        os.replace(tmp, path)
+        with atomic.replacing(path) as temporary:  # its name ends in .npz, as savez wants
+            np.savez(temporary, text=text,
+                     **{key: result[key] for key in ("time", "lbar", "abar", "dt")},
+                     **{key: result[key] for key in SCALARS})
     return result
 
 
@@ -347,12 +339,12 @@ def _line(row):
 
 def markdown(rows):
     """The table of docs/results.md ("Speed against error"): one line per row, in order."""
-    lines = ["| case (lambda0, V_z) | solver, setting | accuracy | n_x | steps | it/step |"
-             " ms/it | FFT pairs | CPU s | pull-off Lbar | pull-off error | curve error |",
+    lines = [("| case (lambda0, V_z) | solver, setting | accuracy | n_x | steps | it/step |"
+              " ms/it | FFT pairs | CPU s | pull-off Lbar | pull-off error | curve error |"),
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
 
     def number(value, form):
-        return "" if value is None or value != value else format(value, form)
+        return "" if value is None or math.isnan(value) else format(value, form)
 
     for r in rows:
         kind = {"cg": "fast: ", "cg-auto": "fast, nx chosen: ", "paper": "paper: ",
@@ -370,23 +362,36 @@ def markdown(rows):
     return "\n".join(lines) + "\n"
 
 
-def write_markdown(rows, path):
-    """Atomic: :func:`markdown` of the rows to ``path``."""
-    tmp = f"{path}.tmp"
-    with open(tmp, "w") as fh:
-        fh.write(markdown(rows))
-    os.replace(tmp, path)
+def verdicts(rows):
+    """The speed targets judged on the rows of the runs as a user makes them (accuracy
+    5e-3 alone, the grid the knob's: rows ``cg-auto``), one line each."""
+    judged = {}
+    for r in rows:
+        if r["solver"] != "cg-auto" or r["accuracy"] != 5e-3:
+            continue
+        lam, vz = r["case"].split(":")
+        subject = f"({lam}, {vz})"
+        judged.setdefault("case_cpu", []).append((subject + " in its process", r["cpu_s"]))
+        judged.setdefault("pull_off", []).append((subject, r["pulloff_error"]))
+        judged.setdefault("iterations_per_step", []).append(
+            (subject, r["iterations_per_step"]))
+        if (float(lam), float(vz)) == (7.0, 0.045):
+            judged.setdefault("creeping_steps", []).append((subject, r["steps"]))
+    return ([report.verdict(key, items) for key, items in judged.items()]
+            or ["targets: none judged (no run at accuracy 5e-3 with the knob's grid)"])
+
+
+def write_markdown(rows, path, head=""):
+    """Atomic: ``head``, :func:`markdown` of the rows and their :func:`verdicts` to ``path``;
+    the whole text, as printed."""
+    text = (head + "\n" if head else "") + markdown(rows) + "\n" + "\n".join(verdicts(rows))
+    atomic.write_text(path, text + "\n")
+    return text
 
 
 def write_csv(rows, path, columns=COLUMNS):
     """Atomic: the rows' ``columns`` (missing ones empty) to the CSV file ``path``."""
-    tmp = f"{path}.tmp"
-    with open(tmp, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=columns)
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: row.get(k, "") for k in columns})
-    os.replace(tmp, path)
+    atomic.write_csv(path, columns, rows)
 
 
 def plot(rows, path, clock="wall"):
@@ -407,9 +412,9 @@ def plot(rows, path, clock="wall"):
                          and (solver == "cg-auto" or r["nx"] == top))
             if pts:
                 ax.loglog(*zip(*pts), style, label=label)
-        # the speed issue's target: within 0.5 % in at most 10 s of one core
-        ax.axhline(5e-3, color="k", lw=0.5, ls=":")
-        ax.axvline(10.0, color="k", lw=0.5, ls=":")
+        # the speed targets: within 0.5 % in at most 5 s of one core
+        ax.axhline(report.TARGETS["pull_off"].limit, color="k", lw=0.5, ls=":")
+        ax.axvline(report.TARGETS["case_cpu"].limit, color="k", lw=0.5, ls=":")
         lam, vz = key.split(":")
         ax.set_title(f"lambda0 = {lam}, V_z = {vz}")
         ax.set_xlabel("wall time (s)" if clock == "wall" else
@@ -418,14 +423,18 @@ def plot(rows, path, clock="wall"):
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7)
     fig.tight_layout()
-    tmp = f"{path}.tmp.png"
-    fig.savefig(tmp, dpi=110)
-    os.replace(tmp, path)
+    atomic.save_figure(fig, path, dpi=110)
+    plt.close(fig)
 
 
 def _parser():
-    parser = argparse.ArgumentParser(prog="python -m hpcgfmd bench", description=__doc__.split(
-        "\n")[0], epilog="--quiet and --log FILE as for every command (before or after bench)")
+    from .bench import modes_help
+
+    parser = argparse.ArgumentParser(
+        prog="python -m hpcgfmd bench [speed]", description=__doc__.split("\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="--quiet and --log FILE as for every command (before or after bench)\n\n"
+        + modes_help())
     parser.add_argument("--cases", nargs="+", default=list(CASES),
                         help="lambda0:V_z pairs (default: the paper's hard and slow cases)")
     parser.add_argument("--nx", nargs="+", type=int, default=[16, 17],
@@ -495,7 +504,7 @@ def _settings(args, geometry):
 
 
 def main(comm, argv=None):
-    """Collective: the benchmark's command line (``python -m hpcgfmd bench``); exit status."""
+    """Collective: ``python -m hpcgfmd bench [speed]``; the exit status."""
     try:
         args = _parser().parse_args(argv)
     except SystemExit as exit_:
@@ -509,6 +518,8 @@ def main(comm, argv=None):
         if rank0:
             print(f"bench: {error}", file=sys.stderr)
         return 2
+    title = "Speed against error (python -m hpcgfmd bench speed)"
+    head = report.header(title) if rank0 else ""
     if args.collect:
         status = 0
         if rank0:
@@ -519,23 +530,35 @@ def main(comm, argv=None):
                       file=sys.stderr)
                 status = 2
             else:
+                made = sorted({f"{r.get('machine') or 'an unrecorded machine'}, commit"
+                               f" {r.get('commit') or 'unrecorded'}" for r in rows})
+                head = (head.rstrip("\n") + "\ncollected from rows measured on "
+                        + "; ".join(made) + "\n")
                 write_csv(rows, args.out + ".csv")
-                write_markdown(rows, args.out + ".md")
+                print(write_markdown(rows, args.out + ".md", head), flush=True)
                 plot(rows, args.out + ".png", args.clock)
                 logger.info(f"collected {len(rows)} rows into {args.out}.csv, .md and .png")
         return comm.bcast(status, root=0)  # the same status on every rank
-    rows = []
+    if rank0:
+        print(head, flush=True)
+    made = comm.bcast((report.machine(), f"{report.commit()} (code {code_identity()})")
+                      if rank0 else None, root=0)
+    rows, text = [], ""
     for key in args.cases:
         case_rows = bench_case(key, comm, [2**e for e in args.nx], sweep,
                                args.paper_equilibration, args.paper_steps, geometry,
                                logger.info, args.out, args.paper_time_steps,
                                () if args.no_auto else AUTO_GRID)
+        for row in case_rows:
+            row.update(machine=made[0], commit=made[1])
         rows += case_rows
         if rank0:  # after every case: a long benchmark keeps what it measured
             write_csv(case_rows, f"{args.out}-{key.replace(':', '-')}.csv")
             write_csv(rows, args.out + ".csv")
-            write_markdown(rows, args.out + ".md")
+            text = write_markdown(rows, args.out + ".md", head)
             plot(rows, args.out + ".png", args.clock)
+    if rank0:
+        print(text.removeprefix(head).lstrip("\n"), flush=True)
     logger.info(f"wrote {args.out}.csv, {args.out}.md and {args.out}.png")
     return 0
 
@@ -548,7 +571,8 @@ def collect(prefix):
         with open(path, newline="") as fh:
             for row in csv.DictReader(fh):
                 for key in COLUMNS:
-                    if key in ("case", "solver", "label", "step_control", "extrapolated"):
+                    if key in ("case", "solver", "label", "step_control", "extrapolated",
+                               "machine", "commit"):
                         continue
                     value = row.get(key)  # (older tables lack newer columns)
                     row[key] = float(value) if value not in ("", None) else math.nan

@@ -1,44 +1,39 @@
-"""Time ``apply_diagonal`` of the serial, the transposed and the halved real FFT in one run.
+"""``python -m hpcgfmd bench fft``: one FFT pair of the serial, the transposed and the halved
+real transform, timed in one run.
 
-    python scripts/bench_fft.py --n 17 20 22
-    mpirun -n 2 python scripts/bench_fft.py --n 17 20 22
-    python scripts/bench_fft.py --sizes 65536 73728 98304 131072   # any even lengths
+    python -m hpcgfmd bench fft --sizes 65536 73728 98304 131072   # one rank, any even lengths
+    mpirun -n 2 python -m hpcgfmd bench fft --n 13 14 15 16 17 20
 
-For each n = 2**e up to four transforms are timed, interleaved round by round so that a
+For each length up to four transforms are timed, interleaved round by round so that a
 change of the machine's load hits all of them alike:
 
 * ``serial``: :class:`hpcgfmd.parallel.SerialRealFFT` on rank 0 alone;
 * ``T x 1``: :class:`hpcgfmd.parallel.TransposedRealFFT` on ``COMM_SELF`` of rank 0 alone;
-* ``T x P``: :class:`hpcgfmd.parallel.TransposedRealFFT` on ``COMM_WORLD`` (only when P > 1);
-* ``H x 2``: :class:`hpcgfmd.parallel.HalvedRealFFT` on ``COMM_WORLD`` (only when P = 2 and
-  4 divides n): the transform two-rank runs use.
+* ``T x P``: :class:`hpcgfmd.parallel.TransposedRealFFT` on all ranks (only when P > 1);
+* ``H x 2``: :class:`hpcgfmd.parallel.HalvedRealFFT` on all ranks (only when P = 2 and 4
+  divides n): the transform two-rank runs use.
 
 While rank 0 plans or runs alone the other ranks sleep in a polled ``Ibarrier`` (they do not
 spin, so rank 0 has a core to itself as in a one-rank run). A call's time is the wall time on
-each rank from a common barrier to its return, maximum over the ranks; the table gives the
-median over all calls in ms, the ratios of the medians to ``serial``, the share of the
-``T x P`` time spent in its synchronisations (``communication_time``, maximum over ranks,
-waiting for the other ranks included) and the planning times in s. The load average is
-printed with the table: on a shared machine compare ratios from one run, not times across
-runs. Set ``OPENBLAS_NUM_THREADS=1``; as root, mpirun also needs the ``OMPI_ALLOW_RUN_AS_ROOT``
-and ``OMPI_ALLOW_RUN_AS_ROOT_CONFIRM`` variables.
+each rank from a common barrier to its return (``apply_diagonal``: copies in and out and the
+multiplier included), maximum over the ranks; the table gives the median over all calls in
+ms, the ratios of the medians to ``serial``, the share of the P-rank transforms' time spent in
+their synchronisations (``communication_time``, maximum over ranks, waiting for the other
+ranks included) and the planning times in s. On a shared machine compare ratios from one run,
+not times across runs.
 """
 import argparse
-import os
 import sys
 import time
 
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
+import numpy as np
+from mpi4py import MPI
 
-import numpy as np  # noqa: E402
-from mpi4py import MPI  # noqa: E402
-
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from hpcgfmd.model.grid import grid_label  # noqa: E402
-from hpcgfmd.parallel.fft import HalvedRealFFT, SerialRealFFT, TransposedRealFFT  # noqa: E402
-from hpcgfmd.parallel.fft_halved import fits  # noqa: E402
-from hpcgfmd.parallel.fft_transposed import TRANSPORTS  # noqa: E402
+from ..model.grid import grid_label
+from ..parallel.fft import HalvedRealFFT, SerialRealFFT, TransposedRealFFT
+from ..parallel.fft_halved import fits
+from ..parallel.fft_transposed import TRANSPORTS
+from . import report
 
 
 def release(comm):
@@ -133,8 +128,11 @@ def bench(comm, n, rounds, calls, effort, transport):
     return result
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def _parser():
+    parser = argparse.ArgumentParser(
+        prog="python -m hpcgfmd bench fft", description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=__doc__.split("\n\n", 1)[1])
     parser.add_argument("--n", type=int, nargs="+",
                         help="exponents e of the lengths n = 2**e (default 17 20 without --sizes)")
     parser.add_argument("--sizes", type=int, nargs="+", default=[],
@@ -145,43 +143,56 @@ def main():
     parser.add_argument("--effort", default="FFTW_MEASURE", help="FFTW planner flag")
     parser.add_argument("--transport", default="auto", choices=TRANSPORTS,
                         help="transport of the P-rank transform")
-    args = parser.parse_args()
-    comm = MPI.COMM_WORLD
+    return parser
+
+
+def main(comm, argv=None):
+    """Collective: the mode's command line; the exit status."""
+    try:
+        args = _parser().parse_args(argv)
+    except SystemExit as exit_:
+        return int(exit_.code or 0)
     size = comm.Get_size()
-    rows = []
     exponents = args.n if args.n or args.sizes else [17, 20]
     lengths = sorted({2 ** e for e in exponents or []} | set(args.sizes))
+    if any(n < 16 or n % 2 for n in lengths) or args.rounds < 1:
+        if comm.Get_rank() == 0:
+            print("bench fft: expected even lengths of at least 16 and --rounds >= 1",
+                  file=sys.stderr)
+        return 2
+    if comm.Get_rank() == 0:
+        print(report.header(f"One FFT pair on {size} rank(s) (python -m hpcgfmd bench fft)"),
+              flush=True)
+    rows = []
     for n in lengths:
         calls = max(3, int(args.seconds / (6e-9 * n * np.log2(n))))  # ~6 ns n log2 n per pair
         rows.append(bench(comm, n, args.rounds, calls, args.effort, args.transport))
     if comm.Get_rank() != 0:
-        return
-    load = os.getloadavg()
+        return 0
     # the transforms over all ranks (none on one rank: "T x 1" is the column before them)
     wides = [name for name in (f"T x {size}", "H x 2")
              if size > 1 and any(name in r for r in rows)]
-    title = f"# {size} rank(s), {args.rounds} rounds, {args.effort}"
-    if size > 1:
-        title += f", transport {rows[0]['transport']}"
-    print(title + f", load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
-    header = f"{'n':>7} {'serial ms':>10} {'ns/node':>7} {'T x 1 ms':>9} {'/serial':>7}"
+    head = ["n", "serial ms", "ns/node", "T x 1 ms", "/serial"]
     for name in wides:
-        header += f" {name + ' ms':>9} {'/serial':>7} {'comm':>5}"
-    print(header + "   plan s (" + ", ".join(["serial", "T x 1", *wides]) + ")")
+        head += [f"{name} ms", "/serial", "comm"]
+    head.append("plan s (" + ", ".join(["serial", "T x 1", *wides]) + ")")
+    table = []
     for r in rows:
-        line = (f"{grid_label(r['n']):>7} {1e3 * r['serial']:10.3f} "
-                f"{1e9 * r['serial'] / r['n']:7.2f} "
-                f"{1e3 * r['T x 1']:9.3f} {r['T x 1'] / r['serial']:7.2f}")
+        cells = [grid_label(r["n"]), f"{1e3 * r['serial']:.3f}",
+                 f"{1e9 * r['serial'] / r['n']:.2f}", f"{1e3 * r['T x 1']:.3f}",
+                 f"{r['T x 1'] / r['serial']:.2f}"]
         plans = [r["plan serial"], r["plan T x 1"]]
         for name in wides:
             if name in r:
-                line += (f" {1e3 * r[name]:9.3f} {r[name] / r['serial']:7.2f} "
-                         f"{r['comm ' + name]:5.0%}")
+                cells += [f"{1e3 * r[name]:.3f}", f"{r[name] / r['serial']:.2f}",
+                          f"{r['comm ' + name]:.0%}"]
                 plans.append(r["plan " + name])
             else:
-                line += f" {'-':>9} {'-':>7} {'-':>5}"
-        print(line + "   " + ", ".join(f"{p:.2f}" for p in plans))
-
-
-if __name__ == "__main__":
-    main()
+                cells += ["-", "-", "-"]
+        table.append(cells + [", ".join(f"{p:.2f}" for p in plans)])
+    transport = f", transport {rows[0]['transport']}" if size > 1 else ""
+    print(f"{args.rounds} rounds, {args.effort}{transport}\n\n"
+          + report.markdown_table(head, table) + "\n\n"
+          + report.no_target("the two-rank target is per CG iteration:"
+                             " scripts/bench_scaling.py"), flush=True)
+    return 0
