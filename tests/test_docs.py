@@ -30,6 +30,7 @@ from cases import case_text, physical_text
 from hpcgfmd.errors import SweepError
 from hpcgfmd.case import parse_case
 from hpcgfmd.case.numerics import numerics_keys
+from hpcgfmd.solvers import registered, solver_class
 from hpcgfmd.case.output import OUTPUT_KEYS
 
 NUMERICS_KEYS = numerics_keys()
@@ -208,6 +209,9 @@ def parsed(case, key):
         return getattr(num, key) * u.time
     if key in dict(num.solver_settings):
         return num.setting(key)
+    own = {k.name: k for name in registered() for k in solver_class(name).KEYS}
+    if key in own:  # another solver's key: the default that solver would take
+        return own[key].default(num.nx)
     if key in NUMERICS_KEYS:
         return getattr(num, key)
     if key == "snapshot_times":

@@ -145,5 +145,6 @@ class Equilibrium:
                   "traction": run.surface.traction}
         bad = run.domain.maxes(*(float(not np.isfinite(a).all()) for a in arrays.values()))
         where = ", ".join(name for name, flag in zip(arrays, bad) if flag) or "none of the state"
-        return (f"{self.where()}: the equilibrium solve's residual is {residual};"
-                f" non-finite values in: {where}")
+        surface = run.surface
+        return (f"step {surface.step_index} (t = {surface.time:.6g} tau): the equilibrium"
+                f" solve's residual is {residual}; non-finite values in: {where}")
