@@ -24,7 +24,8 @@ PLANNER_EFFORTS = ("FFTW_ESTIMATE", "FFTW_MEASURE", "FFTW_PATIENT", "FFTW_EXHAUS
                    "FFTW_WISDOM_ONLY")
 
 
-def run(case, path=None, comm=None, overwrite=False, planner_effort="FFTW_MEASURE") -> Result:
+def run(case: Case | str | os.PathLike, path: str | os.PathLike | None = None, comm=None,
+        overwrite: bool = False, planner_effort: str = "FFTW_MEASURE") -> Result:
     """Run the retraction of ``case`` and return its :class:`~hpcgfmd.storage.reader.Result`.
 
     Collective over ``comm``: every rank calls it with the same arguments.
@@ -100,7 +101,7 @@ def run(case, path=None, comm=None, overwrite=False, planner_effort="FFTW_MEASUR
     return result
 
 
-def open_result(path) -> Result:
+def open_result(path: str | os.PathLike) -> Result:
     """The results in the result file ``path``, finished or still being written
     (``hpcgfmd.open``).
 

@@ -77,9 +77,9 @@ def _sync(path):
 
 def write_text(path, text: str, *, durable: bool = False):
     """Replace ``path`` by ``text`` (UTF-8) atomically."""
-    with replacing(path, durable=durable) as temporary:
-        with open(temporary, "w", encoding="utf-8") as fh:
-            fh.write(text)
+    with replacing(path, durable=durable) as temporary, open(temporary, "w",
+                                                             encoding="utf-8") as fh:
+        fh.write(text)
 
 
 def write_csv(path, columns, rows):

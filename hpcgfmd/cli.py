@@ -22,9 +22,19 @@ import time
 from importlib import resources
 
 from . import __version__, logs
-from .errors import (EXIT_FAILURE, EXIT_OK, EXIT_RESUMABLE, EXIT_USAGE, CaseError, CaseFailure,
-                     Interrupted, ResultFileError, SweepError, UsageError)
 from .case import load_case, parse_case
+from .errors import (
+    EXIT_FAILURE,
+    EXIT_OK,
+    EXIT_RESUMABLE,
+    EXIT_USAGE,
+    CaseError,
+    CaseFailure,
+    Interrupted,
+    ResultFileError,
+    SweepError,
+    UsageError,
+)
 from .signals import STOP_SIGNALS
 
 logger = logging.getLogger(__name__)

@@ -17,13 +17,13 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from ..errors import CaseError
 from ..model.loading import Segment, paper_protocol
-from .groups import DRIVE_KEYS, GROUP_KEYS, PRONY_KEYS, Groups, checked_groups, python_numbers
 from .files import case_arguments, read_case_file
+from .groups import DRIVE_KEYS, GROUP_KEYS, PRONY_KEYS, Groups, checked_groups, python_numbers
 from .identity import case_identity
 from .keys import shown
 from .numerics import Numerics, resolve_numerics
@@ -74,11 +74,13 @@ class Case(Groups):
     protocol: tuple
     text: str
 
-    def __init__(self, maugis, modulus_ratio, velocity, depth, cell, adhesion,
+    def __init__(self, maugis: float, modulus_ratio: float | None, velocity: float,
+                 depth: float, cell: float, adhesion: float,
                  numerics: Numerics | Mapping | None = None,
-                 output: Output | Mapping | None = None, units: Units = Units(),
-                 text: str = "", form: str = "case", relaxation_moduli=(),
-                 relaxation_times=(), drive_stiffness: float = math.inf, protocol=()):
+                 output: Output | Mapping | None = None, units: Units | None = None,
+                 text: str = "", form: str = "case", relaxation_moduli: Sequence[float] = (),
+                 relaxation_times: Sequence[float] = (), drive_stiffness: float = math.inf,
+                 protocol: Sequence = ()) -> None:
         raw = python_numbers({"maugis": maugis, "modulus_ratio": modulus_ratio,
                               "velocity": velocity, "depth": depth, "cell": cell,
                               "adhesion": adhesion, "relaxation_moduli": relaxation_moduli,
@@ -90,6 +92,7 @@ class Case(Groups):
             if not (value is None or isinstance(value, (Mapping, resolved))):
                 raise CaseError(f"{name} = {shown(value)}: expected a dict of the [{name}]"
                                 " keys (or None for the defaults)")
+        units = Units() if units is None else units
         groups = checked_groups(raw, units, form)
         resolved = {
             **{key: getattr(groups, key) for key in Groups.__dataclass_fields__},

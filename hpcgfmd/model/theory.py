@@ -134,7 +134,7 @@ def persson_brener(vbar, k):
             out[i] = 1.0
             continue
 
-        def f(c):
+        def f(c, v=v):
             s = c / v
             return c * (1.0 - (1.0 - k) * (np.sqrt(1.0 + s * s) - s)) - 1.0
 

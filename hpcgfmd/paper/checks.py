@@ -254,7 +254,7 @@ def check_collapse(runs):
     chis = sorted(by_chi)
     results = []
     for scope, fraction in (("whole curves", np.inf), ("past the transient", PAST_TRANSIENT)):
-        def distance(a, b):
+        def distance(a, b, fraction=fraction):
             below = fraction * min(a.abar[0], b.abar[0])
             return max(curves.curve_distance(a, b, below), curves.curve_distance(b, a, below))
 

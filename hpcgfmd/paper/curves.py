@@ -16,7 +16,6 @@ from ..model import theory
 from ..studies.distance import load_area_distances
 
 
-
 @dataclass
 class Retraction:
     """The attached part of one retraction, up to its last step with contact.
@@ -50,7 +49,7 @@ class Retraction:
     beta: float
 
     @classmethod
-    def from_series(cls, series) -> "Retraction":
+    def from_series(cls, series) -> Retraction:
         """From :class:`hpcgfmd.storage.reader.Series` (any units: converted to R, tau)."""
         a = series.attrs
         keep = series.contact_half_width > 0

@@ -58,10 +58,16 @@ import time
 import numpy as np
 import pyfftw
 
-from .fft_kernels import (combine, odd_modes, odd_modes_backward, odd_modes_multiplied, scale,
-                          twist_difference)
-from .transport import StageBuffers, padded_width
+from .fft_kernels import (
+    combine,
+    odd_modes,
+    odd_modes_backward,
+    odd_modes_multiplied,
+    scale,
+    twist_difference,
+)
 from .real_fft import RealFFT
+from .transport import StageBuffers, padded_width
 
 _STAGES = ("pack", "h")  # the field (step 1) and this rank's part of the result (step 2)
 

@@ -78,8 +78,8 @@ import numpy as np
 import pyfftw
 
 from .blocks import block_range
-from .transport import TRANSPORTS, StageBuffers, padded_width
 from .real_fft import RealFFT
+from .transport import TRANSPORTS, StageBuffers, padded_width
 
 # Work-array sizes of the chunked stages, in elements: a stage-A/C chunk of columns holds
 # about _COLUMN_CHUNK reals (plus its half spectrum), a stage-B chunk about _ROW_CHUNK complex

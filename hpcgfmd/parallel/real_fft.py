@@ -59,7 +59,7 @@ class RealFFT(ABC):
     def inverse(self, spectrum, field_out):
         """Collective: the unnormalised irfft of this rank's spectrum block."""
 
-    def close(self):
+    def close(self):  # noqa: B027 (nothing to release by default)
         """Collective: release shared resources (nothing by default)."""
 
     def half_wavenumbers(self, cell: float):

@@ -52,10 +52,10 @@ from ..errors import (
     UsageError,
 )
 from ..signals import StopSignals
-from ..storage.result_file import UNIT_NAMES
 from ..storage.checkpoint import checkpoint_path, usable_checkpoint
 from ..storage.lock import acquire_output_lock
 from ..storage.reader import read_series
+from ..storage.result_file import UNIT_NAMES
 from .cost import model_line
 from .progress import duration_text
 from .single_case import run_case

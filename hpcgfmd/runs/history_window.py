@@ -18,8 +18,8 @@ import math
 
 import numpy as np
 
-from ..solvers.step_kernels import interaction_state
 from ..solvers.history_error import HistoryError
+from ..solvers.step_kernels import interaction_state
 from ..state import State
 
 

@@ -26,12 +26,11 @@ from __future__ import annotations
 import math
 
 from ..errors import NonConvergenceError
+from ..model.halfspace import MaxwellHalfSpace
 from ..model.interface import DugdaleMaugis
 from ..model.loading import START_HEIGHT
 from ..parallel.domain import Domain
-from ..parallel.fft import plan_real_fft
-from ..model.halfspace import MaxwellHalfSpace
-from ..parallel.fft import aligned_empty
+from ..parallel.fft import aligned_empty, plan_real_fft
 from ..solvers import make_solver
 from ..solvers.predictor import Predictor
 from ..solvers.step_kernels import all_beyond

@@ -17,8 +17,12 @@ import os
 import h5py
 
 from ..errors import UsageError
-from ..storage.checkpoint import (checkpoint_path, previous_path, read_checkpoint_attrs,
-                                  usable_checkpoint)
+from ..storage.checkpoint import (
+    checkpoint_path,
+    previous_path,
+    read_checkpoint_attrs,
+    usable_checkpoint,
+)
 from ..storage.lock import acquire_output_lock, check_output_path
 
 logger = logging.getLogger(__name__)

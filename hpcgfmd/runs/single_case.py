@@ -10,7 +10,6 @@ Progress goes to the ``hpcgfmd`` logger (:mod:`hpcgfmd.logs`).
 """
 from __future__ import annotations
 
-import errno
 import json
 import logging
 import os
@@ -18,14 +17,18 @@ import time
 
 import numpy as np
 
+from ..case import Case
 from ..errors import CaseError, CaseFailure, Interrupted, NonConvergenceError
 from ..model import accuracy as knob
-from ..case import Case
 from ..signals import StopSignals
 from ..solvers import solver_class
+from ..storage.checkpoint import (
+    checkpoint_path,
+    read_checkpoint,
+    remove_checkpoint,
+    usable_checkpoint,
+)
 from ..storage.result_file import ResultFile
-from ..storage.checkpoint import (checkpoint_path, read_checkpoint, remove_checkpoint,
-                                  usable_checkpoint, write_checkpoint)
 from ..storage.space import free_bytes, room_for_a_step
 from .checkpoints import Checkpoints
 from .progress import Progress

@@ -35,10 +35,10 @@ from dataclasses import dataclass
 
 import tomli_w
 
-from ..errors import CaseError, SweepError
 from ..case import Case, parse_case
 from ..case.files import sections
 from ..case.keys import quoted_key
+from ..errors import CaseError, SweepError
 from .cost import estimated_cost
 
 FARM_KEYS = ("ranks_per_case", "output")

@@ -5,8 +5,7 @@ Imports :mod:`hpcgfmd.model` and :mod:`hpcgfmd.parallel` only. Importing this pa
 registers every solver (:func:`.base.make_solver` picks one by ``[numerics] solver``).
 """
 from . import cg, verlet  # noqa: F401  (registration)
-from .base import (EdgeWatch, EquilibriumSolver, SolveResult, make_solver, registered,
-                   solver_class)
+from .base import EdgeWatch, EquilibriumSolver, SolveResult, make_solver, registered, solver_class
 
 __all__ = ["EdgeWatch", "EquilibriumSolver", "SolveResult", "make_solver", "registered",
            "solver_class"]

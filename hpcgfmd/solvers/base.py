@@ -151,7 +151,7 @@ class EquilibriumSolver(ABC):
         """Counters of the work done (integers, rank-independent; :mod:`hpcgfmd.state`)."""
         return {}
 
-    def restore_counters(self, counters: dict):
+    def restore_counters(self, counters: dict):  # noqa: B027 (no counters by default)
         """Continue counting from :meth:`counters` of a checkpoint."""
 
 

@@ -137,7 +137,7 @@ def below_wall(u, shift, wall, out):
 @njit(cache=True)
 def all_beyond(wall, u, level):
     """True when every gap wall - u exceeds ``level`` (stops at the first that does not)."""
-    for i in range(u.shape[0]):
+    for i in range(u.shape[0]):  # noqa: SIM110 (a compiled loop: no generator in all())
         if not wall[i] - u[i] > level:
             return False
     return True

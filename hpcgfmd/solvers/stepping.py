@@ -139,7 +139,7 @@ class StepControl(ABC):
         if cut_from is not None:
             self.dt = max(self.dt, cut_from)
 
-    def new_segment(self):
+    def new_segment(self):  # noqa: B027 (nothing to forget by default)
         """The drive's rate changed (a protocol's segment began)."""
 
     def state(self) -> State:

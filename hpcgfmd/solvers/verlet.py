@@ -143,7 +143,7 @@ import math
 import numpy as np
 
 from ..model.interface import DugdaleMaugis
-from .base import EquilibriumSolver, SolverKey, SolveResult, register
+from .base import EquilibriumSolver, SolveResult, SolverKey, register
 from .cg import ConstrainedCG
 from .projection import project_feasible
 from .step_problem import StepProblem
@@ -253,7 +253,7 @@ class DampedVerletGFMD(EquilibriumSolver):
                  preload=None):
         if equilibration_steps < 0:
             raise ValueError(f"equilibration_steps must be >= 0, got {equilibration_steps}")
-        if not 0.0 < time_step_fraction:
+        if not time_step_fraction > 0.0:
             raise ValueError(f"time_step_fraction must be positive, got {time_step_fraction}")
         self.domain = domain
         self.fft = fft

@@ -22,6 +22,7 @@ another format (written by another version of hpcgfmd) is refused: the case star
 """
 from __future__ import annotations
 
+import contextlib
 import errno
 import hashlib
 import os
@@ -259,9 +260,7 @@ def remove_checkpoint(path, comm):
 
     def remove():
         for name in (path, path + ".tmp", previous_path(path), path + ".corrupt"):
-            try:
+            with contextlib.suppress(FileNotFoundError):
                 os.remove(name)
-            except FileNotFoundError:
-                pass
 
     _on_root(comm, remove)

@@ -18,6 +18,7 @@ run warns once and goes on unlocked.
 """
 from __future__ import annotations
 
+import contextlib
 import errno
 import fcntl
 import logging
@@ -45,10 +46,8 @@ class OutputLock:
         """Remove the lock file and unlock (idempotent; nothing for a lock not taken)."""
         if self._fd is None:
             return
-        try:
+        with contextlib.suppress(FileNotFoundError):
             os.unlink(self.path)
-        except FileNotFoundError:
-            pass
         os.close(self._fd)  # closing the last descriptor releases the flock
         self._fd = None
 
@@ -75,10 +74,8 @@ def _lock_or_refuse(output) -> OutputLock:
                 holder = ""
             os.close(fd)
             if err.errno in UNSUPPORTED:
-                try:  # the file locks nothing: not left behind
+                with contextlib.suppress(OSError):  # locks nothing: not left behind
                     os.unlink(path)
-                except OSError:
-                    pass
                 logger.warning(f"-o {output}: this file system does not support flock"
                                f" ({os.strerror(err.errno)}); running without the output lock")
                 return OutputLock(path, None)

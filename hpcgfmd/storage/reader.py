@@ -51,30 +51,30 @@ class Series:
     segment: np.ndarray | None = None  # the protocol's segment of each step; None: the paper's
 
     @property
-    def abar(self):
+    def abar(self) -> np.ndarray:
         """Contact half-width a_c / beta."""
         return self.contact_half_width / self.attrs["beta"]
 
     @property
-    def lbar(self):
+    def lbar(self) -> np.ndarray:
         """Load in load scales, L_n / (R dgamma0^2 E0)^(1/3)."""
         return self.load / self.attrs["load_scale"]
 
-    def pull_off(self):
+    def pull_off(self) -> int:
         """Index of the most tensile load (the pull-off point of displacement control)."""
         return int(np.argmin(self.load))
 
-    def scaled_curve(self):
+    def scaled_curve(self) -> tuple[np.ndarray, np.ndarray]:
         """(x, y) = (Lbar / sqrt(abar), (pi/4) abar^(3/2)) over the steps with contact (Fig. 5a)."""
         keep = self.contact_half_width > 0
         return theory.scaled_curve(self.abar[keep], self.lbar[keep])
 
-    def effective_work(self):
+    def effective_work(self) -> np.ndarray:
         """dgamma_eff/dgamma0 of each step with contact (docs/model.md, "Observables")."""
         x, y = self.scaled_curve()
         return theory.effective_work_ratio(x, y)
 
-    def cycles(self) -> list:
+    def cycles(self) -> list[Cycle]:
         """Per cycle of the protocol (a cycle ends with its retraction; the paper's protocol
         is one): its steps, pull-off and the work the drive did, -sum (L_i + L_i-1)/2 (Z_i -
         Z_i-1) over the cycle's steps (docs/model.md, (M45)): the energy dissipated per unit
@@ -162,6 +162,7 @@ class Result:
 
     @property
     def finished(self) -> bool:
+        """The run reached its end (complete detachment, or the protocol's last segment)."""
         return bool(self.attrs.get("finished", False))
 
     @property
@@ -330,7 +331,7 @@ def _snapshots(f, path) -> Snapshots:
                      **{name: values[f"/snapshots/{name}"] for name in SNAPSHOT_FIELDS})
 
 
-def read_series(path) -> Series:
+def read_series(path: str | os.PathLike) -> Series:
     """Read the series and root attributes of a result file (works on unfinished files too).
 
     Raises
@@ -341,7 +342,7 @@ def read_series(path) -> Series:
     return _read(path, snapshots=False)[0]
 
 
-def read_result(path) -> Result:
+def read_result(path: str | os.PathLike) -> Result:
     """The series, the snapshots and the attributes of a result file (finished or not).
 
     Raises

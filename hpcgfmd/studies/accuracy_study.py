@@ -28,10 +28,10 @@ import os
 import sys
 
 from .. import atomic
-from ..errors import CaseError
 from ..case import parse_case
-from ..model.grid import grid_label
 from ..case.numerics import automatic_nx
+from ..errors import CaseError
+from ..model.grid import grid_label
 from . import benchmark, report
 
 ACCURACIES = (1e-2, 5e-3, 1e-3)

@@ -49,8 +49,8 @@ import time
 import numpy as np
 
 from .. import atomic
-from ..errors import CaseError
 from ..case import case_file_text, parse_case
+from ..errors import CaseError
 from ..model.grid import grid_label
 from ..runs.protocol import Retraction
 from . import report

@@ -31,8 +31,8 @@ import tempfile
 import time
 
 from .. import atomic
-from ..errors import CaseError
 from ..case import parse_case
+from ..errors import CaseError
 from ..model.grid import grid_label
 from . import report
 from .benchmark import GEOMETRY, case_text

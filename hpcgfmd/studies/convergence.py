@@ -26,8 +26,8 @@ import argparse
 import math
 import sys
 
-from ..errors import CaseError
 from ..case import case_file_text, parse_case
+from ..errors import CaseError
 from ..model.grid import grid_label
 from . import benchmark, report
 from .cases import key_values
