@@ -37,8 +37,8 @@ def test_step_factors_follow_the_convolution_integral_of_a_piecewise_linear_stra
                    + factors.e_history * strain[n])
         stress.append(stepped)
     for n, t in enumerate(times):
-        exact = sum(rate * quad(lambda s: float(SLS.relaxation_modulus(t - s)), start, end,
-                                epsabs=1e-15, epsrel=1e-13)[0]
+        exact = sum(rate * quad(lambda s, t=t: float(SLS.relaxation_modulus(t - s)), start,
+                                end, epsabs=1e-15, epsrel=1e-13)[0]
                     for rate, start, end in zip(rates[:n], times[:n], times[1:n + 1]))
         assert stress[n] == pytest.approx(exact, rel=1e-12, abs=1e-13), (n, t)
 
