@@ -79,13 +79,19 @@ def test_vbar_conventions_differ_by_k():
     abar = np.linspace(6.0, 1.0, 30)
     c = synthetic(abar, theory.jkr_load(abar))
     np.testing.assert_allclose(c.vbar("relaxation"), 0.1 * c.vbar("retardation"))
-    # c0 = dgamma0 E0 / (pi sigma_a^2) (paper Eq. 7) in internal units E0 = R = 1:
+    # the retardation convention is the one with which Eq. 8's closed form is Eq. 6: the
+    # quadrature of Eq. 6 with Eq. 7 for the SLS (k = 0.1, tau = 1) at the points' own
+    # rhodot, c0 = dgamma0 E0 / (pi sigma_a^2) (paper Eq. 7) in internal units E0 = R = 1:
     # dgamma0 = alpha = beta^3, sigma_a = lambda0 beta (docs/model.md, "Scales")
-    beta, lambda0 = c.beta, 7.0
-    c0 = beta**3 / (np.pi * (lambda0 * beta) ** 2)
-    tau_retardation = 1.0 / 0.1
-    np.testing.assert_allclose(c.vbar("retardation"), 2 * np.pi * c.rhodot * tau_retardation / c0,
-                               rtol=1e-12)
+    from hpcgfmd.model.material import GeneralizedMaxwell
+
+    sls = GeneralizedMaxwell.standard_linear(1.0, 10.0, 1.0)
+    slowing = synthetic(6.0 * 0.7 ** np.arange(30), theory.jkr_load(6.0 * 0.7 ** np.arange(30)))
+    c0 = slowing.beta**3 / (np.pi * (7.0 * slowing.beta) ** 2)
+    for i in (0, 10, 20, 29):  # vbar 2e4 to 0.8 (the relaxation convention: 4-56 % off)
+        eq6 = theory.persson_brener_modulus(slowing.rhodot[i], c0, sls.complex_modulus)
+        assert theory.persson_brener(slowing.vbar("retardation")[i], 0.1) == pytest.approx(
+            eq6, rel=1e-8)
 
 
 def test_collapse_ratio_of_identical_pairs_is_zero():
