@@ -78,6 +78,7 @@ def test_groups_of_a_physical_case_are_their_definitions_in_si_units():
     # values of a [physical] case, against the groups the case forms (through chi_ve =
     # V_z lambda0^2 and w = beta pi / (4 lambda0^2))
     from cases import PHYSICAL, PHYSICAL_VALUES
+
     from hpcgfmd.case import parse_case
 
     si = {key: float(value) for key, value in PHYSICAL_VALUES.items()}
