@@ -25,7 +25,7 @@ from hpcgfmd.solvers.base import SolveResult
 
 
 # --- helpers ------------------------------------------------------------------------------
-def gfmd(grid, steps, sigma_a=0.0, dmax=1.0, scale=1.0, fraction=1.0):
+def verlet(grid, steps, sigma_a=0.0, dmax=1.0, scale=1.0, fraction=1.0):
     return DampedVerletGFMD(grid.domain, grid.fft, DugdaleMaugis(sigma_a, dmax), grid.half_q,
                             1.0, steps, scale, time_step_fraction=fraction)
 
@@ -58,7 +58,7 @@ def test_elastic_indentation_matches_constrained_cg(grid_factory, modulus):
     reference = cg.solve(u_cg, wall, ops, history)
     assert reference.converged
     steps = 1500
-    solver = gfmd(grid, steps, scale=math.sqrt(depth))
+    solver = verlet(grid, steps, scale=math.sqrt(depth))
     u = np.zeros(n)
     pairs = grid.fft.pairs
     result = solver.solve(u, wall, ops, history)
@@ -82,7 +82,7 @@ def test_the_measure_of_a_state_is_the_cg_solvers(grid_factory):
     ops = StepOperators.from_modulus(grid.half_q, 1.0, n)
     wall = grid.x**2 / 2 - depth
     history = np.zeros(n)
-    solver = gfmd(grid, 400, sigma_a=0.1, dmax=0.01, scale=0.1)
+    solver = verlet(grid, 400, sigma_a=0.1, dmax=0.01, scale=0.1)
     u = np.zeros(n)
     result = solver.solve(u, wall, ops, history)
     k_u = grid.fft.apply_diagonal(u, ops.stiffness, np.empty(n))
@@ -109,7 +109,7 @@ def test_pseudo_steps_allocate_no_arrays(grid_factory, sigma_a):
     ops = StepOperators.from_modulus(grid.half_q, 3.0, n)
     wall = grid.x**2 / 2 - 0.02
     history = 1e-3 * np.cos(2 * np.pi * grid.x / grid.cell)
-    solver = gfmd(grid, 0, sigma_a, 0.01)
+    solver = verlet(grid, 0, sigma_a, 0.01)
     solver.relax(np.zeros(n), wall, ops, history, 5)
 
     base = []
@@ -152,7 +152,7 @@ def test_adhesive_equilibrium_is_an_attracting_fixed_point(grid_factory, modulus
     # Fixed point: from the equilibrium, 200 pseudo steps change nothing beyond round-off
     # (the first and the last step's shift is projected exactly, the others by a lagged
     # Newton step that is exact at rest). Measured: 3e-14 depth, residual 3e-13.
-    solver = gfmd(grid, 200, sigma_a, dmax, scale=sigma_a)
+    solver = verlet(grid, 200, sigma_a, dmax, scale=sigma_a)
     u = u_cg.copy()
     result = solver.solve(u, wall, ops, history)
     assert np.abs(u - u_cg).max() < 1e-12 * depth
@@ -162,7 +162,7 @@ def test_adhesive_equilibrium_is_an_attracting_fixed_point(grid_factory, modulus
     # back. 2500 steps: N rho^N < 1e-16 for the slowest grid mode (rho = 0.94 / 0.979); the
     # cohesive-edge nodes hop for a while first (the residual is not monotone, measured
     # ~1e-13 from 1000 steps on).
-    solver = gfmd(grid, 2500, sigma_a, dmax, scale=sigma_a)
+    solver = verlet(grid, 2500, sigma_a, dmax, scale=sigma_a)
     u = u_cg + depth * (2e-3 * np.cos(2 * np.pi * grid.x / grid.cell)
                         + 1e-3 * np.sin(6 * np.pi * grid.x / grid.cell))
     result = solver.solve(u, wall, ops, history)
@@ -192,12 +192,12 @@ def test_unsettled_relaxation_keeps_its_contact_on_the_wall(grid_factory, steps)
     start = u_cg + depth * (2e-3 * np.cos(2 * np.pi * grid.x / grid.cell)
                             + 1e-3 * np.sin(6 * np.pi * grid.x / grid.cell))
     relaxed = start.copy()  # the pseudo steps alone (deterministic: same bits as in solve)
-    gfmd(grid, steps, sigma_a, dmax, scale=sigma_a).relax(relaxed, wall, ops, history, steps)
+    verlet(grid, steps, sigma_a, dmax, scale=sigma_a).relax(relaxed, wall, ops, history, steps)
     assert abs(relaxed.sum()) <= 1e-15 * np.abs(wall).max() * n  # project_feasible's zero
     contact = np.count_nonzero(relaxed >= wall)
     assert contact == np.count_nonzero(u_cg >= wall) > 100
     u = start.copy()
-    result = gfmd(grid, steps, sigma_a, dmax, scale=sigma_a).solve(u, wall, ops, history)
+    result = verlet(grid, steps, sigma_a, dmax, scale=sigma_a).solve(u, wall, ops, history)
     np.testing.assert_array_equal(u, relaxed)  # the evaluation changes nothing
     assert np.count_nonzero(u >= wall) == contact
     assert result.residual < 0.5  # measured 0.155 (1 step) to 1.3e-3; lost contact: 3.8
@@ -302,7 +302,7 @@ def test_pseudo_step_is_stable_and_the_limit_is_sharp(grid_factory, modulus):
     spectrum[0] = 0.0
     exact = np.fft.irfft(spectrum, n)
     # The chosen step: 20000 pseudo steps end at round-off, nothing grows.
-    solver = gfmd(grid, 0)
+    solver = verlet(grid, 0)
     u = np.zeros(n)
     largest = []
     solver.relax(u, wall, ops, history, 20000, applied,
@@ -310,13 +310,13 @@ def test_pseudo_step_is_stable_and_the_limit_is_sharp(grid_factory, modulus):
     assert np.abs(u - exact).max() < 1e-13 and max(largest) < 2 * np.abs(exact).max()
     ratio = solver.step_limit / solver.step_optimal  # fraction that gives the limit itself
     # 0.99 of the limit: stable (the Nyquist mode contracts by 0.98 or 0.92 per step).
-    solver = gfmd(grid, 0, fraction=0.99 * ratio)
+    solver = verlet(grid, 0, fraction=0.99 * ratio)
     u = np.zeros(n)
     solver.relax(u, wall, ops, history, 3000, applied)
     assert np.abs(u - exact).max() < 1e-6
     # 1.01 of the limit: the Nyquist mode grows by 1.02 (E0) or 1.08 (10 E0) per step until
     # the nodes hit the wall, 1e3 away (measured errors ~1e3).
-    solver = gfmd(grid, 0, fraction=1.01 * ratio)
+    solver = verlet(grid, 0, fraction=1.01 * ratio)
     u = np.zeros(n)
     with np.errstate(over="ignore", invalid="ignore"):
         solver.relax(u, wall, ops, history, 3000, applied)
@@ -337,7 +337,7 @@ def steps_to_residual(grid_factory, n, target):
         copy[:] = u
         residuals.append(check.solve(copy, wall, ops, history).residual)
 
-    solver = gfmd(grid, 0, scale=math.sqrt(depth))
+    solver = verlet(grid, 0, scale=math.sqrt(depth))
     steps = int(18 * math.sqrt(n))  # ~3x what is needed (measured)
     solver.relax(np.zeros(n), wall, ops, history, steps, monitor=monitor)
     above = np.flatnonzero(np.array(residuals) > target)
