@@ -8,7 +8,7 @@ viscoelastic retraction (pull-off, jumps) to compare between runs.
 
 GROUPS = {"maugis": 3.5, "modulus_ratio": 0.1, "velocity": 1.0, "depth": 0.03, "cell": 2.0,
           "adhesion": 1e-4}
-# The [physical] form of an SLS case (lambda0 = 3.5 at these values; tau = 1 s, R = 1 mm), in SI,
+# The [physical] form of an SLS case (lambda0 = 7.0 at these values; tau = 1 s, R = 1 mm), in SI,
 # as the TOML spells them
 PHYSICAL_VALUES = {"radius": "1e-3", "modulus_relaxed": "1e6", "modulus_instantaneous": "1e7",
                    "relaxation_time": "1.0", "work_of_adhesion": "0.05",

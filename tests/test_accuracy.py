@@ -1,10 +1,14 @@
-"""The accuracy knob's grid (hpcgfmd.model.accuracy): the creep factor, and a creeping
-retraction run at the default accuracy against a converged run of the same case."""
+"""The accuracy knob's grid (hpcgfmd.model.accuracy): the grid a case gets against the error
+model the knob inverts, evaluated forward (docs/numerics.md, "The accuracy knob"); the creep
+factor and the fast widening where the two regimes meet and at the glassy zone's width; and
+runs at an accuracy against converged runs of the same case (the laws' own reference: their
+constants are measured, docs/results.md)."""
 import math
 
+import numpy as np
 import pytest
 
-from hpcgfmd.model import accuracy
+from hpcgfmd.model import accuracy, theory
 from hpcgfmd.model.grid import grid_label, smallest_grid
 from hpcgfmd.errors import CaseError
 from hpcgfmd.case import parse_case
@@ -15,36 +19,86 @@ from cases import case_text, pull_off_run
 # creeping retraction, whose pull-off was 7.2e-3 off on the elastic law's grid (w/dx = 4.1)
 CREEPING = dict(maugis=1.0, modulus_ratio=0.1, velocity=0.1, depth=0.1, cell=3.578,
                 adhesion=5e-5)
+# every size the knob may choose, f 2^a with f = 1, 3, 9 (hpcgfmd.model.grid)
+SIZES = sorted({f * 2**a for f in (1, 3, 9) for a in range(1, 40)})
 
-def test_creep_factor_leaves_elastic_and_fast_retractions_alone():
+
+def predicted_errors(case, nx):
+    """The error model the knob inverts, evaluated forward on an nx grid (docs/numerics.md,
+    "The accuracy knob"): the grid's pull-off error GRID_ERROR (dx / w)^GRID_ORDER, w/dx
+    taken over the creep factor and times the fast widening, and the contact's staircase
+    CONTACT_ERROR dx / sqrt(2 R h0) in the load-area curve."""
+    dx = case.cell / nx
+    points = (case.zone_width / dx
+              * accuracy.fast_widening(case.chi_ve, case.modulus_ratio, case.maugis)
+              / accuracy.creep_factor(case.chi_ve, case.modulus_ratio))
+    return (accuracy.GRID_ERROR * points ** -accuracy.GRID_ORDER,
+            accuracy.CONTACT_ERROR * dx / math.sqrt(2.0 * case.depth))
+
+
+def assert_smallest_grid_meeting_the_shares(case):
+    """The knob's nx meets the grid's and the contact's shares of the accuracy, and the next
+    smaller size does not; returns (zone, contact): which of the two the next smaller size
+    misses."""
+    knob, nx = case.numerics.accuracy, case.numerics.nx
+    assert case.numerics.nx_automatic and nx in SIZES
+    shares = accuracy.GRID_SHARE * knob, accuracy.CONTACT_SHARE * knob
+    errors = predicted_errors(case, nx)
+    assert all(error <= share * (1 + 1e-12) for error, share in zip(errors, shares)), errors
+    smaller = max(size for size in SIZES if size < nx)
+    missed = tuple(error > share for error, share in
+                   zip(predicted_errors(case, smaller), shares))
+    assert any(missed), (nx, smaller)
+    return missed
+
+
+def test_creep_factor_and_fast_widening_meet_continuously_where_the_regimes_meet():
     assert accuracy.creep_factor(0.1, 1.0) == 1.0  # the elastic solid: no rate
-    assert accuracy.creep_factor(441.0, 0.1) == 1.0  # lambda0 = 7, V_z = 9
-    assert accuracy.creep_factor(2.21, 0.1) == 1.0  # lambda0 = 7, V_z = 0.045: chi/k = 22
-    # chi_ve / k = 1: 20^(1/3) more points; slower: at most 3 times (nothing measured there)
-    assert accuracy.creep_factor(0.1, 0.1) == pytest.approx(20 ** (1 / 3))
-    assert accuracy.creep_factor(0.01, 0.1) == 3.0
+    assert accuracy.fast_widening(441.0, 1.0, 7.0) == 1.0
+    for k in (0.01, 0.1, 0.5):
+        lambda0 = 2.0 / k ** (2 / 3)  # a JKR-like glassy tip, lambda_inf = 2
+        chi = k * np.logspace(-4, 6, 401)  # chi_ve / k from 1e-4 to 1e6
+        creep = np.array([accuracy.creep_factor(c, k) for c in chi])
+        widening = np.array([accuracy.fast_widening(c, k, lambda0) for c in chi])
+        # a retraction creeps (more points across w) or is fast (a wider zone), never both
+        assert np.all((creep == 1.0) | (widening == 1.0))
+        assert creep[0] > 1.0 and widening[-1] > 1.0
+        # the slower, the more points; the faster, the wider the zone
+        assert np.all(np.diff(creep) <= 0.0) and np.all(np.diff(widening) >= 0.0)
+        # and the two meet continuously (both 1) where the regimes meet
+        meet = accuracy.CREEP_RATE * k
+        assert accuracy.creep_factor(meet * (1 - 1e-9), k) == pytest.approx(1.0, abs=1e-9)
+        assert accuracy.fast_widening(meet * (1 + 1e-9), k, lambda0) == pytest.approx(
+            1.0, abs=1e-9)
+        # at most CREEP_CAP times the points, reached by the slowest
+        assert creep.max() == accuracy.CREEP_CAP
 
-def test_fast_widening_resolves_a_glassy_tip_s_wider_zone():
-    assert accuracy.fast_widening(441.0, 1.0, 7.0) == 1.0  # the elastic solid
-    assert accuracy.fast_widening(1.5, 0.1, 7.0) == 1.0  # creeping: chi_ve / k = 15
-    # the default case, chi_ve / k = 220.5: (220.5 / 20)^(1/3)
-    assert accuracy.fast_widening(22.05, 0.1, 7.0) == pytest.approx(11.025 ** (1 / 3))
-    assert accuracy.fast_widening(441.0, 0.1, 7.0) == pytest.approx(220.5 ** (1 / 3))  # V_z = 9
-    assert accuracy.fast_widening(1e5, 0.1, 7.0) == 10.0  # the glassy w / k
-    assert accuracy.fast_widening(1e4, 0.5, 7.0) == 2.0  # never wider than the glassy w / k
+
+def test_the_fast_widening_is_at_most_the_glassy_zone():
+    # The zone is as wide as the modulus the tip sees (M23): the glassy tip's, of lambda_inf
+    # = lambda0 k^(2/3) ((M20) with Einf, (M21)) on beta_inf = k^(1/3) beta, is 1/k times
+    # the relaxed one. The fastest retractions reach it.
+    for k, lambda0 in ((0.5, 7.0), (0.1, 7.0), (0.01, 30.0)):
+        glassy = (k ** (1 / 3) * theory.cohesive_width(lambda0 * k ** (2 / 3))
+                  / theory.cohesive_width(lambda0))
+        assert accuracy.fast_widening(1e12, k, lambda0) == pytest.approx(glassy, rel=1e-12)
+        assert 1.0 < accuracy.fast_widening(100 * accuracy.CREEP_RATE * k, k, lambda0) <= glassy
+    # a creeping retraction and the paper's default case (chi_ve / k = 15, 220.5)
+    assert accuracy.fast_widening(1.5, 0.1, 7.0) == 1.0
+    assert accuracy.fast_widening(22.05, 0.1, 7.0) > 1.0
     # a DMT-like glassy tip (lambda0 k^(2/3) = 0.16 and 0.046): the relaxed zone
     assert accuracy.fast_widening(122.5, 0.01, 3.5) == 1.0
     assert accuracy.fast_widening(100.0, 0.01, 1.0) == 1.0
 
 
 def test_fast_grid_resolves_the_zone_over_the_widening():
-    # lambda0 = 7, V_z = 4.5: (220.5 / 2)^(1/3) = 4.79 times fewer points across w than the
-    # elastic law's (9x2^13 without the widening)
+    # lambda0 = 7, V_z = 4.5: the widened zone sets the grid (9x2^13 without the widening)
     case = parse_case(case_text("accuracy = 5e-3", maugis=7.0, modulus_ratio=0.1,
                                 velocity=4.5, depth=0.1, cell=10.0, adhesion=5e-5))
-    points = case.zone_width / case.dx
-    want = accuracy.zone_points(5e-3) / 110.25 ** (1 / 3)
-    assert want <= points < 2 * want and case.numerics.nx == 16384
+    assert assert_smallest_grid_meeting_the_shares(case) == (True, False)
+    relaxed = parse_case(case_text("accuracy = 5e-3", maugis=7.0, modulus_ratio=1.0,
+                                   velocity=4.5, depth=0.1, cell=10.0, adhesion=5e-5))
+    assert relaxed.numerics.nx > 4 * case.numerics.nx
     assert accuracy.zone_points(5e-3, case.chi_ve, case.modulus_ratio, case.maugis,
                                 widen=False) == accuracy.zone_points(5e-3)
 
@@ -66,29 +120,49 @@ def test_a_given_grid_must_resolve_the_widened_zone():
 
 
 def test_creeping_grid_resolves_the_zone_by_the_creep_factor():
-    # lambda0 = 3.5, k = 0.2, V_z = 0.01 (chi_ve / k = 0.6: the creep factor's cap)
-    case = parse_case(case_text("accuracy = 5e-3", maugis=3.5, modulus_ratio=0.2,
-                                velocity=0.01, depth=0.1, cell=3.578, adhesion=5e-5))
-    points = case.zone_width / case.dx
-    want = accuracy.zone_points(5e-3) * accuracy.creep_factor(case.chi_ve, case.modulus_ratio)
-    assert want <= points < 4 / 3 * want
-    assert points > 2 * accuracy.zone_points(5e-3)  # finer than the elastic law's grid
+    # lambda0 = 3.5, k = 0.2, V_z = 0.01 (chi_ve / k = 0.6: the creep factor's cap, 3): the
+    # zone sets the grid, with more than twice the points of the same case's elastic grid
+    groups = {"maugis": 3.5, "velocity": 0.01, "depth": 0.1, "cell": 3.578, "adhesion": 5e-5}
+    case = parse_case(case_text("accuracy = 5e-3", modulus_ratio=0.2, **groups))
+    assert assert_smallest_grid_meeting_the_shares(case) == (True, False)
+    elastic = parse_case(case_text("accuracy = 5e-3", modulus_ratio=1.0, **groups))
+    assert case.zone_width / case.dx > 2 * elastic.zone_width / elastic.dx
 
 
 def test_grid_resolves_the_contact_where_the_zone_is_wide():
-    # lambda0 = 1 at h0/R = 0.02: w is a seventh of sqrt(2 R h0), and the zone's grid (2^8
-    # nodes for its 3.8 points across w at 1e-2) leaves 32 nodes across it
+    # lambda0 = 1 at h0/R = 0.02: w is a seventh of sqrt(2 R h0); the contact sets the grid,
+    # and the zone's predicted error is a thirtieth of its share there (over 5 times its
+    # points across w)
     case = parse_case(case_text("accuracy = 1e-2", maugis=1.0, modulus_ratio=0.1,
                                 velocity=1.0, depth=0.02, cell=1.6, adhesion=5e-5))
-    across = math.sqrt(2.0 * case.depth) / case.dx
-    want = accuracy.contact_points(1e-2)
-    assert want <= across < 4 / 3 * want and case.numerics.nx == 1536
-    assert case.zone_width / case.dx > 5 * accuracy.zone_points(1e-2)
-    # where the zone sets the grid the contact rule changes nothing (the paper's cases)
-    fast = parse_case(case_text("accuracy = 1e-3", maugis=7.0, modulus_ratio=0.1,
-                                velocity=9.0, depth=0.1, cell=10.0, adhesion=5e-5))
-    assert math.sqrt(2.0 * fast.depth) / fast.dx > accuracy.contact_points(1e-3)
-    assert fast.numerics.nx == 49152
+    assert assert_smallest_grid_meeting_the_shares(case) == (False, True)
+    assert predicted_errors(case, case.numerics.nx)[0] < accuracy.GRID_SHARE * 1e-2 / 30
+    # where the zone sets the grid the contact rule changes nothing: the paper's lambda0 = 7
+    # at h0/R = 0.1, slow at 1e-3 and fast at 5e-3; the fast one's zone, widened 6 times,
+    # leaves the grid to the contact at 1e-3
+    for velocity, knob, zone_sets_it in ((0.045, 1e-3, True), (9.0, 5e-3, True),
+                                         (9.0, 1e-3, False)):
+        paper = parse_case(case_text(f"accuracy = {knob}", maugis=7.0, modulus_ratio=0.1,
+                                     velocity=velocity, depth=0.1, cell=10.0, adhesion=5e-5))
+        missed = assert_smallest_grid_meeting_the_shares(paper)
+        assert missed == (zone_sets_it, not zone_sets_it), (velocity, knob)
+
+
+@pytest.mark.parametrize("knob", [1e-2, 5e-3, 1e-3])
+def test_automatic_nx_is_the_smallest_grid_size_meeting_the_grid_s_share(knob):
+    # an elastic lambda = 7 case (the command line's tests' own): the zone sets the grid
+    case = parse_case(case_text(f"accuracy = {knob}", maugis=7.0, modulus_ratio=1.0))
+    assert assert_smallest_grid_meeting_the_shares(case)[0]
+
+
+def test_finer_accuracy_asks_for_more_work():
+    coarse, fine = (parse_case(case_text(f"accuracy = {a}", maugis=1.0,
+                                         modulus_ratio=1.0)).numerics for a in (1e-2, 1e-3))
+    assert fine.nx > coarse.nx
+    assert fine.edge_fraction < coarse.edge_fraction
+    assert fine.load_tolerance < coarse.load_tolerance
+    assert fine.time_tolerance < coarse.time_tolerance
+    assert fine.tolerance < coarse.tolerance
 
 
 def test_load_area_curve_meets_the_accuracy_where_the_contact_sets_the_grid():

@@ -1,4 +1,4 @@
-"""The Python API (hpcgfmd.Case, run, open), the netCDF view of the case file (xarray with
+"""The Python API (hpcgfmd.Case, run, open), the netCDF view of the result file (xarray with
 h5netcdf), files of the older layout, the solver registry, and the command line's logging."""
 import os
 import subprocess

@@ -8,8 +8,6 @@ import h5py
 import numpy as np
 import pytest
 
-from hpcgfmd.model import accuracy
-from hpcgfmd.case import parse_case
 from hpcgfmd.storage.reader import read_series
 
 import cases
@@ -105,30 +103,6 @@ def test_existing_output_is_refused(tmp_path):
     res = hpcgfmd("run", "case.toml", cwd=tmp_path)
     assert res.returncode == 2 and "exists" in res.stderr
     assert (tmp_path / "case.h5").read_bytes() == b"keep me"
-
-
-@pytest.mark.parametrize("knob", [1e-2, 5e-3, 1e-3])
-def test_automatic_nx_is_the_smallest_grid_size_resolving_the_zone(knob):
-    case = parse_case(case_text(maugis="7.0", numerics=f"accuracy = {knob}"))
-    assert case.numerics.nx_automatic
-    nx = case.numerics.nx
-    want = accuracy.zone_points(knob, case.chi_ve, case.modulus_ratio, case.maugis)
-    assert case.zone_width / case.dx >= want
-    # every size f 2^a (f = 1, 3, 9) below nx leaves the zone under-resolved
-    sizes = {f * 2**a for f in (1, 3, 9) for a in range(1, 30)}
-    smaller = max(s for s in sizes if s < nx)
-    assert case.zone_width / (case.cell / smaller) < want
-    assert nx in sizes
-
-
-def test_finer_accuracy_asks_for_more_work():
-    coarse, fine = (parse_case(case_text(numerics=f"accuracy = {a}")).numerics
-                    for a in (1e-2, 1e-3))
-    assert fine.nx > coarse.nx
-    assert fine.edge_fraction < coarse.edge_fraction
-    assert fine.load_tolerance < coarse.load_tolerance
-    assert fine.time_tolerance < coarse.time_tolerance
-    assert fine.tolerance < coarse.tolerance
 
 
 def test_run_info_plot_end_to_end(tmp_path):

@@ -1,6 +1,5 @@
 """The set-up (scripts/setup.sh) provides what the README promises."""
 import h5py
-import pyfftw
 
 
 def test_h5py_is_built_against_parallel_hdf5():
@@ -9,9 +8,3 @@ def test_h5py_is_built_against_parallel_hdf5():
     assert h5py.get_config().mpi
     assert "mpio" in h5py.registered_drivers()
 
-
-def test_pyfftw_real_transform_pair():
-    a = pyfftw.empty_aligned(16, dtype="float64")
-    a[:] = range(16)
-    spectrum = pyfftw.interfaces.numpy_fft.rfft(a)
-    assert abs(spectrum[0] - 120.0) < 1e-12

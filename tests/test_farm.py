@@ -259,7 +259,7 @@ def test_quiet_farm_still_reports_its_failed_cases(tmp_path):
     assert "[0] nx_64" in failed[0] and "nx = 64" in failed[0]
     assert "[1] max_iterations_2" in failed[1] and "NonConvergenceError" in failed[1]
     assert run.stdout == ""
-    # neither wrote a case file (refused; failed in the preload): the summary names none
+    # neither wrote a result file (refused; failed in the preload): the summary names none
     rows = summary(tmp_path / "sweep" / "summary.csv")
     assert [rows[i]["file"] for i in (0, 1)] == ["", ""]
     assert sorted(p.name for p in (tmp_path / "sweep").glob("*.h5")) == ["summary.h5"]

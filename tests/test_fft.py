@@ -1,8 +1,12 @@
-"""Serial and transposed real FFTs against numpy, block_range, and the MPI check program."""
+"""The real FFTs of hpcgfmd.parallel (serial and transposed; the halved one under mpirun):
+apply_diagonal and the split forward and inverse transforms (those of the damped Verlet
+solver) against numpy's rfft/irfft, their buffers, the wavenumber layout, block_range, and
+the MPI check program tests/mpi/check_fft.py."""
 import os
 import shutil
 import subprocess
 import sys
+import tracemalloc
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +32,14 @@ def apply(fft, field, multiplier):
                               multiplier[np.abs(fft.wavenumber)], out)
 
 
+def numpy_modes(fft, field):
+    """numpy's rfft of the global field, arranged as the transform's local modes (a mode
+    m < 0 is the conjugate of |m|)."""
+    spectrum = np.fft.rfft(field)
+    m = fft.wavenumber
+    return np.where(m >= 0, spectrum[np.abs(m)], np.conj(spectrum[np.abs(m)]))
+
+
 @pytest.mark.parametrize("transposed", [False, True])
 @pytest.mark.parametrize("n", SIZES)
 def test_apply_diagonal_matches_numpy(n, transposed):
@@ -43,6 +55,65 @@ def test_apply_diagonal_matches_numpy(n, transposed):
     fft.apply_diagonal(in_place, multiplier[np.abs(fft.wavenumber)], in_place)
     np.testing.assert_array_equal(in_place, out)
     assert fft.pairs == 2
+
+
+@pytest.mark.parametrize("transposed", [False, True])
+@pytest.mark.parametrize("n", SIZES)
+def test_forward_inverse_match_numpy_and_apply_diagonal(n, transposed):
+    fft = plan_real_fft(MPI.COMM_SELF, n, "FFTW_ESTIMATE", transposed=transposed)
+    rng = np.random.default_rng(n)
+    field, multiplier = rng.standard_normal(n), rng.standard_normal(n // 2 + 1)
+    diagonal = multiplier[np.abs(fft.wavenumber)]
+    spectrum = np.empty(fft.spectrum_shape, dtype=np.complex128)
+    assert fft.forward(field, spectrum) is spectrum
+    expected = numpy_modes(fft, field)
+    assert np.abs(spectrum - expected).max() < 1e-13 * np.abs(expected).max()
+    kept = spectrum.copy()
+    out = np.empty(n)
+    assert fft.inverse(spectrum, out) is out
+    np.testing.assert_array_equal(spectrum, kept)  # a caller's spectrum is left alone
+    np.testing.assert_allclose(out, n * field, rtol=0, atol=1e-13 * n * np.abs(field).max())
+    assert fft.pairs == 1  # the pair is counted once, in inverse
+    # inverse(d * forward(f)) is apply_diagonal(f, d), bitwise, through a caller's buffer
+    # and through the transform's own one (which saves the copies in the serial class).
+    applied = fft.apply_diagonal(field, diagonal, np.empty(n))
+    np.multiply(kept, diagonal, out=spectrum)
+    np.testing.assert_array_equal(fft.inverse(spectrum, out), applied)
+    fft.forward(field, fft.spectrum)
+    fft.spectrum *= diagonal
+    np.testing.assert_array_equal(fft.inverse(fft.spectrum, out), applied)
+    assert fft.pairs == 4
+
+
+@pytest.mark.parametrize("transposed", [False, True])
+def test_transforms_allocate_nothing_per_call(transposed):
+    # Persistent buffers: nothing is kept and nothing of size n is made per call by the
+    # serial class. In the transposed class numpy makes a transient buffer for the twiddle
+    # multiply into the strided xt blocks (stage A: one column chunk, at most ~1 MB; 130 kB
+    # here), exactly as in apply_diagonal: forward and inverse add nothing to it.
+    n = 2**14
+    fft = plan_real_fft(MPI.COMM_SELF, n, "FFTW_ESTIMATE", transposed=transposed)
+    field, out = np.random.default_rng(0).standard_normal(n), np.empty(n)
+    spectrum = np.empty(fft.spectrum_shape, dtype=np.complex128)
+    diagonal = np.ones(fft.spectrum_shape)
+
+    def peak(call):
+        call()
+        tracemalloc.start()
+        for _ in range(3):
+            call()
+        current, peak = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        assert current < 1000
+        return peak
+
+    split = peak(lambda: (fft.forward(field, spectrum), fft.inverse(spectrum, out)))
+    own = peak(lambda: (fft.forward(field, fft.spectrum), fft.inverse(fft.spectrum, out)))
+    pair = peak(lambda: fft.apply_diagonal(field, diagonal, out))
+    assert max(split, own) <= pair + 1000
+    if not transposed:
+        # (apply_diagonal's complex *= real multiply casts through a 128 kB numpy buffer)
+        assert max(split, own) < 1000
 
 
 @pytest.mark.parametrize("n", SIZES)

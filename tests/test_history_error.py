@@ -9,6 +9,10 @@ traction H of the step, p_{n+1} = K u_{n+1} + H, then the estimate's correction.
 """
 import importlib.util
 import math
+import os
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -194,9 +198,22 @@ def test_a_crossing_window_takes_the_last_smooth_curvature():
 
 
 def test_crossing_mask_matches_the_whole_grid_on_one_rank():
-    """tests/mpi/check_crossings.py on one rank (under mpirun in test_gfmd.py)."""
+    """tests/mpi/check_crossings.py on one rank (under mpirun below)."""
     path = Path(__file__).parent / "mpi" / "check_crossings.py"
     spec = importlib.util.spec_from_file_location("check_crossings", path)
     check = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(check)
     assert check.check(MPI.COMM_SELF) == []
+
+
+@pytest.mark.mpi
+@pytest.mark.skipif(shutil.which("mpirun") is None, reason="mpirun not found")
+@pytest.mark.parametrize("ranks", [2, 3])
+def test_crossing_mask_matches_the_whole_grid_under_mpirun(ranks):
+    script = Path(__file__).parent / "mpi" / "check_crossings.py"
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    command = ["mpirun", "--oversubscribe", "-n", str(ranks), sys.executable, str(script)]
+    result = subprocess.run(command, env=env, capture_output=True, text=True, timeout=300,
+                            check=False)
+    assert result.returncode == 0, result.stdout + result.stderr

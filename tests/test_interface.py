@@ -1,4 +1,5 @@
-"""Dugdale-Maugis law integrated over the linear interpolant; contact-edge measures."""
+"""Dugdale-Maugis law integrated over the linear interpolant (its energy against quadrature, its
+traction against the energy's finite differences); contact-edge measures."""
 import numpy as np
 import pytest
 
@@ -34,6 +35,27 @@ def test_traction_is_minus_energy_gradient():
         # u up = gap down: traction (upward) = dE/dg / dx
         fd = (law.energy(periodic(up), dx) - law.energy(periodic(down), dx)) / (2 * h) / dx
         assert traction[i] == pytest.approx(fd, abs=1e-6 * law.sigma_a)
+
+
+def test_energy_is_the_law_integrated_over_the_linear_interpolant():
+    # docs/model.md, "Discretisation": the element energy is -sigma_a times the integral of
+    # max(dmax - g, 0) over the linear interpolant of its end gaps; here by quadrature (the
+    # kink at g = dmax a break point), element by element around the periodic grid
+    from scipy.integrate import quad
+
+    law = DugdaleMaugis(sigma_a=2.0, dmax=0.1)
+    n, dx = 64, 0.01
+    gap = np.abs(np.random.default_rng(2).normal(law.dmax, 0.06, n))  # about dmax
+    gap[10:14] = 0.0  # and a contact
+    straddling = (gap - law.dmax) * (np.roll(gap, -1) - law.dmax) < 0
+    assert np.count_nonzero(straddling) > 20  # elements with one end in the zone
+    reference = 0.0
+    for a, b in zip(gap, np.roll(gap, -1)):
+        crossing = (law.dmax - a) / (b - a) if (a - law.dmax) * (b - law.dmax) < 0 else None
+        reference -= law.sigma_a * dx * quad(
+            lambda s, a=a, b=b: max(law.dmax - (a + s * (b - a)), 0.0), 0.0, 1.0,
+            points=None if crossing is None else [crossing], epsabs=1e-15, epsrel=1e-13)[0]
+    assert law.energy(periodic(gap), dx) == pytest.approx(reference, rel=1e-12)
 
 
 def test_traction_values_inside_outside_and_continuity():

@@ -114,12 +114,12 @@ def test_imports_follow_the_layers(path):
 
 def test_an_upward_import_is_caught():
     # The checker itself: the model importing the protocol, or the storage a solver.
-    case = PACKAGE / "model" / "material.py"
-    assert violations(case, case.read_text() + "\nfrom ..runs.protocol import Retraction\n") \
-        == ["hpcgfmd.runs.protocol"]
-    casefile = PACKAGE / "storage" / "result_file.py"
-    assert violations(casefile, "from hpcgfmd.solvers import cg\n") == ["hpcgfmd.solvers"]
-    assert violations(casefile, "def f():\n    from ..runs import farm\n") == ["hpcgfmd.runs"]
+    material = PACKAGE / "model" / "material.py"
+    upward = material.read_text() + "\nfrom ..runs.protocol import Retraction\n"
+    assert violations(material, upward) == ["hpcgfmd.runs.protocol"]
+    result_file = PACKAGE / "storage" / "result_file.py"
+    assert violations(result_file, "from hpcgfmd.solvers import cg\n") == ["hpcgfmd.solvers"]
+    assert violations(result_file, "def f():\n    from ..runs import farm\n") == ["hpcgfmd.runs"]
 
 
 def test_an_import_through_the_package_root_is_caught():

@@ -1,5 +1,5 @@
-"""The standard linear solid as the one-branch half-space: exact step, creep against J(t),
-one elastic mode."""
+"""The standard linear solid as the one-branch half-space: its step against the convolution
+integral, creep against J(t), one elastic mode."""
 import math
 
 import numpy as np
@@ -18,14 +18,29 @@ def test_step_limits():
     assert (relaxed.e_eff, relaxed.decays, relaxed.e_history) == (1.0, (0.0,), 0.0)
 
 
-def test_step_factors_are_the_closed_form_sls_step():
-    # (M7)-(M8) written out: a = exp(-dt/tau), Eeff = E0 + (Einf - E0) tau (1 - a) / dt
-    for dt in (1e-3, 0.3, 7.0):
-        a = math.exp(-dt)
-        e_eff = 1.0 + 9.0 * (1.0 - a) / dt
+def test_step_factors_follow_the_convolution_integral_of_a_piecewise_linear_strain():
+    # The step (M7)-(M8) in the factors' own recursion, p_{n+1} = Eeff eps_{n+1} + a p_n +
+    # e_history eps_n (one mode, G = eps), from a relaxed start over steps of unequal length,
+    # against Boltzmann's integral sigma(t) = int_0^t E(t - s) eps'(s) ds of the relaxation
+    # modulus (M5) by quadrature: exact for a strain linear within each step (M40), so equal
+    # to the quadrature's and the recursion's round-off (measured 2e-16 of the largest stress).
+    from scipy.integrate import quad
+
+    times = np.concatenate(([0.0], np.cumsum([1e-3, 0.3, 7.0, 0.05, 2.0, 1e-3, 0.7, 3.0])))
+    steps = np.diff(times)  # the steps the times hold (a step of 1e-3 at t = 9 is 2e-12 off)
+    strain = np.concatenate(([0.0], np.random.default_rng(4).uniform(-1.0, 1.0, steps.size)))
+    rates = np.diff(strain) / steps
+    stress, stepped = [0.0], 0.0
+    for n, dt in enumerate(steps):
         factors = SLS.step_factors(dt)
-        assert factors.e_eff == pytest.approx(e_eff, rel=1e-12)
-        assert factors.e_history == pytest.approx(1.0 * (1.0 - a) - e_eff, rel=1e-12)
+        stepped = (factors.e_eff * strain[n + 1] + factors.decays[0] * stepped
+                   + factors.e_history * strain[n])
+        stress.append(stepped)
+    for n, t in enumerate(times):
+        exact = sum(rate * quad(lambda s, t=t: float(SLS.relaxation_modulus(t - s)), start,
+                                end, epsabs=1e-15, epsrel=1e-13)[0]
+                    for rate, start, end in zip(rates[:n], times[:n], times[1:n + 1]))
+        assert stress[n] == pytest.approx(exact, rel=1e-12, abs=1e-13), (n, t)
 
 
 def creep_error(grid, dt, t_end, mode=3, amplitude=1e-3):

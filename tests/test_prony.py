@@ -1,8 +1,9 @@
 """Generalized Maxwell (Prony series) substrate: docs/model.md (M38)-(M42).
 
 Independent references: the standard linear solid (one branch, or branches of one time), the
-convolution integral of the relaxation modulus in closed form (a uniform strain history), and
-the limits of the Persson-Brener effective work of adhesion.
+convolution integral of the relaxation modulus in closed form (a uniform strain history), the
+eigenvalues of the creep problem (the retardation times), and the limits of the
+Persson-Brener effective work of adhesion.
 """
 import math
 
@@ -31,16 +32,14 @@ TWO_BRANCHES = {"modulus_ratio": None, "relaxation_moduli": [3.0, 6.0],
 
 @pytest.mark.parametrize("dt", [1e-4, 3e-3, 0.3, 5.0, math.inf])
 def test_one_branch_and_equal_times_are_the_sls_step(dt):
-    # the SLS's closed-form step (M7)-(M8): a = exp(-dt/tau), Eeff = E0 + (Einf - E0) phi
-    a = math.exp(-dt)
-    e_eff = 1.0 + 9.0 * (-math.expm1(-dt) / dt)
+    # against the SLS's step, which test_material.py checks against the convolution integral
+    sls = SLS.step_factors(dt)
     for prony in (GeneralizedMaxwell(1.0, (9.0,), (1.0,)),
                   GeneralizedMaxwell(1.0, (4.5, 2.5, 2.0), (1.0, 1.0, 1.0))):
         factors = prony.step_factors(dt)
-        assert factors.e_eff == pytest.approx(e_eff, rel=1e-15)
-        np.testing.assert_allclose(factors.decays, a, rtol=1e-15)
-        assert factors.e_history == pytest.approx(1.0 * (1.0 - a) - e_eff, rel=1e-14,
-                                                  abs=1e-300)
+        assert factors.e_eff == pytest.approx(sls.e_eff, rel=1e-15)
+        np.testing.assert_allclose(factors.decays, sls.decays[0], rtol=1e-15)
+        assert factors.e_history == pytest.approx(sls.e_history, rel=1e-14, abs=1e-300)
         if math.isfinite(dt):
             assert prony.curvature_response(dt) == pytest.approx(SLS.curvature_response(dt),
                                                                  rel=1e-14)
@@ -98,9 +97,11 @@ def test_two_branches_follow_the_convolution_integral_to_second_order():
     np.testing.assert_allclose(orders, 2.0, atol=0.15)
 
 
-def test_two_branches_are_exact_for_a_piecewise_linear_history():
+@pytest.mark.parametrize("material", [SLS, GeneralizedMaxwell(1.0, (3.0, 6.0), (0.1, 1.45))],
+                         ids=["SLS", "two branches"])
+def test_the_steps_are_exact_for_a_piecewise_linear_history(material):
     # a ramp up, a faster ramp down and a hold, with kinks on step boundaries: (M40) is exact
-    material = GeneralizedMaxwell(1.0, (3.0, 6.0), (0.1, 1.45))
+    # for one branch (the SLS's (M8), whose first branch is implied by p) and for several
     kinks = np.array([0.0, 1.0, 1.5, 3.0])
     values = np.array([0.0, 1.0, -0.5, -0.5])
     times = np.linspace(0.0, 3.0, 61)  # dt = 0.05: the kinks are step ends
@@ -305,17 +306,22 @@ def test_the_tip_lag_bound_of_one_relaxation_time_and_of_several():
         pytest.approx(sls / 4, rel=1e-15)
 
 
-def test_slowest_retardation_time_of_a_prony_series():
-    # a zero of s E~(s) = E0 + sum E_i s tau_i / (1 + s tau_i) at s = -1 / lambda, between
-    # the slowest relaxation time and its bound tau_max Einf / E0; no slower zero
-    for moduli, times in (((3.0, 6.0), (0.1, 1.45)), ((1.0, 2.0, 3.0), (0.01, 0.3, 2.0))):
+def test_retardation_times_are_the_creep_problem_s_eigenvalues():
+    # Another derivation than the zeros of s E~(s) the code solves for: under a constant
+    # stress E0 eps + sum_i s_i the branch stresses obey s_i' = -s_i / tau_i + E_i eps' with
+    # E0 eps' = -sum_j s_j', i.e. (I + e 1^T / E0) s' = -D s; the creep compliance decays
+    # with the eigenvalues -1 / lambda_j of that system. The retardation times interlace the
+    # relaxation times, the slowest within (tau_max, tau_max Einf / E0].
+    for moduli, times in (((3.0, 6.0), (0.1, 1.45)), ((1.0, 2.0, 3.0), (0.01, 0.3, 2.0)),
+                          ((9.0,), (1.0,))):
         material = GeneralizedMaxwell(1.0, moduli, times)
-        slowest = material.retardation_time
-        s = -1.0 / slowest
-        modulus = 1.0 + sum(e * s * t / (1.0 + s * t) for e, t in zip(moduli, times))
-        assert abs(modulus) < 1e-12 * material.e_instantaneous
-        assert max(times) < slowest < max(times) * material.e_instantaneous
-        later = -1.0 / np.linspace(slowest * (1 + 1e-9), 1e6, 1000)
-        values = [1.0 + sum(e * x * t / (1.0 + x * t) for e, t in zip(moduli, times))
-                  for x in later]
-        assert min(values) > 0.0
+        coupling = np.eye(len(moduli)) + np.outer(moduli, np.ones(len(moduli))) / material.e_relaxed
+        system = -np.linalg.solve(coupling, np.diag(1.0 / np.asarray(times)))
+        rates = np.linalg.eigvals(system)
+        assert np.all(np.abs(rates.imag) <= 1e-12 * np.abs(rates)) and np.all(rates.real < 0.0)
+        retardation = np.sort(-1.0 / rates.real)
+        assert material.retardation_time == pytest.approx(retardation[-1], rel=1e-12)
+        relaxation = np.sort(times)
+        assert np.all(relaxation < retardation)
+        assert np.all(retardation[:-1] < relaxation[1:])
+        assert retardation[-1] <= relaxation[-1] * material.e_instantaneous

@@ -104,7 +104,7 @@ def assert_same_series(reference, path, context):
 
 
 def assert_sane(path, context):
-    """A finished case file whose series is complete and physical (detached at the end)."""
+    """A finished result file whose series is complete and physical (detached at the end)."""
     finished, s = read_series(path)
     assert finished, f"{path} not finished\n{context}"
     assert s["load"].size > 10 and all(np.all(np.isfinite(v)) for v in s.values()), context
@@ -288,7 +288,7 @@ def test_array_job_runs_one_case_per_element(slurm, tmp_path):
     context = slurm.diagnostics(job)
     assert sorted(r.get("ArrayTaskId") for r in records) == ["0", "1"], context
     assert all(r["JobState"] == "COMPLETED" and r["ExitCode"] == "0:0" for r in records), context
-    # the case files are those of the farm (names from the swept values)
+    # the result files are those of the farm (names from the swept values)
     listing = subprocess.run([sys.executable, "-m", "hpcgfmd", "farm", "sweep.toml", "-o",
                               "study", "--dry-run"], cwd=tmp_path, capture_output=True,
                              text=True, timeout=60)

@@ -1,5 +1,5 @@
 """MPI check of TransposedRealFFT and (on two ranks) HalvedRealFFT against numpy on the
-global array.
+global array: apply_diagonal, and the split forward and inverse transforms.
 
 Run under mpirun with any number of ranks, e.g.::
 
@@ -10,8 +10,10 @@ distributed operator to its own block and compares with numpy, with each transpo
 automatic choice, shared memory on one node, and ``Alltoallv`` messages); the transports only
 move data, so their results must agree bitwise. On two ranks the halved transform is checked
 the same way, and its forward and inverse halves too (spectrum against numpy's at the local
-wavenumbers, calls of one half twice in a row). Exit status 0 on every rank when all checks
-pass; on failure rank 0 prints the reasons and all ranks exit with 1.
+wavenumbers, calls of one half twice in a row). The four-step transform's forward and
+inverse (those of the damped Verlet solver) are checked apart too, against numpy's rfft and
+irfft, with each transport. Exit status 0 on every rank when all checks pass; on failure
+rank 0 prints the reasons and all ranks exit with 1.
 """
 import os
 import sys
@@ -84,6 +86,48 @@ def check(comm, n, transport="auto", results=None, kind=TransposedRealFFT):
     return errors
 
 
+def check_split(comm, n, transport):
+    """Failures of TransposedRealFFT's split transforms (those of the damped Verlet solver)
+    for length n: ``forward`` against numpy's rfft (each local mode, m < 0 being the
+    conjugate of |m|), ``inverse`` against n irfft, and ``inverse(d * forward(f))`` against
+    ``apply_diagonal(f, d)`` (bitwise: the same plans and operations); ``pairs`` counts one
+    per inverse."""
+    errors = []
+    fft = TransposedRealFFT(comm, n, planner_effort="FFTW_ESTIMATE", transport=transport)
+    rng = np.random.default_rng(777 + n)
+    field = rng.standard_normal(n)
+    multiplier = rng.standard_normal(n // 2 + 1)
+    block = slice(fft.x_start, fft.x_stop)
+    m = fft.wavenumber
+    reference = np.fft.rfft(field)
+    expected = np.where(m >= 0, reference[np.abs(m)], np.conj(reference[np.abs(m)]))
+    spectrum = np.empty(fft.spectrum_shape, dtype=np.complex128)
+    fft.forward(field[block], spectrum)
+    error = np.abs(spectrum - expected).max(initial=0.0) / np.abs(reference).max()
+    if error > 1e-13:
+        errors.append(f"n={n} {fft.transport}: forward error {error:.2e} on rank "
+                      f"{comm.Get_rank()}")
+    out = np.empty(fft.x_stop - fft.x_start)
+    fft.inverse(spectrum, out)  # unnormalised: n * irfft
+    error = np.abs(out - n * field[block]).max(initial=0.0) / (n * np.abs(field).max())
+    if error > 1e-13:
+        errors.append(f"n={n} {fft.transport}: inverse error {error:.2e} on rank "
+                      f"{comm.Get_rank()}")
+    diagonal = multiplier[np.abs(m)]
+    fft.forward(field[block], fft.spectrum)
+    fft.spectrum *= diagonal
+    fft.inverse(fft.spectrum, out)
+    applied = fft.apply_diagonal(field[block], diagonal, np.empty_like(out))
+    if not np.array_equal(out, applied):
+        errors.append(f"n={n} {fft.transport}: inverse(d * forward(f)) != apply_diagonal on "
+                      f"rank {comm.Get_rank()}")
+    if fft.pairs != 3:
+        errors.append(f"n={n}: pairs = {fft.pairs}, expected 3")
+    fft.close()
+    return errors
+
+
+
 def check_halves(fft, field, diagonal, applied, spectrum, n):
     """Failures of forward and inverse on this rank, in every order of calls that makes the
     halved transform wait for its peer (forward after forward or before an application,
@@ -146,6 +190,8 @@ def main():
                 results = {}
                 for transport in TRANSPORTS:
                     errors += check(comm, n, transport, results, kind)
+            for transport in TRANSPORTS:
+                errors += check_split(comm, n, transport)
         except Exception as exc:
             abort(comm, exc, f" n={n}")
     return report(comm, errors, f"ok: {len(sizes)} sizes x {len(TRANSPORTS)} transports on "

@@ -1,8 +1,10 @@
-"""The paper's damped GFMD (hpcgfmd.gfmd) and the split transforms it uses.
+"""The paper's damped Verlet GFMD (hpcgfmd.solvers.verlet): its equilibria, its pseudo step
+and the cost of its relaxation.
 
-References: numpy's rfft/irfft and apply_diagonal for the transforms; ConstrainedCG at a
-tight tolerance for the equilibria; the closed-form linear analysis of the module docstring
-(roots of z^2 - a1 z + a0) for the pseudo step, its stability limit and the convergence rate.
+References: ConstrainedCG at a tight tolerance for the equilibria; the closed-form linear
+analysis of the module docstring (roots of z^2 - a1 z + a0) for the pseudo step, its
+stability limit and the convergence rate; the exact per-mode solution of a linear problem.
+The split transforms it uses (forward, inverse) are checked in test_fft.py.
 """
 import math
 import os
@@ -16,84 +18,14 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from hpcgfmd.parallel.fft import plan_real_fft
 from hpcgfmd.solvers.verlet import DampedVerletGFMD, contraction, pseudo_step
 from hpcgfmd.model.interface import DugdaleMaugis
 from hpcgfmd.model.halfspace import StepOperators
 from hpcgfmd.solvers.base import SolveResult
 
-SIZES = [2, 16, 30, 64, 96, 1000, 2**12]
-
-
-def numpy_modes(fft, field):
-    """numpy's rfft of the global field, arranged as the transform's local modes."""
-    reference = np.fft.rfft(field)
-    m = fft.wavenumber
-    return np.where(m >= 0, reference[np.abs(m)], np.conj(reference[np.abs(m)]))
-
-
-# --- 1. the split transforms -------------------------------------------------------------
-@pytest.mark.parametrize("transposed", [False, True])
-@pytest.mark.parametrize("n", SIZES)
-def test_forward_inverse_match_numpy_and_apply_diagonal(n, transposed):
-    fft = plan_real_fft(MPI.COMM_SELF, n, "FFTW_ESTIMATE", transposed=transposed)
-    rng = np.random.default_rng(n)
-    field, multiplier = rng.standard_normal(n), rng.standard_normal(n // 2 + 1)
-    diagonal = multiplier[np.abs(fft.wavenumber)]
-    spectrum = np.empty(fft.spectrum_shape, dtype=np.complex128)
-    assert fft.forward(field, spectrum) is spectrum
-    expected = numpy_modes(fft, field)
-    assert np.abs(spectrum - expected).max() < 1e-13 * np.abs(expected).max()
-    kept = spectrum.copy()
-    out = np.empty(n)
-    assert fft.inverse(spectrum, out) is out
-    np.testing.assert_array_equal(spectrum, kept)  # a caller's spectrum is left alone
-    np.testing.assert_allclose(out, n * field, rtol=0, atol=1e-13 * n * np.abs(field).max())
-    assert fft.pairs == 1  # the pair is counted once, in inverse
-    # inverse(d * forward(f)) is apply_diagonal(f, d), bitwise, through a caller's buffer
-    # and through the transform's own one (which saves the copies in the serial class).
-    reference = fft.apply_diagonal(field, diagonal, np.empty(n))
-    np.multiply(kept, diagonal, out=spectrum)
-    np.testing.assert_array_equal(fft.inverse(spectrum, out), reference)
-    fft.forward(field, fft.spectrum)
-    fft.spectrum *= diagonal
-    np.testing.assert_array_equal(fft.inverse(fft.spectrum, out), reference)
-    assert fft.pairs == 4
-
-
-@pytest.mark.parametrize("transposed", [False, True])
-def test_transforms_allocate_nothing_per_call(transposed):
-    # Persistent buffers: nothing is kept and nothing of size n is made per call by the
-    # serial class. In the transposed class numpy makes a transient buffer for the twiddle
-    # multiply into the strided xt blocks (stage A: one column chunk, at most ~1 MB; 130 kB
-    # here), exactly as in apply_diagonal: forward and inverse add nothing to it.
-    n = 2**14
-    fft = plan_real_fft(MPI.COMM_SELF, n, "FFTW_ESTIMATE", transposed=transposed)
-    field, out = np.random.default_rng(0).standard_normal(n), np.empty(n)
-    spectrum = np.empty(fft.spectrum_shape, dtype=np.complex128)
-    diagonal = np.ones(fft.spectrum_shape)
-
-    def peak(call):
-        call()
-        tracemalloc.start()
-        for _ in range(3):
-            call()
-        current, peak = tracemalloc.get_traced_memory()
-        tracemalloc.stop()
-        assert current < 1000
-        return peak
-
-    split = peak(lambda: (fft.forward(field, spectrum), fft.inverse(spectrum, out)))
-    own = peak(lambda: (fft.forward(field, fft.spectrum), fft.inverse(fft.spectrum, out)))
-    pair = peak(lambda: fft.apply_diagonal(field, diagonal, out))
-    assert max(split, own) <= pair + 1000
-    if not transposed:
-        # (apply_diagonal's complex *= real multiply casts through a 128 kB numpy buffer)
-        assert max(split, own) < 1000
-
 
 # --- helpers ------------------------------------------------------------------------------
-def gfmd(grid, steps, sigma_a=0.0, dmax=1.0, scale=1.0, fraction=1.0):
+def verlet(grid, steps, sigma_a=0.0, dmax=1.0, scale=1.0, fraction=1.0):
     return DampedVerletGFMD(grid.domain, grid.fft, DugdaleMaugis(sigma_a, dmax), grid.half_q,
                             1.0, steps, scale, time_step_fraction=fraction)
 
@@ -106,7 +38,7 @@ def slowest_rate(solver):
     return max(contraction(s * solver.step_length, e) for s in sqrt_k0)
 
 
-# --- 2. elastic indentation: the same equilibrium as ConstrainedCG -----------------------
+# --- 1. elastic indentation: the same equilibrium as ConstrainedCG -----------------------
 @pytest.mark.parametrize("modulus", [1.0, 4.0])
 def test_elastic_indentation_matches_constrained_cg(grid_factory, modulus):
     # Hertz-like indentation on n = 1024 with a smooth zero-mean history traction (as in a
@@ -126,7 +58,7 @@ def test_elastic_indentation_matches_constrained_cg(grid_factory, modulus):
     reference = cg.solve(u_cg, wall, ops, history)
     assert reference.converged
     steps = 1500
-    solver = gfmd(grid, steps, scale=math.sqrt(depth))
+    solver = verlet(grid, steps, scale=math.sqrt(depth))
     u = np.zeros(n)
     pairs = grid.fft.pairs
     result = solver.solve(u, wall, ops, history)
@@ -150,7 +82,7 @@ def test_the_measure_of_a_state_is_the_cg_solvers(grid_factory):
     ops = StepOperators.from_modulus(grid.half_q, 1.0, n)
     wall = grid.x**2 / 2 - depth
     history = np.zeros(n)
-    solver = gfmd(grid, 400, sigma_a=0.1, dmax=0.01, scale=0.1)
+    solver = verlet(grid, 400, sigma_a=0.1, dmax=0.01, scale=0.1)
     u = np.zeros(n)
     result = solver.solve(u, wall, ops, history)
     k_u = grid.fft.apply_diagonal(u, ops.stiffness, np.empty(n))
@@ -177,7 +109,7 @@ def test_pseudo_steps_allocate_no_arrays(grid_factory, sigma_a):
     ops = StepOperators.from_modulus(grid.half_q, 3.0, n)
     wall = grid.x**2 / 2 - 0.02
     history = 1e-3 * np.cos(2 * np.pi * grid.x / grid.cell)
-    solver = gfmd(grid, 0, sigma_a, 0.01)
+    solver = verlet(grid, 0, sigma_a, 0.01)
     solver.relax(np.zeros(n), wall, ops, history, 5)
 
     base = []
@@ -190,7 +122,7 @@ def test_pseudo_steps_allocate_no_arrays(grid_factory, sigma_a):
     tracemalloc.start()
     solver.relax(np.zeros(n), wall, ops, history, 100, monitor=monitor)
     peak = tracemalloc.get_traced_memory()[1]
-    # What the cohesive law itself takes per call (hpcgfmd.interface, not this module: its
+    # What the cohesive law itself takes per call (hpcgfmd.model.interface, not the solver: its
     # bool + bool -> float add casts through a 64 kB numpy buffer).
     gap_ext = np.concatenate(([0.0], np.maximum(wall, 0.0), [0.0]))
     law_peak = 0
@@ -203,7 +135,7 @@ def test_pseudo_steps_allocate_no_arrays(grid_factory, sigma_a):
     assert peak - base[0] < law_peak + 2 * n  # an array of n doubles is 8 n bytes
 
 
-# --- 3. adhesion: the CG equilibrium is a fixed point and attracts nearby starts ----------
+# --- 2. adhesion: the CG equilibrium is a fixed point and attracts nearby starts ----------
 @pytest.mark.parametrize("modulus", [1.0, 5.0])
 def test_adhesive_equilibrium_is_an_attracting_fixed_point(grid_factory, modulus):
     # Dugdale with sigma_a = 0.1, dmax = 0.01 (cohesive zone ~0.05 wide, ~25 nodes): contact
@@ -220,7 +152,7 @@ def test_adhesive_equilibrium_is_an_attracting_fixed_point(grid_factory, modulus
     # Fixed point: from the equilibrium, 200 pseudo steps change nothing beyond round-off
     # (the first and the last step's shift is projected exactly, the others by a lagged
     # Newton step that is exact at rest). Measured: 3e-14 depth, residual 3e-13.
-    solver = gfmd(grid, 200, sigma_a, dmax, scale=sigma_a)
+    solver = verlet(grid, 200, sigma_a, dmax, scale=sigma_a)
     u = u_cg.copy()
     result = solver.solve(u, wall, ops, history)
     assert np.abs(u - u_cg).max() < 1e-12 * depth
@@ -230,7 +162,7 @@ def test_adhesive_equilibrium_is_an_attracting_fixed_point(grid_factory, modulus
     # back. 2500 steps: N rho^N < 1e-16 for the slowest grid mode (rho = 0.94 / 0.979); the
     # cohesive-edge nodes hop for a while first (the residual is not monotone, measured
     # ~1e-13 from 1000 steps on).
-    solver = gfmd(grid, 2500, sigma_a, dmax, scale=sigma_a)
+    solver = verlet(grid, 2500, sigma_a, dmax, scale=sigma_a)
     u = u_cg + depth * (2e-3 * np.cos(2 * np.pi * grid.x / grid.cell)
                         + 1e-3 * np.sin(6 * np.pi * grid.x / grid.cell))
     result = solver.solve(u, wall, ops, history)
@@ -260,19 +192,19 @@ def test_unsettled_relaxation_keeps_its_contact_on_the_wall(grid_factory, steps)
     start = u_cg + depth * (2e-3 * np.cos(2 * np.pi * grid.x / grid.cell)
                             + 1e-3 * np.sin(6 * np.pi * grid.x / grid.cell))
     relaxed = start.copy()  # the pseudo steps alone (deterministic: same bits as in solve)
-    gfmd(grid, steps, sigma_a, dmax, scale=sigma_a).relax(relaxed, wall, ops, history, steps)
+    verlet(grid, steps, sigma_a, dmax, scale=sigma_a).relax(relaxed, wall, ops, history, steps)
     assert abs(relaxed.sum()) <= 1e-15 * np.abs(wall).max() * n  # project_feasible's zero
     contact = np.count_nonzero(relaxed >= wall)
     assert contact == np.count_nonzero(u_cg >= wall) > 100
     u = start.copy()
-    result = gfmd(grid, steps, sigma_a, dmax, scale=sigma_a).solve(u, wall, ops, history)
+    result = verlet(grid, steps, sigma_a, dmax, scale=sigma_a).solve(u, wall, ops, history)
     np.testing.assert_array_equal(u, relaxed)  # the evaluation changes nothing
     assert np.count_nonzero(u >= wall) == contact
     assert result.residual < 0.5  # measured 0.155 (1 step) to 1.3e-3; lost contact: 3.8
 
 
 def test_retraction_with_few_pseudo_steps_lags_cg_only_slightly():
-    # Regression (the driver's path): the small case, 4 retraction steps of dt = tau/50
+    # Regression (a run's path, Retraction): the small case, 4 retraction steps of dt = tau/50
     # with 500 pseudo steps each, started from CG's preload. Measured: loads within 1.2e-7
     # of CG's (relative), residual 8e-8; before the last pseudo step was projected exactly
     # the first step's load was -33.06 instead of +11.89 (contact lost in the evaluation).
@@ -325,7 +257,7 @@ def test_whole_retraction_same_branch_as_cg():
     np.testing.assert_allclose(widths, widths_cg, atol=1e-3 * widths_cg[0])
 
 
-# --- 4. the pseudo step: stable, and the limit is the limit -------------------------------
+# --- 3. the pseudo step: stable, and the limit is the limit -------------------------------
 def test_contraction_matches_the_roots_of_the_recurrence():
     rng = np.random.default_rng(5)
     for s, e in zip(rng.uniform(0.0, 2.2, 200), rng.uniform(0.5, 12.0, 200)):
@@ -370,7 +302,7 @@ def test_pseudo_step_is_stable_and_the_limit_is_sharp(grid_factory, modulus):
     spectrum[0] = 0.0
     exact = np.fft.irfft(spectrum, n)
     # The chosen step: 20000 pseudo steps end at round-off, nothing grows.
-    solver = gfmd(grid, 0)
+    solver = verlet(grid, 0)
     u = np.zeros(n)
     largest = []
     solver.relax(u, wall, ops, history, 20000, applied,
@@ -378,20 +310,20 @@ def test_pseudo_step_is_stable_and_the_limit_is_sharp(grid_factory, modulus):
     assert np.abs(u - exact).max() < 1e-13 and max(largest) < 2 * np.abs(exact).max()
     ratio = solver.step_limit / solver.step_optimal  # fraction that gives the limit itself
     # 0.99 of the limit: stable (the Nyquist mode contracts by 0.98 or 0.92 per step).
-    solver = gfmd(grid, 0, fraction=0.99 * ratio)
+    solver = verlet(grid, 0, fraction=0.99 * ratio)
     u = np.zeros(n)
     solver.relax(u, wall, ops, history, 3000, applied)
     assert np.abs(u - exact).max() < 1e-6
     # 1.01 of the limit: the Nyquist mode grows by 1.02 (E0) or 1.08 (10 E0) per step until
     # the nodes hit the wall, 1e3 away (measured errors ~1e3).
-    solver = gfmd(grid, 0, fraction=1.01 * ratio)
+    solver = verlet(grid, 0, fraction=1.01 * ratio)
     u = np.zeros(n)
     with np.errstate(over="ignore", invalid="ignore"):
         solver.relax(u, wall, ops, history, 3000, applied)
     assert not np.abs(u - exact).max() < 10.0
 
 
-# --- 5. the paper's weakness: pseudo steps grow like sqrt(n) ------------------------------
+# --- 4. the paper's weakness: pseudo steps grow like sqrt(n) ------------------------------
 def steps_to_residual(grid_factory, n, target):
     grid = grid_factory(n, 4.0)
     depth = 0.04
@@ -405,7 +337,7 @@ def steps_to_residual(grid_factory, n, target):
         copy[:] = u
         residuals.append(check.solve(copy, wall, ops, history).residual)
 
-    solver = gfmd(grid, 0, scale=math.sqrt(depth))
+    solver = verlet(grid, 0, scale=math.sqrt(depth))
     steps = int(18 * math.sqrt(n))  # ~3x what is needed (measured)
     solver.relax(np.zeros(n), wall, ops, history, steps, monitor=monitor)
     above = np.flatnonzero(np.array(residuals) > target)
@@ -429,9 +361,10 @@ def test_pseudo_steps_grow_like_sqrt_n(grid_factory):
 @pytest.mark.mpi
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="mpirun not found")
 @pytest.mark.parametrize("ranks", [2, 3])
-@pytest.mark.parametrize("check", ["check_gfmd.py", "check_crossings.py"])
-def test_transforms_and_gfmd_under_mpirun(ranks, check):
-    script = Path(__file__).parent / "mpi" / check
+def test_distributed_relaxation_is_the_serial_one_under_mpirun(ranks):
+    # tests/mpi/check_verlet.py: an adhesive indentation relaxed on the blocks of every rank
+    # (the four-step transform, and the halved one on 2 ranks) against the one-rank solve
+    script = Path(__file__).parent / "mpi" / "check_verlet.py"
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
                OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
     command = ["mpirun", "--oversubscribe", "-n", str(ranks), sys.executable, str(script)]

@@ -1,10 +1,11 @@
-"""Parallel check of hpcgfmd.output and hpcgfmd.checkpoint (run under mpirun, any rank count).
+"""Parallel check of the result file (hpcgfmd.storage.result_file, a run's HDF5 output; run
+under mpirun, any rank count).
 
-Writes a case file and a checkpoint from uneven blocks with one rank owning no node (rank 1),
-resumes the case file, then rank 0 compares the files with the same content computed
-globally; the checkpoint is read back on another block split. Exit status 1 on any failure.
+Writes a result file from uneven blocks with one rank owning no node (rank 1), resumes it,
+then rank 0 compares the file with the same content computed globally. Exit status 1 on any
+failure.
 
-    mpirun --oversubscribe -n 3 python tests/mpi/check_io.py [directory]
+    mpirun --oversubscribe -n 3 python tests/mpi/check_result_file.py [directory]
 """
 import os
 import shutil
@@ -19,7 +20,6 @@ import numpy as np
 from mpi4py import MPI
 
 from hpcgfmd.storage.reader import read_series
-from hpcgfmd.storage.checkpoint import read_checkpoint, write_checkpoint
 from hpcgfmd.case import parse_case
 from hpcgfmd.parallel.domain import Domain
 from hpcgfmd.storage.result_file import SERIES, SERIES_UNITS, ResultFile
@@ -37,13 +37,6 @@ def write_edges(n, size):
     if size == 2:
         return [0, n, n]
     return [0, 10, 10] + [int(e) for e in np.linspace(10, n, size - 1)[1:]]
-
-
-def read_edges(n, size):
-    """Another split: rank 0 owns nothing, the others share the nodes evenly."""
-    if size == 1:
-        return [0, n]
-    return [0] + [int(e) for e in np.linspace(0, n, size)]
 
 
 def step_values(k):
@@ -82,40 +75,15 @@ def main(directory):
     out.finish({"steps": 4, "wall_time": float(comm.rank)})
     out.close()
 
-    rng = np.random.default_rng(7)
-    state = {"u": rng.standard_normal(n), "traction": rng.standard_normal(n), "x": x}
-    attrs = {"step": 42, "time": 10.5, "config": case.text, "times": np.array([0.5, 2.0]),
-             "preloaded": True}
-    ckpt = os.path.join(directory, "case.checkpoint.h5")
-    write_checkpoint(ckpt, comm, n, lo, {k: v[lo:hi] for k, v in state.items()}, attrs)
-
     errors = []
     comm.Barrier()
     if comm.rank == 0:
-        errors += compare_case(path, case, x)
-    redges = read_edges(n, comm.size)
-    rlo, rhi = redges[comm.rank], redges[comm.rank + 1]
-    got, got_attrs = read_checkpoint(ckpt, comm, rlo, rhi)
-    if set(got) != set(state):
-        errors.append(f"checkpoint fields {sorted(got)}")
-    for name, value in state.items():
-        if not np.array_equal(got.get(name), value[rlo:rhi]):
-            errors.append(f"checkpoint field {name} block [{rlo}, {rhi})")
-    for key, value in attrs.items():
-        if not same(got_attrs.get(key), value):
-            errors.append(f"checkpoint attr {key}: {got_attrs.get(key)!r} != {value!r}")
+        errors += compare_result_file(path, case, x)
     return [f"rank {comm.rank}: {e}" for e in errors]
 
 
-def same(got, want):
-    """Equal, and of the same kind: numpy array for arrays, the Python type for scalars."""
-    if isinstance(want, np.ndarray):
-        return isinstance(got, np.ndarray) and np.array_equal(got, want)
-    return type(got) is type(want) and got == want
-
-
-def compare_case(path, case, x):
-    """Rank 0, serially: the case file against the globally computed content."""
+def compare_result_file(path, case, x):
+    """Rank 0, serially: the result file against the globally computed content."""
     errors = []
     steps = [step_values(k) for k in (0, 1, 2, 13, 14)]
     series = read_series(path)
@@ -163,5 +131,6 @@ if __name__ == "__main__":
     if comm.rank == 0:
         if own:
             shutil.rmtree(directory)
-        print("\n".join(errors) if errors else f"check_io: OK on {comm.size} ranks", flush=True)
+        print("\n".join(errors) if errors else f"check_result_file: OK on {comm.size} ranks",
+              flush=True)
     sys.exit(1 if errors else 0)
