@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The test suite: set up what is missing (scripts/setup.sh), then serial pytest with the given
 # pytest arguments. Without a path among them (a file or directory, or a node id such as
-# tests/test_io.py::name, relative to the repository) the whole of tests/ is run.
+# tests/test_result_file.py::name, relative to the repository) the whole of tests/ is run.
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$repo/scripts/setup.sh"

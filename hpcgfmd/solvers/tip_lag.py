@@ -16,8 +16,8 @@ def tip_lag_error(dt, edge_motion, zone_width, modulus_ratio, branches=None):
 
     Near an edge moving at v_a = |da| / dt a node's displacement follows the passing crack
     tip, u = U(x - a(t)): its strain rate changes over the passage time w_c / v_a, w_c the
-    cohesive zone's width (the relaxed w for a slow tip, up to about k^(-4/3) w for a
-    glassy one, as the zone width scales with lambda^-2 and lambda with E^(-2/3)). The SLS
+    cohesive zone's width (the relaxed w for a slow tip, up to w / k for a glassy one: the
+    zone width pi E dmax / (4 sigma_a) is proportional to the modulus the tip sees). The SLS
     step (exact for u linear in time) sees the step's mean rate instead of the rate at its
     end, a lag of dt/2 in time when dt >> tau (the memory is shorter than the step), and of
     dt^2 / (12 tau) when dt << tau (the midpoint rule of the memory integral); as one
