@@ -5,10 +5,15 @@ The Python API (docs/api.md): :class:`Case`, :func:`run`, :func:`open` and the :
 they return; the exceptions are in :mod:`hpcgfmd.errors`. They are imported on first use, so
 ``python -m hpcgfmd`` can set the process up (BLAS threads, signals) before numpy loads.
 """
+
 __version__ = "0.1.0"
 
-_API = {"Case": ("case", "Case"), "run": ("api", "run"), "open": ("api", "open_result"),
-        "Result": ("storage.reader", "Result")}
+_API = {
+    "Case": ("case", "Case"),
+    "run": ("api", "run"),
+    "open": ("api", "open_result"),
+    "Result": ("storage.reader", "Result"),
+}
 __all__ = ["Case", "run", "open", "Result", "__version__"]
 
 

@@ -1,4 +1,5 @@
 """``python -m hpcgfmd``: see :mod:`hpcgfmd.entry`."""
+
 import sys
 
 from .entry import main

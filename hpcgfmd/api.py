@@ -11,6 +11,7 @@ The same validation, solver and file layout as ``python -m hpcgfmd run``; errors
 as the exceptions of :mod:`hpcgfmd.errors` (a :class:`~hpcgfmd.errors.CaseError` names the key,
 the value and what is accepted).
 """
+
 from __future__ import annotations
 
 import os
@@ -20,12 +21,22 @@ import tempfile
 from .case import Case
 from .storage.reader import Result, read_result
 
-PLANNER_EFFORTS = ("FFTW_ESTIMATE", "FFTW_MEASURE", "FFTW_PATIENT", "FFTW_EXHAUSTIVE",
-                   "FFTW_WISDOM_ONLY")
+PLANNER_EFFORTS = (
+    "FFTW_ESTIMATE",
+    "FFTW_MEASURE",
+    "FFTW_PATIENT",
+    "FFTW_EXHAUSTIVE",
+    "FFTW_WISDOM_ONLY",
+)
 
 
-def run(case: Case | str | os.PathLike, path: str | os.PathLike | None = None, comm=None,
-        overwrite: bool = False, planner_effort: str = "FFTW_MEASURE") -> Result:
+def run(
+    case: Case | str | os.PathLike,
+    path: str | os.PathLike | None = None,
+    comm=None,
+    overwrite: bool = False,
+    planner_effort: str = "FFTW_MEASURE",
+) -> Result:
     """Run the retraction of ``case`` and return its :class:`~hpcgfmd.storage.reader.Result`.
 
     Collective over ``comm``: every rank calls it with the same arguments.
@@ -73,22 +84,25 @@ def run(case: Case | str | os.PathLike, path: str | os.PathLike | None = None, c
 
     comm = MPI.COMM_SELF if comm is None else comm
     if planner_effort not in PLANNER_EFFORTS:
-        raise ValueError(f"planner_effort = {planner_effort!r}: expected one of"
-                         f" {', '.join(PLANNER_EFFORTS)}")
+        raise ValueError(
+            f"planner_effort = {planner_effort!r}: expected one of {', '.join(PLANNER_EFFORTS)}"
+        )
     if not isinstance(case, Case):
         case = Case.from_toml(case)
     if path is not None:
         path = os.fspath(path)
         lock, resume = prepare_output(comm, case, path, overwrite)
         try:
-            run_case(case, path, comm, overwrite=overwrite, resume=resume,
-                     planner_effort=planner_effort)
+            run_case(
+                case, path, comm, overwrite=overwrite, resume=resume, planner_effort=planner_effort
+            )
         finally:
             if lock is not None:
                 lock.release()
         return read_result(path)
-    directory = comm.bcast(tempfile.mkdtemp(prefix="hpcgfmd-") if comm.Get_rank() == 0
-                           else None, root=0)
+    directory = comm.bcast(
+        tempfile.mkdtemp(prefix="hpcgfmd-") if comm.Get_rank() == 0 else None, root=0
+    )
     try:
         temporary = os.path.join(directory, "case.h5")
         run_case(case, temporary, comm, planner_effort=planner_effort)

@@ -10,6 +10,7 @@ checkpoint: a power loss after the rename must not lose it).
 
 Imports nothing of hpcgfmd: every layer may use it (as :mod:`hpcgfmd.errors`).
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -77,8 +78,10 @@ def _sync(path):
 
 def write_text(path, text: str, *, durable: bool = False):
     """Replace ``path`` by ``text`` (UTF-8) atomically."""
-    with replacing(path, durable=durable) as temporary, open(temporary, "w",
-                                                             encoding="utf-8") as fh:
+    with (
+        replacing(path, durable=durable) as temporary,
+        open(temporary, "w", encoding="utf-8") as fh,
+    ):
         fh.write(text)
 
 
@@ -95,8 +98,7 @@ def write_csv(path, columns, rows):
     buffer = io.StringIO(newline="")
     rows = list(rows)
     if rows and isinstance(rows[0], dict):
-        writer = csv.DictWriter(buffer, fieldnames=list(columns), extrasaction="ignore",
-                                restval="")
+        writer = csv.DictWriter(buffer, fieldnames=list(columns), extrasaction="ignore", restval="")
         writer.writeheader()
     else:
         writer = csv.writer(buffer)

@@ -10,6 +10,7 @@ decisions on all of them (inputs and files are the same for all; solver decision
 reductions). Messages go through the ``hpcgfmd`` logger (:mod:`hpcgfmd.logs`): rank 0 prints
 them, ``--quiet`` keeps only warnings and errors, ``--log FILE`` appends them to a file.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -50,8 +51,7 @@ def _run(comm, case, output, overwrite, dry_run, restart=False, stop=None):
     # one writer per output, decided before anything is read or computed (storage/lock.py)
     lock, resume = prepare_output(comm, case, output, overwrite, restart)
     try:
-        logger.info(f"{'resuming' if resume else 'writing'} {output} on {comm.Get_size()}"
-                    " rank(s)")
+        logger.info(f"{'resuming' if resume else 'writing'} {output} on {comm.Get_size()} rank(s)")
         summary = run_case(case, output, comm, overwrite=overwrite, resume=resume, stop=stop)
     except CaseError as err:  # found by the preload, before the file was created
         raise UsageError(str(err)) from None
@@ -61,8 +61,10 @@ def _run(comm, case, output, overwrite, dry_run, restart=False, stop=None):
     finally:
         if lock is not None:
             lock.release()
-    logger.info(f"finished: {summary['steps']} steps, {summary['iterations']} iterations,"
-                f" {summary['wall_time']:.1f} s wall time; results in {output}")
+    logger.info(
+        f"finished: {summary['steps']} steps, {summary['iterations']} iterations,"
+        f" {summary['wall_time']:.1f} s wall time; results in {output}"
+    )
     return EXIT_OK
 
 
@@ -80,8 +82,9 @@ def cmd_default(comm, args):
     case = parse_case(text)
     # one name for all ranks: rank 0's clock
     output = comm.bcast(time.strftime("hpcgfmd-default-%Y%m%d-%H%M%S.h5"), root=0)
-    logger.info("running the embedded default case (paper Fig. 5, V_z = 0.45); case file:\n"
-                + text.strip())
+    logger.info(
+        "running the embedded default case (paper Fig. 5, V_z = 0.45); case file:\n" + text.strip()
+    )
     return _run(comm, case, output, False, False, stop=args.stop)
 
 
@@ -109,11 +112,14 @@ def cmd_farm(comm, args):
     size = comm.Get_size()
     if args.case is None and (ranks < 1 or size % ranks):  # --case runs on all ranks
         divisors = [d for d in range(1, size + 1) if size % d == 0]
-        raise UsageError(f"{source} {ranks}: expected a divisor of the {size} ranks"
-                         f" ({', '.join(map(str, divisors))})")
+        raise UsageError(
+            f"{source} {ranks}: expected a divisor of the {size} ranks"
+            f" ({', '.join(map(str, divisors))})"
+        )
     if args.case is not None and not 0 <= args.case < len(sweep.cases):
-        raise UsageError(f"--case {args.case}: expected 0 to {len(sweep.cases) - 1}"
-                         " (see --dry-run)")
+        raise UsageError(
+            f"--case {args.case}: expected 0 to {len(sweep.cases) - 1} (see --dry-run)"
+        )
     if os.path.exists(out_dir) and not os.path.isdir(out_dir):
         raise UsageError(f"-o {out_dir}: exists and is not a directory")
     if args.dry_run:
@@ -132,18 +138,26 @@ def cmd_info(comm, args):
     except ResultFileError as err:
         raise UsageError(str(err)) from None
     s, a = result.series, result.attrs
-    print(f"file: {args.file} (hpcgfmd {a.get('hpcgfmd_version')}), "
-          f"{'finished' if result.finished else 'NOT finished'}")
+    print(
+        f"file: {args.file} (hpcgfmd {a.get('hpcgfmd_version')}), "
+        f"{'finished' if result.finished else 'NOT finished'}"
+    )
     print("case:\n  " + str(a.get("config", "")).strip().replace("\n", "\n  "))
-    print(f"groups: lambda0 = {a['lambda0']:.6g}, lambda_inf = {a['lambda_inf']:.6g},"
-          f" k = {a['k']:.6g}, V_z = {a['Vz']:.6g}, chi_ve = {a['chi_ve']:.6g},"
-          f" alpha = {a['alpha']:.6g}, w/dx = {a['zone_points']:.3g}")
+    print(
+        f"groups: lambda0 = {a['lambda0']:.6g}, lambda_inf = {a['lambda_inf']:.6g},"
+        f" k = {a['k']:.6g}, V_z = {a['Vz']:.6g}, chi_ve = {a['chi_ve']:.6g},"
+        f" alpha = {a['alpha']:.6g}, w/dx = {a['zone_points']:.3g}"
+    )
     if "relaxation_moduli" in a:
-        print(f"Prony series: E_i/E0 = {a['relaxation_moduli']}, tau_i/tau_r ="
-              f" {a['relaxation_times']}")
+        print(
+            f"Prony series: E_i/E0 = {a['relaxation_moduli']}, tau_i/tau_r ="
+            f" {a['relaxation_times']}"
+        )
     if "drive_stiffness" in a:
-        print(f"compliant drive: k_s / E0 = {a['drive_stiffness']:.6g}"
-              + (" (load control)" if a["drive_stiffness"] == 0 else ""))
+        print(
+            f"compliant drive: k_s / E0 = {a['drive_stiffness']:.6g}"
+            + (" (load control)" if a["drive_stiffness"] == 0 else "")
+        )
     print(f"numerics: nx = {a['nx']}, dt = {a['dt']:.6g}, tolerance = {a['tolerance']:g}")
     print(f"scales: beta = {a['beta']:.6g}, load scale = {a['load_scale']:.6g}")
     if s.load.size and not s.load.min() < 0.0:
@@ -151,17 +165,22 @@ def cmd_info(comm, args):
     elif s.load.size:
         p = result.pull_off()
         so_far = "" if result.finished else " (the most tensile load so far)"
-        print(f"pull-off{so_far}: load = {p.load:.6g} (Lbar = {p.lbar:.6g}) at contact half-width"
-              f" {p.contact_half_width:.6g} (abar = {p.abar:.6g}), indenter {p.indenter:.6g},"
-              f" time {p.time:.6g}")
+        print(
+            f"pull-off{so_far}: load = {p.load:.6g} (Lbar = {p.lbar:.6g}) at contact half-width"
+            f" {p.contact_half_width:.6g} (abar = {p.abar:.6g}), indenter {p.indenter:.6g},"
+            f" time {p.time:.6g}"
+        )
     if "protocol_kinds" in a and s.load.size:
         _print_cycles(s, a)
     if result.finished:
-        print(f"detachment: indenter {a['detachment_indenter']:.6g},"
-              f" time {a['detachment_time']:.6g}")
-        print(f"steps: {a['steps']}, iterations: {a['iterations']}"
-              f" ({a['iterations'] / max(a['steps'], 1):.1f} per step), FFT pairs:"
-              f" {a['fft_pairs']}, wall time: {a['wall_time']:.1f} s")
+        print(
+            f"detachment: indenter {a['detachment_indenter']:.6g}, time {a['detachment_time']:.6g}"
+        )
+        print(
+            f"steps: {a['steps']}, iterations: {a['iterations']}"
+            f" ({a['iterations'] / max(a['steps'], 1):.1f} per step), FFT pairs:"
+            f" {a['fft_pairs']}, wall time: {a['wall_time']:.1f} s"
+        )
     elif s.time.size:
         print(f"steps so far: {s.time.size - 1}, iterations: {int(s.iterations.sum())}")
     else:
@@ -173,11 +192,13 @@ def _print_cycles(series, attrs):
     """info: the protocol's segments, and per cycle its pull-off and the drive's work."""
     print(f"protocol: {', '.join(attrs['protocol_kinds'])}")
     for cycle in series.cycles():
-        print(f"cycle {cycle.index} (steps {cycle.first}-{cycle.last}): pull-off load"
-              f" {cycle.pull_off:.6g} (Lbar = {cycle.lbar:.6g}) at indenter"
-              f" {cycle.indenter:.6g}, time {cycle.time:.6g}; work of the drive"
-              f" {cycle.work:.6g} (load x length, per unit length: the energy dissipated"
-              " when the cycle starts and ends detached)")
+        print(
+            f"cycle {cycle.index} (steps {cycle.first}-{cycle.last}): pull-off load"
+            f" {cycle.pull_off:.6g} (Lbar = {cycle.lbar:.6g}) at indenter"
+            f" {cycle.indenter:.6g}, time {cycle.time:.6g}; work of the drive"
+            f" {cycle.work:.6g} (load x length, per unit length: the energy dissipated"
+            " when the cycle starts and ends detached)"
+        )
 
 
 def cmd_plot(comm, args):
@@ -205,48 +226,87 @@ def cmd_plot(comm, args):
 def _common_options():
     """--quiet and --log, accepted before or after the command."""
     common = argparse.ArgumentParser(add_help=False)
-    common.add_argument("--quiet", action="store_true", default=argparse.SUPPRESS,
-                        help="print warnings and errors only")
-    common.add_argument("--log", metavar="FILE", default=argparse.SUPPRESS,
-                        help="also append the messages with time stamps to FILE")
+    common.add_argument(
+        "--quiet",
+        action="store_true",
+        default=argparse.SUPPRESS,
+        help="print warnings and errors only",
+    )
+    common.add_argument(
+        "--log",
+        metavar="FILE",
+        default=argparse.SUPPRESS,
+        help="also append the messages with time stamps to FILE",
+    )
     return common
 
 
 def build_parser():
     common = _common_options()
-    parser = argparse.ArgumentParser(prog="python -m hpcgfmd", parents=[common], description=(
-        "GFMD retraction of an adhesive cylinder from a viscoelastic half-space."
-        " Without a command: run the embedded default case."))
+    parser = argparse.ArgumentParser(
+        prog="python -m hpcgfmd",
+        parents=[common],
+        description=(
+            "GFMD retraction of an adhesive cylinder from a viscoelastic half-space."
+            " Without a command: run the embedded default case."
+        ),
+    )
     parser.add_argument("--version", action="version", version=f"hpcgfmd {__version__}")
     sub = parser.add_subparsers(dest="command")
     run = sub.add_parser("run", parents=[common], help="run one case file into an HDF5 file")
     run.add_argument("case", help="case file (TOML)")
-    run.add_argument("-o", "--output", default=None,
-                     help="output HDF5 file (default: the case file's name with .h5)")
+    run.add_argument(
+        "-o",
+        "--output",
+        default=None,
+        help="output HDF5 file (default: the case file's name with .h5)",
+    )
     run.add_argument("--overwrite", action="store_true", help="replace an existing output file")
     run.add_argument("--dry-run", action="store_true", help="validate and print the groups only")
-    run.add_argument("--restart", action="store_true", help=(
-        "continue from the checkpoint next to the output file (also automatic when both"
-        " exist); any number of ranks"))
+    run.add_argument(
+        "--restart",
+        action="store_true",
+        help=(
+            "continue from the checkpoint next to the output file (also automatic when both"
+            " exist); any number of ranks"
+        ),
+    )
     run.set_defaults(func=cmd_run)
-    farm = sub.add_parser("farm", parents=[common],
-                          help="run every case of a sweep file (task farm)")
+    farm = sub.add_parser(
+        "farm", parents=[common], help="run every case of a sweep file (task farm)"
+    )
     farm.add_argument("sweep", help="sweep file (TOML): base case plus [grid] / [[cases]]")
-    farm.add_argument("-o", "--output", default=None,
-                      help="directory of the result files and summary (default: [farm] output,"
-                           " else the sweep file's name)")
-    farm.add_argument("--ranks-per-case", type=int, default=None,
-                      help="ranks sharing one case (default: [farm] ranks_per_case, else 1)")
-    farm.add_argument("--case", type=int, default=None,
-                      help="run only this case index (as --dry-run lists them; job arrays)")
-    farm.add_argument("--dry-run", action="store_true",
-                      help="list the cases, their groups and estimated cost; run nothing")
+    farm.add_argument(
+        "-o",
+        "--output",
+        default=None,
+        help="directory of the result files and summary (default: [farm] output,"
+        " else the sweep file's name)",
+    )
+    farm.add_argument(
+        "--ranks-per-case",
+        type=int,
+        default=None,
+        help="ranks sharing one case (default: [farm] ranks_per_case, else 1)",
+    )
+    farm.add_argument(
+        "--case",
+        type=int,
+        default=None,
+        help="run only this case index (as --dry-run lists them; job arrays)",
+    )
+    farm.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="list the cases, their groups and estimated cost; run nothing",
+    )
     farm.set_defaults(func=cmd_farm)
     info = sub.add_parser("info", parents=[common], help="summarise a result file")
     info.add_argument("file")
     info.set_defaults(func=cmd_info)
-    plot = sub.add_parser("plot", parents=[common],
-                          help="PNG of the scaled load-area curve (paper Fig. 5a)")
+    plot = sub.add_parser(
+        "plot", parents=[common], help="PNG of the scaled load-area curve (paper Fig. 5a)"
+    )
     plot.add_argument("file")
     plot.add_argument("-o", "--output", default=None, help="PNG path (default: file name .png)")
     plot.add_argument("--overwrite", action="store_true", help="replace an existing PNG")
@@ -254,9 +314,12 @@ def build_parser():
     from .paper.command import add_parser as add_paper_parser
 
     add_paper_parser(sub, common)
-    sub.add_parser("bench", add_help=False,
-                   help="the measurements of docs/results.md, one mode per table"
-                        " (python -m hpcgfmd bench --help)")
+    sub.add_parser(
+        "bench",
+        add_help=False,
+        help="the measurements of docs/results.md, one mode per table"
+        " (python -m hpcgfmd bench --help)",
+    )
     return parser
 
 
@@ -264,8 +327,11 @@ def _parse(comm, argv):
     """The arguments, parsed on every rank; usage errors and --help print on rank 0 only."""
     if comm.Get_rank() == 0:
         return build_parser().parse_args(argv)
-    with open(os.devnull, "w") as quiet, contextlib.redirect_stdout(quiet), \
-            contextlib.redirect_stderr(quiet):
+    with (
+        open(os.devnull, "w") as quiet,
+        contextlib.redirect_stdout(quiet),
+        contextlib.redirect_stderr(quiet),
+    ):
         return build_parser().parse_args(argv)
 
 
@@ -289,8 +355,11 @@ def _configure_logs(comm, options):
     """The logger as --quiet and --log ask (``options``: parsed arguments that may hold
     them); False, with a one-line error on rank 0, when the log file cannot be opened."""
     try:
-        logs.configure(comm.Get_rank(), quiet=getattr(options, "quiet", False),
-                       log_file=getattr(options, "log", None))
+        logs.configure(
+            comm.Get_rank(),
+            quiet=getattr(options, "quiet", False),
+            log_file=getattr(options, "log", None),
+        )
     except OSError as err:
         if comm.Get_rank() == 0:
             print(f"hpcgfmd: error: --log {options.log}: {err.strerror}", file=sys.stderr)

@@ -12,6 +12,7 @@ collective; SystemExit passes through. Output to a reader that has gone away
 recorded from the first moment (:mod:`hpcgfmd.signals`) and handed to the run or the farm,
 which stop cleanly.
 """
+
 import os
 import sys
 
@@ -59,8 +60,9 @@ def _abort(comm):
 
     try:  # stderr may be a pipe whose reader has gone: the abort must happen regardless
         traceback.print_exc()
-        sys.stderr.write(f"hpcgfmd: rank {comm.Get_rank()} failed; aborting all"
-                         f" {comm.Get_size()} ranks\n")
+        sys.stderr.write(
+            f"hpcgfmd: rank {comm.Get_rank()} failed; aborting all {comm.Get_size()} ranks\n"
+        )
         sys.stderr.flush()
     except OSError:
         pass

@@ -17,6 +17,7 @@ name                   value  meaning
 Each exception's ``str()`` is the one-line message the command line prints. Imports nothing of
 hpcgfmd: every layer may raise these.
 """
+
 from __future__ import annotations
 
 EXIT_OK = 0

@@ -12,6 +12,7 @@ Modules log to ``logging.getLogger(__name__)`` (all under ``hpcgfmd``) and insta
   ``O_APPEND`` and writes each record, its lines whole, in one ``write``: on POSIX the
   lines of several processes interleave but never mix.
 """
+
 from __future__ import annotations
 
 import logging
@@ -42,7 +43,7 @@ class _AppendedLines(logging.Handler):
         try:
             data = (self.format(record) + "\n").encode("utf-8", "replace")
             while data:  # a regular file takes it whole; a short write only when it fills
-                data = data[os.write(self.fd, data):]
+                data = data[os.write(self.fd, data) :]
         except Exception:  # noqa: BLE001 (logging's own convention: report, never raise)
             self.handleError(record)
 
@@ -91,7 +92,8 @@ def configure(rank: int, quiet: bool = False, log_file=None):
         handler = _AppendedLines(log_file)
         handler.setLevel(logging.INFO)
         handler.addFilter(_RankFilter(rank))
-        handler.setFormatter(logging.Formatter(
-            f"%(asctime)s rank {rank} %(name)s %(levelname)s %(message)s"))
+        handler.setFormatter(
+            logging.Formatter(f"%(asctime)s rank {rank} %(name)s %(levelname)s %(message)s")
+        )
         logger.addHandler(handler)
     return logger

@@ -3,6 +3,7 @@
 No heavy imports: the entry point installs the handler first thing, so a signal that arrives
 while Python, numpy or FFTW are still starting up is recorded instead of killing the process.
 """
+
 from __future__ import annotations
 
 import signal

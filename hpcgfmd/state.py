@@ -12,6 +12,7 @@ implements :class:`Counting`, which a checkpoint keeps and an undo leaves alone.
 
 Imports nothing of hpcgfmd: every layer may use it.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field

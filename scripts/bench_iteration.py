@@ -42,6 +42,7 @@ every run, for comparing the check values of two versions (with FFTW_MEASURE the
 so the last digits and the iteration counts, can change between runs). With several ranks
 the times are the maximum over the ranks.
 """
+
 import argparse
 import json
 import os
@@ -58,16 +59,35 @@ from mpi4py import MPI
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 from hpcgfmd import atomic
-from hpcgfmd.errors import CaseError
 from hpcgfmd.case import case_file_text, parse_case
+from hpcgfmd.errors import CaseError
 from hpcgfmd.runs.protocol import Retraction
 from hpcgfmd.studies import report
 
-DEFAULT_GROUPS = {"maugis": 7.0, "modulus_ratio": 0.1, "velocity": 0.45, "depth": 0.1,
-                  "cell": 10.0, "adhesion": 5e-5}
+DEFAULT_GROUPS = {
+    "maugis": 7.0,
+    "modulus_ratio": 0.1,
+    "velocity": 0.45,
+    "depth": 0.1,
+    "cell": 10.0,
+    "adhesion": 5e-5,
+}
 STATISTICS = ("projections", "cut_steps", "residual_steps", "held_steps", "recalled")
-COLLECTIVES = ("sums", "sum", "dot", "count", "maxes", "max", "min", "max_abs", "any", "all",
-               "fill_halo", "segment", "index_extent")
+COLLECTIVES = (
+    "sums",
+    "sum",
+    "dot",
+    "count",
+    "maxes",
+    "max",
+    "min",
+    "max_abs",
+    "any",
+    "all",
+    "fill_halo",
+    "segment",
+    "index_extent",
+)
 
 
 class Clock:
@@ -91,6 +111,7 @@ class Clock:
                 self.total += time.perf_counter() - start
                 self.calls += 1
                 self.depth = 0
+
         return timed
 
 
@@ -130,13 +151,13 @@ class Profile:
             self.solve_time += time.perf_counter() - start
             self.solve_cpu += time.process_time() - cpu
             self.pairs += sim.fft.pairs - pairs
-            self.mpi_time += (sim.domain.communication_time + sim.fft.communication_time
-                              - waited)
+            self.mpi_time += sim.domain.communication_time + sim.fft.communication_time - waited
             self.iterations += result.iterations
             self.solves += 1
             if self.replays:
                 self.replay_time += self._replay(solve, initial, *args[1:], **kwargs)
             return result
+
         sim.solver.solve = timed_solve
 
     def _replay(self, solve, start, wall, ops, history, *rest, **kwargs):
@@ -177,10 +198,12 @@ def bare_pairs(fft, n, repeats):
     diagonal = (1.0 + np.abs(fft.wavenumber) / n) / n
     out = np.empty_like(field)
     raw_in = pyfftw.empty_aligned(n, dtype="float64")
-    forward = pyfftw.builders.rfft(raw_in, planner_effort="FFTW_MEASURE", threads=1,
-                                   avoid_copy=True)
-    backward = pyfftw.builders.irfft(forward.output_array, n=n, planner_effort="FFTW_MEASURE",
-                                     threads=1, avoid_copy=True)
+    forward = pyfftw.builders.rfft(
+        raw_in, planner_effort="FFTW_MEASURE", threads=1, avoid_copy=True
+    )
+    backward = pyfftw.builders.irfft(
+        forward.output_array, n=n, planner_effort="FFTW_MEASURE", threads=1, avoid_copy=True
+    )
     raw_in[:] = rng.standard_normal(n)
     comm = fft.comm
 
@@ -198,8 +221,8 @@ def bare_pairs(fft, n, repeats):
     def pair():
         forward.execute()
         backward.execute()
-    return (lambda: timed(lambda: fft.apply_diagonal(field, diagonal, out)),
-            lambda: timed(pair))
+
+    return (lambda: timed(lambda: fft.apply_diagonal(field, diagonal, out)), lambda: timed(pair))
 
 
 def peak_temporaries(sim):
@@ -218,6 +241,7 @@ def peak_temporaries(sim):
         tracemalloc.stop()
         peaks.append((peak - base, result.iterations))
         return result
+
     sim.solver.solve = traced
     sim.step()
     sim.solver.solve = solve
@@ -226,22 +250,38 @@ def peak_temporaries(sim):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--n", type=int, default=17, help=(
-        "n_x = 2**n (default 17; from 13: the default case needs about 7600 nodes)"))
+    parser.add_argument(
+        "--n",
+        type=int,
+        default=17,
+        help=("n_x = 2**n (default 17; from 13: the default case needs about 7600 nodes)"),
+    )
     parser.add_argument("--steps", type=int, default=20, help="retraction steps timed")
-    parser.add_argument("--repeats", type=int, default=5,
-                        help="bare pairs timed after each step (minimum taken)")
-    parser.add_argument("--replays", type=int, default=3,
-                        help="repeats of every timed solve from its start (minimum taken)")
+    parser.add_argument(
+        "--repeats", type=int, default=5, help="bare pairs timed after each step (minimum taken)"
+    )
+    parser.add_argument(
+        "--replays",
+        type=int,
+        default=3,
+        help="repeats of every timed solve from its start (minimum taken)",
+    )
     parser.add_argument("--out", help="append the result as a CSV row to this file")
     parser.add_argument("--record", help="write the per-step loads and iterations (JSON)")
-    parser.add_argument("--tracemalloc", action="store_true",
-                        help="one more step under tracemalloc: peak temporaries of a solve")
-    parser.add_argument("--planner", default="FFTW_MEASURE",
-                        help="planner of the case's transform (FFTW_ESTIMATE: the same plan in"
-                        " every run, for comparing check values bitwise between versions)")
-    parser.add_argument("--ranks", type=int, default=None,
-                        help="ignored (the rank count is mpirun's)")
+    parser.add_argument(
+        "--tracemalloc",
+        action="store_true",
+        help="one more step under tracemalloc: peak temporaries of a solve",
+    )
+    parser.add_argument(
+        "--planner",
+        default="FFTW_MEASURE",
+        help="planner of the case's transform (FFTW_ESTIMATE: the same plan in"
+        " every run, for comparing check values bitwise between versions)",
+    )
+    parser.add_argument(
+        "--ranks", type=int, default=None, help="ignored (the rank count is mpirun's)"
+    )
     args = parser.parse_args()
 
     comm = MPI.COMM_WORLD
@@ -298,79 +338,115 @@ def main():
     pair_builders = min(pair_raw)
     pairs_per_it = profile.pairs / its
     result = {
-        "n": n, "ranks": comm.Get_size(), "steps": args.steps, "iterations": its,
-        "ms_per_iteration": 1e3 * per_iteration, "pairs_per_iteration": pairs_per_it,
-        "pair_ms": 1e3 * pair, "raw_pair_ms": 1e3 * pair_builders,
-        "ratio": per_iteration / pair, "ratio_raw": per_iteration / pair_builders,
+        "n": n,
+        "ranks": comm.Get_size(),
+        "steps": args.steps,
+        "iterations": its,
+        "ms_per_iteration": 1e3 * per_iteration,
+        "pairs_per_iteration": pairs_per_it,
+        "pair_ms": 1e3 * pair,
+        "raw_pair_ms": 1e3 * pair_builders,
+        "ratio": per_iteration / pair,
+        "ratio_raw": per_iteration / pair_builders,
         "ratio_median_step": float(np.median(per_step)) if per_step else float("nan"),
         "replay_ms_per_iteration": 1e3 * replay_time / its,
         "replay_ratio": replay_time / its / pair,
-        "cpu_ms_per_iteration": 1e3 * solve_cpu / its, "pair_cpu_ms": 1e3 * pair_cpu,
+        "cpu_ms_per_iteration": 1e3 * solve_cpu / its,
+        "pair_cpu_ms": 1e3 * pair_cpu,
         "cpu_ratio": solve_cpu / its / pair_cpu,
-        "fft_share": fft_time / solve_time, "collective_share": coll_time / solve_time,
+        "fft_share": fft_time / solve_time,
+        "collective_share": coll_time / solve_time,
         "other_share": 1.0 - (fft_time + coll_time) / solve_time,
         "fft_ms_per_iteration": 1e3 * fft_time / its,
         "other_ms_per_iteration": 1e3 * (solve_time - fft_time - coll_time) / its,
         "collective_ms_per_iteration": 1e3 * coll_time / its,
         "mpi_ms_per_iteration": 1e3 * comm.allreduce(profile.mpi_time, op=MPI.MAX) / its,
-        "load_last": loads[-1], "iterations_total": int(sum(iterations[1:])),
+        "load_last": loads[-1],
+        "iterations_total": int(sum(iterations[1:])),
         "iterations_preload": int(iterations[0]),
         **{key: sim.solver.counters()[key] for key in STATISTICS},
         "pairs_outside_solves": sim.fft.pairs - start_pairs - profile.pairs,
-        "setup_s": setup, "load_average": os.getloadavg()[0],
+        "setup_s": setup,
+        "load_average": os.getloadavg()[0],
     }
     if temporaries is not None:
         result["temporaries_kib"] = temporaries[0] / 1024.0
     if rank != 0:
         return
-    print(f"n = 2^{args.n} = {n}, {comm.Get_size()} rank(s), {args.steps} retraction steps,"
-          f" {its} CG iterations (preload {iterations[0]}); load average"
-          f" {result['load_average']:.2f} (shared machine: compare ratios within one run)")
-    print(f"  bare pair: apply_diagonal {result['pair_ms']:.3f} ms, raw builders rfft+irfft"
-          f" {result['raw_pair_ms']:.3f} ms (min over {len(pair_applied) * args.repeats})")
-    print(f"  per iteration {result['ms_per_iteration']:.3f} ms = {result['ratio']:.2f} pairs"
-          f" of time (raw pair: {result['ratio_raw']:.2f}; median over steps"
-          f" {result['ratio_median_step']:.2f}); {pairs_per_it:.3f} FFT pairs per iteration")
-    print(f"  CPU time of this process: {result['cpu_ms_per_iteration']:.3f} ms per iteration,"
-          f" bare pair {result['pair_cpu_ms']:.3f} ms: {result['cpu_ratio']:.2f} pairs")
+    print(
+        f"n = 2^{args.n} = {n}, {comm.Get_size()} rank(s), {args.steps} retraction steps,"
+        f" {its} CG iterations (preload {iterations[0]}); load average"
+        f" {result['load_average']:.2f} (shared machine: compare ratios within one run)"
+    )
+    print(
+        f"  bare pair: apply_diagonal {result['pair_ms']:.3f} ms, raw builders rfft+irfft"
+        f" {result['raw_pair_ms']:.3f} ms (min over {len(pair_applied) * args.repeats})"
+    )
+    print(
+        f"  per iteration {result['ms_per_iteration']:.3f} ms = {result['ratio']:.2f} pairs"
+        f" of time (raw pair: {result['ratio_raw']:.2f}; median over steps"
+        f" {result['ratio_median_step']:.2f}); {pairs_per_it:.3f} FFT pairs per iteration"
+    )
+    print(
+        f"  CPU time of this process: {result['cpu_ms_per_iteration']:.3f} ms per iteration,"
+        f" bare pair {result['pair_cpu_ms']:.3f} ms: {result['cpu_ratio']:.2f} pairs"
+    )
     if args.replays:
-        print(f"  per iteration, minimum of {args.replays} replays of each solve:"
-              f" {result['replay_ms_per_iteration']:.3f} ms = {result['replay_ratio']:.2f} pairs"
-              " of time")
-    print(f"  profile per iteration: FFT {result['fft_ms_per_iteration']:.3f} ms"
-          f" ({100 * result['fft_share']:.0f} %), elementwise/other"
-          f" {result['other_ms_per_iteration']:.3f} ms ({100 * result['other_share']:.0f} %),"
-          f" collectives {result['collective_ms_per_iteration']:.3f} ms"
-          f" ({100 * result['collective_share']:.0f} %); MPI calls in the collectives and"
-          f" transforms {result['mpi_ms_per_iteration']:.3f} ms")
+        print(
+            f"  per iteration, minimum of {args.replays} replays of each solve:"
+            f" {result['replay_ms_per_iteration']:.3f} ms = {result['replay_ratio']:.2f} pairs"
+            " of time"
+        )
+    print(
+        f"  profile per iteration: FFT {result['fft_ms_per_iteration']:.3f} ms"
+        f" ({100 * result['fft_share']:.0f} %), elementwise/other"
+        f" {result['other_ms_per_iteration']:.3f} ms ({100 * result['other_share']:.0f} %),"
+        f" collectives {result['collective_ms_per_iteration']:.3f} ms"
+        f" ({100 * result['collective_share']:.0f} %); MPI calls in the collectives and"
+        f" transforms {result['mpi_ms_per_iteration']:.3f} ms"
+    )
     stats = sim.solver.counters()
-    print(f"  solver: {stats['projections']} projections, {stats['cut_steps']} cut steps,"
-          f" {stats['residual_steps']} along the residual,"
-          f" {stats['held_steps']} with held nodes,"
-          f" {stats['recalled']} first transforms recalled"
-          f" (since start, {profile.solves} timed solves)")
+    print(
+        f"  solver: {stats['projections']} projections, {stats['cut_steps']} cut steps,"
+        f" {stats['residual_steps']} along the residual,"
+        f" {stats['held_steps']} with held nodes,"
+        f" {stats['recalled']} first transforms recalled"
+        f" (since start, {profile.solves} timed solves)"
+    )
     if temporaries is not None:
-        print(f"  tracemalloc: peak {result['temporaries_kib']:.1f} KiB above the start of a"
-              f" solve of {temporaries[1]} iterations (one vector = {8 * n / 1024:.0f} KiB)")
-    print(f"  check: load_last = {loads[-1]:.15e}, iterations = {result['iterations_total']}"
-          f" (+ preload {iterations[0]})")
-    print(f"RESULT n={n} ranks={comm.Get_size()} ms_per_iteration={per_iteration * 1e3:.3f}"
-          f" pairs_per_iteration={pairs_per_it:.3f} pair_ms={pair * 1e3:.3f}"
-          f" ratio={result['ratio']:.2f} replay_ratio={result['replay_ratio']:.2f}"
-          f" cpu_ratio={result['cpu_ratio']:.2f} load_last={loads[-1]:.15e}"
-          f" iterations={result['iterations_total']}")
+        print(
+            f"  tracemalloc: peak {result['temporaries_kib']:.1f} KiB above the start of a"
+            f" solve of {temporaries[1]} iterations (one vector = {8 * n / 1024:.0f} KiB)"
+        )
+    print(
+        f"  check: load_last = {loads[-1]:.15e}, iterations = {result['iterations_total']}"
+        f" (+ preload {iterations[0]})"
+    )
+    print(
+        f"RESULT n={n} ranks={comm.Get_size()} ms_per_iteration={per_iteration * 1e3:.3f}"
+        f" pairs_per_iteration={pairs_per_it:.3f} pair_ms={pair * 1e3:.3f}"
+        f" ratio={result['ratio']:.2f} replay_ratio={result['replay_ratio']:.2f}"
+        f" cpu_ratio={result['cpu_ratio']:.2f} load_last={loads[-1]:.15e}"
+        f" iterations={result['iterations_total']}"
+    )
     # judged in CPU time: equal to the wall time's ratio on an idle machine, and on a shared
     # one not inflated by the time other processes hold the core
-    print(report.verdict("iteration_pairs", result["cpu_ratio"],
-                         f"on {comm.Get_size()} rank(s), in CPU time")
-          if n == 2**17 else report.no_target("the target is at n_x = 2^17: --n 17"))
+    print(
+        report.verdict(
+            "iteration_pairs", result["cpu_ratio"], f"on {comm.Get_size()} rank(s), in CPU time"
+        )
+        if n == 2**17
+        else report.no_target("the target is at n_x = 2^17: --n 17")
+    )
     if args.out:
         new = not os.path.exists(args.out)
         with open(args.out, "a") as fh:
             if new:
                 fh.write(",".join(result) + "\n")
-            fh.write(",".join(repr(v) if isinstance(v, float) else str(v)
-                              for v in result.values()) + "\n")
+            fh.write(
+                ",".join(repr(v) if isinstance(v, float) else str(v) for v in result.values())
+                + "\n"
+            )
     if args.record:
         atomic.write_text(args.record, json.dumps({"loads": loads, "iterations": iterations}))
 

@@ -9,8 +9,9 @@ What is measured (one row per grid size and rank count, appended to a CSV file)
     does them (a detachment test and one step each, no output file), between two barriers.
     Times are the maximum over the ranks. Communication shares are the seconds spent in the
     FFT's exchanges (shared-memory barriers or ``Alltoallv``) and in the Domain's collectives
-    (reductions, halo exchanges, segments) during the timed steps, maximum over the ranks, as fractions of the timed wall time; they
-    include the time a rank waits for the other one (load imbalance shows up there).
+    (reductions, halo exchanges, segments) during the timed steps, maximum over the ranks, as
+    fractions of the timed wall time; they include the time a rank waits for the other one
+    (load imbalance shows up there).
     ``load`` is the load of the last timed step: runs on different rank counts agree to about
     1e-8 relative (the solver tolerance; transforms and sums round differently).
 
@@ -51,6 +52,7 @@ How to read the table
     each other at every collective (tens per iteration). ``uptime`` at the start and end of
     a --launch session is printed below the table.
 """
+
 import argparse
 import csv
 import datetime
@@ -83,9 +85,27 @@ adhesion = 5e-5
 [numerics]
 nx = {nx}
 """
-FIELDS = ["started", "other_cpu", "ranks", "nx", "planner", "steps", "iterations", "fft_pairs",
-          "messages", "wall_time", "time_per_step", "time_per_iteration", "fft_comm_share",
-          "domain_comm_share", "setup_time", "preload_time", "preload_iterations", "preload_levels", "load"]
+FIELDS = [
+    "started",
+    "other_cpu",
+    "ranks",
+    "nx",
+    "planner",
+    "steps",
+    "iterations",
+    "fft_pairs",
+    "messages",
+    "wall_time",
+    "time_per_step",
+    "time_per_iteration",
+    "fft_comm_share",
+    "domain_comm_share",
+    "setup_time",
+    "preload_time",
+    "preload_iterations",
+    "preload_levels",
+    "load",
+]
 
 
 def measure(comm, nx, steps, planner):
@@ -113,8 +133,12 @@ def measure(comm, nx, steps, planner):
     from hpcgfmd.case import parse_case
     from hpcgfmd.runs.protocol import Retraction
 
-    row = {"started": datetime.datetime.now().isoformat(timespec="seconds"),
-           "ranks": comm.Get_size(), "nx": nx, "planner": planner}
+    row = {
+        "started": datetime.datetime.now().isoformat(timespec="seconds"),
+        "ranks": comm.Get_size(),
+        "nx": nx,
+        "planner": planner,
+    }
     case = parse_case(CASE.format(nx=nx))
     comm.Barrier()
     t0 = time.perf_counter()
@@ -124,8 +148,13 @@ def measure(comm, nx, steps, planner):
     comm.Barrier()
     t2 = time.perf_counter()
     fft, dom = sim.fft, sim.domain
-    before = (sim.equilibrium.iterations, fft.pairs, dom.messages, fft.communication_time,
-              dom.communication_time)
+    before = (
+        sim.equilibrium.iterations,
+        fft.pairs,
+        dom.messages,
+        fft.communication_time,
+        dom.communication_time,
+    )
     done = 0
     record = preload
     comm.Barrier()
@@ -138,21 +167,35 @@ def measure(comm, nx, steps, planner):
     t4 = time.perf_counter()
     own = comm.allreduce(time.process_time() - own, op=MPI.SUM)  # busy-waiting included
     busy = busy_seconds() - busy
-    after = (sim.equilibrium.iterations, fft.pairs, dom.messages, fft.communication_time,
-             dom.communication_time)
+    after = (
+        sim.equilibrium.iterations,
+        fft.pairs,
+        dom.messages,
+        fft.communication_time,
+        dom.communication_time,
+    )
     iterations, pairs, messages = (a - b for a, b in zip(after[:3], before[:3]))
     # Slowest rank decides; the barriers make the ranks' wall times nearly equal anyway.
     local = np.array([t1 - t0, t2 - t1, t4 - t3, after[3] - before[3], after[4] - before[4]])
     comm.Allreduce(MPI.IN_PLACE, local, op=MPI.MAX)
     setup, preload_time, wall, fft_comm, dom_comm = local
-    row.update(other_cpu=max(busy - own, 0.0) / wall, steps=done, iterations=iterations,
-               fft_pairs=pairs, messages=messages, wall_time=wall,
-               time_per_step=wall / max(done, 1), time_per_iteration=wall / max(iterations, 1),
-               fft_comm_share=fft_comm / wall, domain_comm_share=dom_comm / wall,
-               setup_time=setup, preload_time=preload_time,
-               preload_iterations=preload.iterations,
-               preload_levels=" ".join(f"{nx}:{it}" for nx, it in sim.preload_levels),
-               load=repr(record.load))
+    row.update(
+        other_cpu=max(busy - own, 0.0) / wall,
+        steps=done,
+        iterations=iterations,
+        fft_pairs=pairs,
+        messages=messages,
+        wall_time=wall,
+        time_per_step=wall / max(done, 1),
+        time_per_iteration=wall / max(iterations, 1),
+        fft_comm_share=fft_comm / wall,
+        domain_comm_share=dom_comm / wall,
+        setup_time=setup,
+        preload_time=preload_time,
+        preload_iterations=preload.iterations,
+        preload_levels=" ".join(f"{nx}:{it}" for nx, it in sim.preload_levels),
+        load=repr(record.load),
+    )
     return row
 
 
@@ -195,28 +238,30 @@ def run_here(args):
         row = measure(comm, 2**n, args.steps, args.planner)
         if root:
             append_row(args.out, row)
-            print(f"ranks {row['ranks']}  nx 2^{n}  {row['steps']} steps"
-                  f"  {row['iterations']} iterations  {row['time_per_step']:.4g} s/step"
-                  f"  {1e3 * row['time_per_iteration']:.4g} ms/iteration"
-                  f"  FFT comm {row['fft_comm_share']:.1%}  Domain comm"
-                  f" {row['domain_comm_share']:.1%}  setup {row['setup_time']:.3g} s"
-                  f"  preload {row['preload_time']:.3g} s ({row['preload_iterations']} it,"
-                  f" coarser levels nx:it {row['preload_levels'] or 'none'})"
-                  f"  load {float(row['load']):.10g}  other CPU {row['other_cpu']:.2f}",
-                  flush=True)
+            print(
+                f"ranks {row['ranks']}  nx 2^{n}  {row['steps']} steps"
+                f"  {row['iterations']} iterations  {row['time_per_step']:.4g} s/step"
+                f"  {1e3 * row['time_per_iteration']:.4g} ms/iteration"
+                f"  FFT comm {row['fft_comm_share']:.1%}  Domain comm"
+                f" {row['domain_comm_share']:.1%}  setup {row['setup_time']:.3g} s"
+                f"  preload {row['preload_time']:.3g} s ({row['preload_iterations']} it,"
+                f" coarser levels nx:it {row['preload_levels'] or 'none'})"
+                f"  load {float(row['load']):.10g}  other CPU {row['other_cpu']:.2f}",
+                flush=True,
+            )
 
 
 def _levels(row):
     """The preload's iterations: the fine grid's, after those of its coarser levels."""
     coarse = row.get("preload_levels") or ""
-    levels = [f"{grid_label(int(nx))}: {it}" for nx, it in
-              (level.split(":") for level in coarse.split())]
+    levels = [
+        f"{grid_label(int(nx))}: {it}" for nx, it in (level.split(":") for level in coarse.split())
+    ]
     return " + ".join([*levels, str(row["preload_iterations"])])
 
 
 def uptime():
-    return subprocess.run(["uptime"], capture_output=True, text=True,
-                          check=False).stdout.strip()
+    return subprocess.run(["uptime"], capture_output=True, text=True, check=False).stdout.strip()
 
 
 def launch(args):
@@ -224,19 +269,38 @@ def launch(args):
     mpirun = shutil.which("mpirun")
     if mpirun is None:
         sys.exit("--launch needs OpenMPI's mpirun on the PATH")
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    env = dict(
+        os.environ,
+        OMPI_ALLOW_RUN_AS_ROOT="1",
+        OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+        OPENBLAS_NUM_THREADS="1",
+        OMP_NUM_THREADS="1",
+    )
     notes = [f"start: {uptime()}"]
     print(notes[0], flush=True)
     for n in args.n:
         for ranks in args.launch:  # interleaved: the same n_x on every P before the next
-            command = [mpirun, "-n", str(ranks), sys.executable, os.path.abspath(__file__),
-                       "--n", str(n), "--steps", str(args.steps), "--planner", args.planner,
-                       "--out", args.out]
+            command = [
+                mpirun,
+                "-n",
+                str(ranks),
+                sys.executable,
+                os.path.abspath(__file__),
+                "--n",
+                str(n),
+                "--steps",
+                str(args.steps),
+                "--planner",
+                args.planner,
+                "--out",
+                args.out,
+            ]
             status = subprocess.run(command, env=env, check=False).returncode
             if status != 0:  # the measurement printed its own error
-                sys.exit(f"bench_scaling: n = 2^{n} on {ranks} rank(s) failed (exit status"
-                         f" {status}); rows measured before it, if any, are in {args.out}")
+                sys.exit(
+                    f"bench_scaling: n = 2^{n} on {ranks} rank(s) failed (exit status"
+                    f" {status}); rows measured before it, if any, are in {args.out}"
+                )
     notes.append(f"end: {uptime()}")
     report(args.out, args.markdown, notes)
 
@@ -252,9 +316,25 @@ def latest_rows(path):
 
 def report(path, markdown=None, notes=()):
     """Print the scaling table of the CSV file ``path``; also write it to ``markdown``."""
-    head = ["n_x", "ranks", "steps", "iterations", "s/step", "ms/iteration", "speedup/it",
-            "speedup/step", "FFT comm", "Domain comm", "pairs/it", "msgs/it", "setup s",
-            "preload s (iterations per level, coarsest first)", "load of last step", "rel. diff", "other CPU"]
+    head = [
+        "n_x",
+        "ranks",
+        "steps",
+        "iterations",
+        "s/step",
+        "ms/iteration",
+        "speedup/it",
+        "speedup/step",
+        "FFT comm",
+        "Domain comm",
+        "pairs/it",
+        "msgs/it",
+        "setup s",
+        "preload s (iterations per level, coarsest first)",
+        "load of last step",
+        "rel. diff",
+        "other CPU",
+    ]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for nx, by_ranks in sorted(latest_rows(path).items()):
         base = by_ranks[min(by_ranks)]  # the fewest ranks, normally 1
@@ -262,17 +342,25 @@ def report(path, markdown=None, notes=()):
             it, step = float(r["time_per_iteration"]), float(r["time_per_step"])
             iterations = max(int(r["iterations"]), 1)
             load, load0 = float(r["load"]), float(base["load"])
-            cells = [grid_label(nx), str(ranks),
-                     r["steps"], r["iterations"], f"{step:.4g}", f"{1e3 * it:.4g}",
-                     f"{float(base['time_per_iteration']) / it:.2f}",
-                     f"{float(base['time_per_step']) / step:.2f}",
-                     f"{float(r['fft_comm_share']):.1%}", f"{float(r['domain_comm_share']):.1%}",
-                     f"{int(r['fft_pairs']) / iterations:.2f}",
-                     f"{int(r['messages']) / iterations:.1f}",
-                     f"{float(r['setup_time']):.3g} ({r['planner'].removeprefix('FFTW_')})",
-                     f"{float(r['preload_time']):.3g} ({_levels(r)})",
-                     f"{load:.10g}", f"{abs(load - load0) / abs(load0):.1e}",
-                     f"{float(r['other_cpu']):.2f}"]
+            cells = [
+                grid_label(nx),
+                str(ranks),
+                r["steps"],
+                r["iterations"],
+                f"{step:.4g}",
+                f"{1e3 * it:.4g}",
+                f"{float(base['time_per_iteration']) / it:.2f}",
+                f"{float(base['time_per_step']) / step:.2f}",
+                f"{float(r['fft_comm_share']):.1%}",
+                f"{float(r['domain_comm_share']):.1%}",
+                f"{int(r['fft_pairs']) / iterations:.2f}",
+                f"{int(r['messages']) / iterations:.1f}",
+                f"{float(r['setup_time']):.3g} ({r['planner'].removeprefix('FFTW_')})",
+                f"{float(r['preload_time']):.3g} ({_levels(r)})",
+                f"{load:.10g}",
+                f"{abs(load - load0) / abs(load0):.1e}",
+                f"{float(r['other_cpu']):.2f}",
+            ]
             lines.append("| " + " | ".join(cells) + " |")
     table = latest_rows(path)
     started = sorted(r["started"] for by_ranks in table.values() for r in by_ranks.values())
@@ -293,14 +381,27 @@ def report(path, markdown=None, notes=()):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     mode = parser.add_mutually_exclusive_group()
-    mode.add_argument("--launch", type=int, nargs="+", metavar="P",
-                      help="run under mpirun -n P for each P, then report")
+    mode.add_argument(
+        "--launch",
+        type=int,
+        nargs="+",
+        metavar="P",
+        help="run under mpirun -n P for each P, then report",
+    )
     mode.add_argument("--report", metavar="CSV", help="only print the table of this CSV file")
-    parser.add_argument("--n", type=int, nargs="+", default=[17, 20, 22],
-                        help="grid sizes as powers of two, n_x = 2^N, N from 14 to 30")
+    parser.add_argument(
+        "--n",
+        type=int,
+        nargs="+",
+        default=[17, 20, 22],
+        help="grid sizes as powers of two, n_x = 2^N, N from 14 to 30",
+    )
     parser.add_argument("--steps", type=int, default=20, help="timed retraction steps")
-    parser.add_argument("--planner", default="FFTW_MEASURE",
-                        help="FFTW planner flag (FFTW_ESTIMATE plans in no time)")
+    parser.add_argument(
+        "--planner",
+        default="FFTW_MEASURE",
+        help="FFTW planner flag (FFTW_ESTIMATE plans in no time)",
+    )
     parser.add_argument("--out", default="bench.csv", help="CSV file the rows are appended to")
     parser.add_argument("--markdown", help="also write the table to this Markdown file")
     args = parser.parse_args()

@@ -16,6 +16,7 @@ more than one rank, or unfinished, are listed and not judged. FFTW's planning is
 first run of each grid size on a machine (the wisdom cache, hpcgfmd/parallel/wisdom.py): the
 model is of runs with the wisdom cached, so measure a second time after a first ``--run``.
 """
+
 import argparse
 import json
 import os
@@ -36,9 +37,16 @@ def run(directory, accuracy):
         result = original(case, path, group, **options)
         if group.Get_size() == 1:
             with open(record, "a") as fh:  # one line, one write: ranks append whole lines
-                fh.write(json.dumps({"name": os.path.basename(path)[:-3],
-                                     "cpu": time.process_time() - cpu,
-                                     "wall": time.monotonic() - wall}) + "\n")
+                fh.write(
+                    json.dumps(
+                        {
+                            "name": os.path.basename(path)[:-3],
+                            "cpu": time.process_time() - cpu,
+                            "wall": time.monotonic() - wall,
+                        }
+                    )
+                    + "\n"
+                )
         return result
 
     farm.run_case = timed
@@ -64,8 +72,10 @@ def table(directory, accuracy, limit):
                 entry = json.loads(line)
                 cpu[entry["name"]] = entry["cpu"]  # the last measurement of each
     width = max(len(item.name) for item in sweep.cases)
-    print(f"{'run':<{width}} {'nx':>7} {'steps':>13} {'iterations':>15} {'wall s':>7}"
-          f" {'CPU s':>7} {'model s':>8} {'ratio':>6}")
+    print(
+        f"{'run':<{width}} {'nx':>7} {'steps':>13} {'iterations':>15} {'wall s':>7}"
+        f" {'CPU s':>7} {'model s':>8} {'ratio':>6}"
+    )
     off, judged, total = 0, 0, [0.0, 0.0]
     for item in sweep.cases:
         path = os.path.join(directory, "runs", item.name + ".h5")
@@ -76,12 +86,16 @@ def table(directory, accuracy, limit):
             with h5py.File(path, "r") as f:
                 a = dict(f.attrs)
         except OSError:
-            print(f"{item.name:<{width}} {item.case.numerics.nx:>7}  not run"
-                  f" {'':>36} {predicted:>8.3g}")
+            print(
+                f"{item.name:<{width}} {item.case.numerics.nx:>7}  not run"
+                f" {'':>36} {predicted:>8.3g}"
+            )
             continue
         if not a.get("finished", False) or int(a.get("ranks", 1)) != 1:
-            print(f"{item.name:<{width}} {item.case.numerics.nx:>7}  unfinished or on"
-                  f" {int(a.get('ranks', 1))} ranks: not judged")
+            print(
+                f"{item.name:<{width}} {item.case.numerics.nx:>7}  unfinished or on"
+                f" {int(a.get('ranks', 1))} ranks: not judged"
+            )
             continue
         measured = cpu.get(item.name, float(a["wall_time"]))
         ratio = predicted / measured
@@ -89,27 +103,42 @@ def table(directory, accuracy, limit):
         total[0] += predicted
         total[1] += measured
         off += not 1.0 / limit <= ratio <= limit
-        print(f"{item.name:<{width}} {item.case.numerics.nx:>7}"
-              f" {steps:>6.0f}/{int(a['steps']):<6d}"
-              f" {iterations:>7.0f}/{int(a['iterations']):<7d}"
-              f" {float(a['wall_time']):>7.1f}"
-              f" {cpu[item.name] if item.name in cpu else float('nan'):>7.1f}"
-              f" {predicted:>8.2f} {ratio:>6.2f}{'  OFF' if not 1 / limit <= ratio <= limit else ''}")
-    print(f"{judged} runs judged, {off} off by more than {limit:g}x; total predicted"
-          f" {total[0]:.0f} s against {total[1]:.0f} s measured"
-          f" ({'CPU' if cpu else 'wall'} seconds where recorded)")
+        print(
+            f"{item.name:<{width}} {item.case.numerics.nx:>7}"
+            f" {steps:>6.0f}/{int(a['steps']):<6d}"
+            f" {iterations:>7.0f}/{int(a['iterations']):<7d}"
+            f" {float(a['wall_time']):>7.1f}"
+            f" {cpu[item.name] if item.name in cpu else float('nan'):>7.1f}"
+            f" {predicted:>8.2f} {ratio:>6.2f}{'  OFF' if not 1 / limit <= ratio <= limit else ''}"
+        )
+    print(
+        f"{judged} runs judged, {off} off by more than {limit:g}x; total predicted"
+        f" {total[0]:.0f} s against {total[1]:.0f} s measured"
+        f" ({'CPU' if cpu else 'wall'} seconds where recorded)"
+    )
     return off
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("directory", help="the paper command's -o directory")
-    parser.add_argument("--run", action="store_true",
-                        help="run the paper's study first (under mpirun: one run per rank)")
-    parser.add_argument("--accuracy", type=float, default=None,
-                        help="[numerics] accuracy of every run (default: the sweep files')")
-    parser.add_argument("--limit", type=float, default=2.0,
-                        help="the largest factor between predicted and measured (default 2)")
+    parser.add_argument(
+        "--run",
+        action="store_true",
+        help="run the paper's study first (under mpirun: one run per rank)",
+    )
+    parser.add_argument(
+        "--accuracy",
+        type=float,
+        default=None,
+        help="[numerics] accuracy of every run (default: the sweep files')",
+    )
+    parser.add_argument(
+        "--limit",
+        type=float,
+        default=2.0,
+        help="the largest factor between predicted and measured (default 2)",
+    )
     args = parser.parse_args()
     if args.run:
         status = run(args.directory, args.accuracy)

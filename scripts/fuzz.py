@@ -8,6 +8,7 @@ budget and prints, per parser, the number of inputs tried and how many were vali
 invalid. Exits 1 with hypothesis's shrunk counterexample when an input is neither parsed nor
 rejected with a one-line CaseError / SweepError. Needs hypothesis (pip install 'hpcgfmd[test]').
 """
+
 import argparse
 import os
 import sys
@@ -20,8 +21,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--examples", type=int, default=10_000,
-                        help="inputs per parser (default 10000)")
+    parser.add_argument(
+        "--examples", type=int, default=10_000, help="inputs per parser (default 10000)"
+    )
     parser.add_argument("--parser", choices=("case", "sweep", "both"), default="both")
     args = parser.parse_args(argv)
     os.environ["HPCGFMD_FUZZ_EXAMPLES"] = str(args.examples)  # read when test_fuzz is imported
@@ -43,9 +45,12 @@ def main(argv=None):
             traceback.print_exc()
             verdict, status = "FAILED", 1
         counts = test_fuzz.OUTCOMES[name]
-        print(f"{name} parser: {sum(counts.values())} inputs tried, {counts['valid']} valid,"
-              f" {counts['invalid']} invalid (rejected with one line); {verdict}"
-              f" ({time.perf_counter() - start:.0f} s)", flush=True)
+        print(
+            f"{name} parser: {sum(counts.values())} inputs tried, {counts['valid']} valid,"
+            f" {counts['invalid']} invalid (rejected with one line); {verdict}"
+            f" ({time.perf_counter() - start:.0f} s)",
+            flush=True,
+        )
     return status
 
 

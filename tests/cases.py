@@ -6,14 +6,27 @@ fast case they share, and a stop flag that interrupts a run after a given step.
 viscoelastic retraction (pull-off, jumps) to compare between runs.
 """
 
-GROUPS = {"maugis": 3.5, "modulus_ratio": 0.1, "velocity": 1.0, "depth": 0.03, "cell": 2.0,
-          "adhesion": 1e-4}
+GROUPS = {
+    "maugis": 3.5,
+    "modulus_ratio": 0.1,
+    "velocity": 1.0,
+    "depth": 0.03,
+    "cell": 2.0,
+    "adhesion": 1e-4,
+}
 # The [physical] form of an SLS case (lambda0 = 7.0 at these values; tau = 1 s, R = 1 mm), in SI,
 # as the TOML spells them
-PHYSICAL_VALUES = {"radius": "1e-3", "modulus_relaxed": "1e6", "modulus_instantaneous": "1e7",
-                   "relaxation_time": "1.0", "work_of_adhesion": "0.05",
-                   "interaction_range": "1.94e-7", "velocity": "1e-6", "depth": "1e-4",
-                   "cell_length": "1e-2"}
+PHYSICAL_VALUES = {
+    "radius": "1e-3",
+    "modulus_relaxed": "1e6",
+    "modulus_instantaneous": "1e7",
+    "relaxation_time": "1.0",
+    "work_of_adhesion": "0.05",
+    "interaction_range": "1.94e-7",
+    "velocity": "1e-6",
+    "depth": "1e-4",
+    "cell_length": "1e-2",
+}
 # Numerics lines for runs compared across rank counts or a restart to round-off: adaptive steps
 # follow round-off differences in the loads (another rank count picks other steps now and then),
 # fixed steps do not.
@@ -42,8 +55,11 @@ def case_text(numerics="nx = 2048", output="", prefix="", **groups):
     ``prefix = "base."`` gives a sweep file's base.
     """
     values = {**GROUPS, **groups}
-    body = "".join(f"{key} = {value if isinstance(value, str) else repr(value)}\n"
-                   for key, value in values.items() if value is not None)
+    body = "".join(
+        f"{key} = {value if isinstance(value, str) else repr(value)}\n"
+        for key, value in values.items()
+        if value is not None
+    )
     text = f"[{prefix}case]\n{body}[{prefix}numerics]\n{numerics}\n"
     return text + (f"[{prefix}output]\n{output}\n" if output else "")
 
@@ -56,8 +72,11 @@ def physical_text(numerics="", output="", **values):
     without them the text ends inside [physical] and a test may append keys to it.
     """
     values = {**PHYSICAL_VALUES, **values}
-    body = "".join(f"{key} = {value if isinstance(value, str) else repr(value)}\n"
-                   for key, value in values.items() if value is not None)
+    body = "".join(
+        f"{key} = {value if isinstance(value, str) else repr(value)}\n"
+        for key, value in values.items()
+        if value is not None
+    )
     text = f"[physical]\n{body}"
     text += f"[numerics]\n{numerics}\n" if numerics else ""
     return text + (f"[output]\n{output}\n" if output else "")

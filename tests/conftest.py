@@ -1,4 +1,5 @@
 """Shared helpers: a small periodic grid with the solver's pieces built on it."""
+
 import atexit
 import os
 import shutil
@@ -15,12 +16,11 @@ os.environ["HPCGFMD_WISDOM"] = os.path.join(_WISDOM_DIR, "fftw-wisdom.json")
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
-
 from mpi4py import MPI  # noqa: E402
 
+from hpcgfmd.model.interface import DugdaleMaugis  # noqa: E402
 from hpcgfmd.parallel.domain import Domain  # noqa: E402
 from hpcgfmd.parallel.fft import plan_real_fft  # noqa: E402
-from hpcgfmd.model.interface import DugdaleMaugis  # noqa: E402
 from hpcgfmd.solvers.cg import ConstrainedCG  # noqa: E402
 
 
@@ -36,8 +36,9 @@ class Grid:
         self.domain = Domain(MPI.COMM_SELF, n, cell, self.fft.x_blocks)
 
     def solver(self, sigma_a=0.0, dmax=1.0, tolerance=1e-10, scale=1.0, max_iterations=5000):
-        return ConstrainedCG(self.domain, self.fft, DugdaleMaugis(sigma_a, dmax), tolerance,
-                             max_iterations, scale)
+        return ConstrainedCG(
+            self.domain, self.fft, DugdaleMaugis(sigma_a, dmax), tolerance, max_iterations, scale
+        )
 
 
 @pytest.fixture

@@ -20,6 +20,7 @@ Teardown cancels the jobs still in the queue, stops the three daemons by the pid
 files (SIGTERM, then SIGKILL after a grace period) and removes the temporary directory, which
 it created (HPCGFMD_KEEP_SLURM=1 keeps it, with the logs); nothing else is touched.
 """
+
 from __future__ import annotations
 
 import os
@@ -33,11 +34,22 @@ from pathlib import Path
 
 DAEMONS = ("munged", "slurmctld", "slurmd")
 CLIENTS = ("sbatch", "scontrol", "sinfo", "squeue", "scancel", "srun")
-INSTALL_HINT = ("install them with `bash scripts/setup.sh` (apt packages slurm-wlm munge;"
-                " Debian 12: SLURM 22.05)")
+INSTALL_HINT = (
+    "install them with `bash scripts/setup.sh` (apt packages slurm-wlm munge;"
+    " Debian 12: SLURM 22.05)"
+)
 # Job states after which a job does not change any more (JobState= of scontrol).
-FINAL_STATES = {"COMPLETED", "FAILED", "CANCELLED", "TIMEOUT", "NODE_FAIL", "PREEMPTED",
-                "OUT_OF_MEMORY", "BOOT_FAIL", "DEADLINE"}
+FINAL_STATES = {
+    "COMPLETED",
+    "FAILED",
+    "CANCELLED",
+    "TIMEOUT",
+    "NODE_FAIL",
+    "PREEMPTED",
+    "OUT_OF_MEMORY",
+    "BOOT_FAIL",
+    "DEADLINE",
+}
 
 
 class ClusterError(RuntimeError):
@@ -93,25 +105,33 @@ class SlurmCluster:
         self.conf = self.root / "slurm.conf"
         self.munge_dir = self.root / "munge"
         self.log_dir = self.root / "log"
-        self.pid_files = {"munged": self.munge_dir / "munged.pid",
-                          "slurmctld": self.root / "run" / "slurmctld.pid",
-                          "slurmd": self.root / "run" / "slurmd.pid"}
-        self.logs = {"munged": self.log_dir / "munged.log",
-                     "slurmctld": self.log_dir / "slurmctld.log",
-                     "slurmd": self.log_dir / "slurmd.log"}
+        self.pid_files = {
+            "munged": self.munge_dir / "munged.pid",
+            "slurmctld": self.root / "run" / "slurmctld.pid",
+            "slurmd": self.root / "run" / "slurmd.pid",
+        }
+        self.logs = {
+            "munged": self.log_dir / "munged.log",
+            "slurmctld": self.log_dir / "slurmctld.log",
+            "slurmd": self.log_dir / "slurmd.log",
+        }
         self.started = []  # daemons whose pid files this harness owns, in start order
         self.env = dict(client_environment(), SLURM_CONF=str(self.conf))
 
     # --- set-up -------------------------------------------------------------------------------
     def check_installed(self):
-        missing = [name for name in DAEMONS + CLIENTS if shutil.which(name, path=_sbin_path())
-                   is None]
+        missing = [
+            name for name in DAEMONS + CLIENTS if shutil.which(name, path=_sbin_path()) is None
+        ]
         if missing:
-            raise ClusterError(f"SLURM/munge programs not found: {', '.join(missing)}; "
-                               + INSTALL_HINT)
+            raise ClusterError(
+                f"SLURM/munge programs not found: {', '.join(missing)}; " + INSTALL_HINT
+            )
         if os.geteuid() != 0:
-            raise ClusterError("the private SLURM cluster needs root (slurmd launches the job"
-                               f" steps, SlurmUser=root); running as uid {os.geteuid()}")
+            raise ClusterError(
+                "the private SLURM cluster needs root (slurmd launches the job"
+                f" steps, SlurmUser=root); running as uid {os.geteuid()}"
+            )
 
     def _node_line(self):
         """The NodeName line from ``slurmd -C`` (this machine as slurmd sees it), memory capped.
@@ -121,8 +141,9 @@ class SlurmCluster:
         """
         detected = {}
         try:
-            out = subprocess.run([_which("slurmd"), "-C"], capture_output=True, text=True,
-                                 timeout=30, env=self.env).stdout
+            out = subprocess.run(
+                [_which("slurmd"), "-C"], capture_output=True, text=True, timeout=30, env=self.env
+            ).stdout
             first = out.splitlines()[0] if out.strip() else ""
             detected = dict(item.split("=", 1) for item in first.split() if "=" in item)
         except (OSError, subprocess.SubprocessError, ValueError):
@@ -153,13 +174,13 @@ SlurmUser=root
 SlurmdUser=root
 AuthType=auth/munge
 CredType=cred/munge
-AuthInfo=socket={self.munge_dir / 'munge.socket'}
-StateSaveLocation={r / 'state'}
-SlurmdSpoolDir={r / 'spool'}
-SlurmctldPidFile={self.pid_files['slurmctld']}
-SlurmdPidFile={self.pid_files['slurmd']}
-SlurmctldLogFile={self.logs['slurmctld']}
-SlurmdLogFile={self.logs['slurmd']}
+AuthInfo=socket={self.munge_dir / "munge.socket"}
+StateSaveLocation={r / "state"}
+SlurmdSpoolDir={r / "spool"}
+SlurmctldPidFile={self.pid_files["slurmctld"]}
+SlurmdPidFile={self.pid_files["slurmd"]}
+SlurmctldLogFile={self.logs["slurmctld"]}
+SlurmdLogFile={self.logs["slurmd"]}
 SlurmctldDebug=info
 SlurmdDebug=info
 PlugStackConfig={plugstack}
@@ -197,25 +218,37 @@ PartitionName=test Nodes={self.host} Default=YES MaxTime=INFINITE State=UP OverS
         fd = os.open(key, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
         with os.fdopen(fd, "wb") as f:
             f.write(os.urandom(1024))
-        self._start("munged", [
-            _which("munged"), f"--socket={self.munge_dir / 'munge.socket'}",
-            f"--key-file={key}", f"--pid-file={self.pid_files['munged']}",
-            f"--log-file={self.logs['munged']}", f"--seed-file={self.munge_dir / 'munged.seed'}"])
+        self._start(
+            "munged",
+            [
+                _which("munged"),
+                f"--socket={self.munge_dir / 'munge.socket'}",
+                f"--key-file={key}",
+                f"--pid-file={self.pid_files['munged']}",
+                f"--log-file={self.logs['munged']}",
+                f"--seed-file={self.munge_dir / 'munged.seed'}",
+            ],
+        )
 
     def _start(self, name, argv):
         """Start a daemon that forks into the background and wait for its pid file."""
-        done = subprocess.run(argv, capture_output=True, text=True, timeout=60, env=self.env,
-                              stdin=subprocess.DEVNULL)
+        done = subprocess.run(
+            argv, capture_output=True, text=True, timeout=60, env=self.env, stdin=subprocess.DEVNULL
+        )
         if done.returncode != 0:
-            raise ClusterError(f"{name} did not start (status {done.returncode}): "
-                               f"{done.stderr.strip()} {done.stdout.strip()}\n{name} log:\n"
-                               + _tail(self.logs[name]))
+            raise ClusterError(
+                f"{name} did not start (status {done.returncode}): "
+                f"{done.stderr.strip()} {done.stdout.strip()}\n{name} log:\n"
+                + _tail(self.logs[name])
+            )
         self.started.append(name)  # from here on teardown stops it (once its pid file exists)
         deadline = time.monotonic() + 30
         while self._pid(name) is None:
             if time.monotonic() > deadline:
-                raise ClusterError(f"{name} wrote no pid file {self.pid_files[name]}\n"
-                                   f"{name} log:\n" + _tail(self.logs[name]))
+                raise ClusterError(
+                    f"{name} wrote no pid file {self.pid_files[name]}\n"
+                    f"{name} log:\n" + _tail(self.logs[name])
+                )
             time.sleep(0.1)
 
     def start(self, timeout=60.0):
@@ -229,17 +262,24 @@ PartitionName=test Nodes={self.host} Default=YES MaxTime=INFINITE State=UP OverS
         deadline = time.monotonic() + timeout
         state = ""
         while time.monotonic() < deadline:
-            done = subprocess.run(["sinfo", "-h", "-N", "-n", self.host, "-o", "%T"],
-                                  capture_output=True, text=True, timeout=30, env=self.env)
-            state = (done.stdout.strip() or done.stderr.strip())
+            done = subprocess.run(
+                ["sinfo", "-h", "-N", "-n", self.host, "-o", "%T"],
+                capture_output=True,
+                text=True,
+                timeout=30,
+                env=self.env,
+            )
+            state = done.stdout.strip() or done.stderr.strip()
             if done.returncode == 0 and state == "idle":
                 return self
             for name in self.started:
                 if not self._alive(name):
                     raise ClusterError(f"{name} died during start-up\n" + self.diagnostics())
             time.sleep(0.5)
-        raise ClusterError(f"node {self.host} not idle after {timeout:.0f} s (sinfo: {state!r})\n"
-                           + self.diagnostics())
+        raise ClusterError(
+            f"node {self.host} not idle after {timeout:.0f} s (sinfo: {state!r})\n"
+            + self.diagnostics()
+        )
 
     # --- teardown -----------------------------------------------------------------------------
     def _pid(self, name):
@@ -260,9 +300,10 @@ PartitionName=test Nodes={self.host} Default=YES MaxTime=INFINITE State=UP OverS
 
     def _cancel_all(self, timeout=20.0):
         """Cancel every job of this cluster and wait until none runs (steps die with them)."""
+
         def run(*argv):
-            return subprocess.run(argv, capture_output=True, text=True, timeout=30,
-                                  env=self.env)
+            return subprocess.run(argv, capture_output=True, text=True, timeout=30, env=self.env)
+
         try:
             run("scancel", "--user=root")
             deadline = time.monotonic() + timeout
@@ -300,11 +341,14 @@ PartitionName=test Nodes={self.host} Default=YES MaxTime=INFINITE State=UP OverS
     def run(self, *argv, check=True, timeout=60, **kwargs):
         """A client command (sbatch, scontrol, ...) against this cluster."""
         kwargs.setdefault("env", self.env)
-        done = subprocess.run([str(a) for a in argv], capture_output=True, text=True,
-                              timeout=timeout, **kwargs)
+        done = subprocess.run(
+            [str(a) for a in argv], capture_output=True, text=True, timeout=timeout, **kwargs
+        )
         if check and done.returncode != 0:
-            raise ClusterError(f"{' '.join(map(str, argv))}: status {done.returncode}:"
-                               f" {done.stderr.strip()}\n" + self.diagnostics())
+            raise ClusterError(
+                f"{' '.join(map(str, argv))}: status {done.returncode}:"
+                f" {done.stderr.strip()}\n" + self.diagnostics()
+            )
         return done
 
     def sbatch(self, *argv, env=None, cwd=None):
@@ -341,23 +385,44 @@ PartitionName=test Nodes={self.host} Default=YES MaxTime=INFINITE State=UP OverS
             if records and all(r.get("JobState") in states for r in records):
                 return records
             time.sleep(poll)
-        raise ClusterError(f"job {job_id} not in {sorted(states)} after {timeout:.0f} s: "
-                           + "; ".join(f"{r.get('JobId')}={r.get('JobState')}"
-                                       f" ({r.get('Reason')})" for r in records)
-                           + "\n" + self.diagnostics(job_id))
+        raise ClusterError(
+            f"job {job_id} not in {sorted(states)} after {timeout:.0f} s: "
+            + "; ".join(
+                f"{r.get('JobId')}={r.get('JobState')} ({r.get('Reason')})" for r in records
+            )
+            + "\n"
+            + self.diagnostics(job_id)
+        )
 
     def diagnostics(self, *job_ids, lines=40):
         """Job records, their output files and the daemon log tails, for assertion messages."""
         parts = []
         for job_id in job_ids:
             for record in self.jobs(job_id):
-                parts.append("scontrol: " + " ".join(f"{k}={record.get(k)}" for k in (
-                    "JobId", "ArrayTaskId", "JobState", "Reason", "ExitCode", "RunTime",
-                    "Command", "WorkDir", "StdOut")))
+                parts.append(
+                    "scontrol: "
+                    + " ".join(
+                        f"{k}={record.get(k)}"
+                        for k in (
+                            "JobId",
+                            "ArrayTaskId",
+                            "JobState",
+                            "Reason",
+                            "ExitCode",
+                            "RunTime",
+                            "Command",
+                            "WorkDir",
+                            "StdOut",
+                        )
+                    )
+                )
                 for key in ("StdOut", "StdErr"):
                     path = record.get(key)
-                    if path and os.path.isfile(path) and (key == "StdOut"
-                                                          or path != record.get("StdOut")):
+                    if (
+                        path
+                        and os.path.isfile(path)
+                        and (key == "StdOut" or path != record.get("StdOut"))
+                    ):
                         parts.append(f"--- {path} ---\n{_tail(path, lines * 2)}")
         for name in ("slurmctld", "slurmd"):
             parts.append(f"--- {self.logs[name]} (tail) ---\n{_tail(self.logs[name], lines)}")

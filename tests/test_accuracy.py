@@ -3,22 +3,21 @@ model the knob inverts, evaluated forward (docs/numerics.md, "The accuracy knob"
 factor and the fast widening where the two regimes meet and at the glassy zone's width; and
 runs at an accuracy against converged runs of the same case (the laws' own reference: their
 constants are measured, docs/results.md)."""
+
 import math
 
 import numpy as np
 import pytest
 
+from cases import case_text, pull_off_run
+from hpcgfmd.case import parse_case
+from hpcgfmd.errors import CaseError
 from hpcgfmd.model import accuracy, theory
 from hpcgfmd.model.grid import grid_label, smallest_grid
-from hpcgfmd.errors import CaseError
-from hpcgfmd.case import parse_case
-
-from cases import case_text, pull_off_run
 
 # lambda0 = 1, k = 0.1, V_z = 0.1 (chi_ve / k = 1) at h0/R = 0.1, L = 8 sqrt(2 R h0): a
 # creeping retraction, whose pull-off was 7.2e-3 off on the elastic law's grid (w/dx = 4.1)
-CREEPING = dict(maugis=1.0, modulus_ratio=0.1, velocity=0.1, depth=0.1, cell=3.578,
-                adhesion=5e-5)
+CREEPING = dict(maugis=1.0, modulus_ratio=0.1, velocity=0.1, depth=0.1, cell=3.578, adhesion=5e-5)
 # every size the knob may choose, f 2^a with f = 1, 3, 9 (hpcgfmd.model.grid)
 SIZES = sorted({f * 2**a for f in (1, 3, 9) for a in range(1, 40)})
 
@@ -29,11 +28,16 @@ def predicted_errors(case, nx):
     taken over the creep factor and times the fast widening, and the contact's staircase
     CONTACT_ERROR dx / sqrt(2 R h0) in the load-area curve."""
     dx = case.cell / nx
-    points = (case.zone_width / dx
-              * accuracy.fast_widening(case.chi_ve, case.modulus_ratio, case.maugis)
-              / accuracy.creep_factor(case.chi_ve, case.modulus_ratio))
-    return (accuracy.GRID_ERROR * points ** -accuracy.GRID_ORDER,
-            accuracy.CONTACT_ERROR * dx / math.sqrt(2.0 * case.depth))
+    points = (
+        case.zone_width
+        / dx
+        * accuracy.fast_widening(case.chi_ve, case.modulus_ratio, case.maugis)
+        / accuracy.creep_factor(case.chi_ve, case.modulus_ratio)
+    )
+    return (
+        accuracy.GRID_ERROR * points**-accuracy.GRID_ORDER,
+        accuracy.CONTACT_ERROR * dx / math.sqrt(2.0 * case.depth),
+    )
 
 
 def assert_smallest_grid_meeting_the_shares(case):
@@ -46,8 +50,7 @@ def assert_smallest_grid_meeting_the_shares(case):
     errors = predicted_errors(case, nx)
     assert all(error <= share * (1 + 1e-12) for error, share in zip(errors, shares)), errors
     smaller = max(size for size in SIZES if size < nx)
-    missed = tuple(error > share for error, share in
-                   zip(predicted_errors(case, smaller), shares))
+    missed = tuple(error > share for error, share in zip(predicted_errors(case, smaller), shares))
     assert any(missed), (nx, smaller)
     return missed
 
@@ -68,8 +71,7 @@ def test_creep_factor_and_fast_widening_meet_continuously_where_the_regimes_meet
         # and the two meet continuously (both 1) where the regimes meet
         meet = accuracy.CREEP_RATE * k
         assert accuracy.creep_factor(meet * (1 - 1e-9), k) == pytest.approx(1.0, abs=1e-9)
-        assert accuracy.fast_widening(meet * (1 + 1e-9), k, lambda0) == pytest.approx(
-            1.0, abs=1e-9)
+        assert accuracy.fast_widening(meet * (1 + 1e-9), k, lambda0) == pytest.approx(1.0, abs=1e-9)
         # at most CREEP_CAP times the points, reached by the slowest
         assert creep.max() == accuracy.CREEP_CAP
 
@@ -79,8 +81,11 @@ def test_the_fast_widening_is_at_most_the_glassy_zone():
     # = lambda0 k^(2/3) ((M20) with Einf, (M21)) on beta_inf = k^(1/3) beta, is 1/k times
     # the relaxed one. The fastest retractions reach it.
     for k, lambda0 in ((0.5, 7.0), (0.1, 7.0), (0.01, 30.0)):
-        glassy = (k ** (1 / 3) * theory.cohesive_width(lambda0 * k ** (2 / 3))
-                  / theory.cohesive_width(lambda0))
+        glassy = (
+            k ** (1 / 3)
+            * theory.cohesive_width(lambda0 * k ** (2 / 3))
+            / theory.cohesive_width(lambda0)
+        )
         assert accuracy.fast_widening(1e12, k, lambda0) == pytest.approx(glassy, rel=1e-12)
         assert 1.0 < accuracy.fast_widening(100 * accuracy.CREEP_RATE * k, k, lambda0) <= glassy
     # a creeping retraction and the paper's default case (chi_ve / k = 15, 220.5)
@@ -93,22 +98,40 @@ def test_the_fast_widening_is_at_most_the_glassy_zone():
 
 def test_fast_grid_resolves_the_zone_over_the_widening():
     # lambda0 = 7, V_z = 4.5: the widened zone sets the grid (9x2^13 without the widening)
-    case = parse_case(case_text("accuracy = 5e-3", maugis=7.0, modulus_ratio=0.1,
-                                velocity=4.5, depth=0.1, cell=10.0, adhesion=5e-5))
+    case = parse_case(
+        case_text(
+            "accuracy = 5e-3",
+            maugis=7.0,
+            modulus_ratio=0.1,
+            velocity=4.5,
+            depth=0.1,
+            cell=10.0,
+            adhesion=5e-5,
+        )
+    )
     assert assert_smallest_grid_meeting_the_shares(case) == (True, False)
-    relaxed = parse_case(case_text("accuracy = 5e-3", maugis=7.0, modulus_ratio=1.0,
-                                   velocity=4.5, depth=0.1, cell=10.0, adhesion=5e-5))
+    relaxed = parse_case(
+        case_text(
+            "accuracy = 5e-3",
+            maugis=7.0,
+            modulus_ratio=1.0,
+            velocity=4.5,
+            depth=0.1,
+            cell=10.0,
+            adhesion=5e-5,
+        )
+    )
     assert relaxed.numerics.nx > 4 * case.numerics.nx
-    assert accuracy.zone_points(5e-3, case.chi_ve, case.modulus_ratio, case.maugis,
-                                widen=False) == accuracy.zone_points(5e-3)
+    assert accuracy.zone_points(
+        5e-3, case.chi_ve, case.modulus_ratio, case.maugis, widen=False
+    ) == accuracy.zone_points(5e-3)
 
 
 def test_a_given_grid_must_resolve_the_widened_zone():
     # lambda0 = 14, V_z = 0.9 (widening 4.45): the knob's 2^16 nodes hold 0.96 points
     # across the relaxed w, 4.3 across the widened zone; a given nx is held to one point
     # across the latter, as the knob's grids resolve it
-    groups = dict(maugis=14.0, modulus_ratio=0.1, velocity=0.9, depth=0.1, cell=10.0,
-                  adhesion=5e-5)
+    groups = dict(maugis=14.0, modulus_ratio=0.1, velocity=0.9, depth=0.1, cell=10.0, adhesion=5e-5)
     chosen = parse_case(case_text("accuracy = 5e-3", **groups))
     assert chosen.numerics.nx == 65536 and 0.9 < chosen.zone_width / chosen.dx < 1.0
     assert parse_case(case_text("nx = 65536", **groups)).dx == chosen.dx
@@ -133,17 +156,38 @@ def test_grid_resolves_the_contact_where_the_zone_is_wide():
     # lambda0 = 1 at h0/R = 0.02: w is a seventh of sqrt(2 R h0); the contact sets the grid,
     # and the zone's predicted error is a thirtieth of its share there (over 5 times its
     # points across w)
-    case = parse_case(case_text("accuracy = 1e-2", maugis=1.0, modulus_ratio=0.1,
-                                velocity=1.0, depth=0.02, cell=1.6, adhesion=5e-5))
+    case = parse_case(
+        case_text(
+            "accuracy = 1e-2",
+            maugis=1.0,
+            modulus_ratio=0.1,
+            velocity=1.0,
+            depth=0.02,
+            cell=1.6,
+            adhesion=5e-5,
+        )
+    )
     assert assert_smallest_grid_meeting_the_shares(case) == (False, True)
     assert predicted_errors(case, case.numerics.nx)[0] < accuracy.GRID_SHARE * 1e-2 / 30
     # where the zone sets the grid the contact rule changes nothing: the paper's lambda0 = 7
     # at h0/R = 0.1, slow at 1e-3 and fast at 5e-3; the fast one's zone, widened 6 times,
     # leaves the grid to the contact at 1e-3
-    for velocity, knob, zone_sets_it in ((0.045, 1e-3, True), (9.0, 5e-3, True),
-                                         (9.0, 1e-3, False)):
-        paper = parse_case(case_text(f"accuracy = {knob}", maugis=7.0, modulus_ratio=0.1,
-                                     velocity=velocity, depth=0.1, cell=10.0, adhesion=5e-5))
+    for velocity, knob, zone_sets_it in (
+        (0.045, 1e-3, True),
+        (9.0, 5e-3, True),
+        (9.0, 1e-3, False),
+    ):
+        paper = parse_case(
+            case_text(
+                f"accuracy = {knob}",
+                maugis=7.0,
+                modulus_ratio=0.1,
+                velocity=velocity,
+                depth=0.1,
+                cell=10.0,
+                adhesion=5e-5,
+            )
+        )
         missed = assert_smallest_grid_meeting_the_shares(paper)
         assert missed == (zone_sets_it, not zone_sets_it), (velocity, knob)
 
@@ -156,8 +200,10 @@ def test_automatic_nx_is_the_smallest_grid_size_meeting_the_grid_s_share(knob):
 
 
 def test_finer_accuracy_asks_for_more_work():
-    coarse, fine = (parse_case(case_text(f"accuracy = {a}", maugis=1.0,
-                                         modulus_ratio=1.0)).numerics for a in (1e-2, 1e-3))
+    coarse, fine = (
+        parse_case(case_text(f"accuracy = {a}", maugis=1.0, modulus_ratio=1.0)).numerics
+        for a in (1e-2, 1e-3)
+    )
     assert fine.nx > coarse.nx
     assert fine.edge_fraction < coarse.edge_fraction
     assert fine.load_tolerance < coarse.load_tolerance
@@ -175,8 +221,18 @@ def test_load_area_curve_meets_the_accuracy_where_the_contact_sets_the_grid():
     from hpcgfmd.studies import benchmark
 
     def curve(numerics):
-        return benchmark.run(case_text(numerics, maugis=1.0, modulus_ratio=0.1, velocity=1.0,
-                                       depth=0.02, cell=1.6, adhesion=5e-5), MPI.COMM_SELF)
+        return benchmark.run(
+            case_text(
+                numerics,
+                maugis=1.0,
+                modulus_ratio=0.1,
+                velocity=1.0,
+                depth=0.02,
+                cell=1.6,
+                adhesion=5e-5,
+            ),
+            MPI.COMM_SELF,
+        )
 
     reference = curve("accuracy = 1e-3")
     assert benchmark.curve_error(reference, curve("accuracy = 1e-2")) <= 1e-2 / 4
@@ -201,11 +257,16 @@ def test_automatic_grid_sizes_are_the_smallest_of_their_family():
         want = min(s for s in sizes if s >= max(need, 64))
         assert smallest_grid(math.log2(need)) == want, need
     assert [grid_label(n) for n in (131072, 73728, 98304, 100)] == [
-        "2^17", "9x2^13", "3x2^15", "100"]
+        "2^17",
+        "9x2^13",
+        "3x2^15",
+        "100",
+    ]
 
 
 def test_study_references_skip_the_widening_and_runs_are_reused_by_their_code_only(
-        tmp_path, monkeypatch):
+    tmp_path, monkeypatch
+):
     import numpy as np
     from mpi4py import MPI
 
@@ -220,8 +281,10 @@ def test_study_references_skip_the_widening_and_runs_are_reused_by_their_code_on
 
     def fake_run(text, comm, progress=None):
         made.append(text)
-        return {**{key: np.zeros(2) for key in ("time", "lbar", "abar", "dt")},
-                **{key: 0.0 for key in benchmark.SCALARS}}
+        return {
+            **{key: np.zeros(2) for key in ("time", "lbar", "abar", "dt")},
+            **{key: 0.0 for key in benchmark.SCALARS},
+        }
 
     monkeypatch.setattr(benchmark, "run", fake_run)
     text = accuracy_study.case_text(spec, 5e-3, None, 5e-5)
@@ -244,9 +307,13 @@ def test_a_study_keys_its_runs_by_the_code_it_started_with(tmp_path, monkeypatch
 
     def fake_run(text, comm, progress=None):
         made.append(text)
-        return {"time": np.array([0.0, 1.0]), "lbar": np.array([-1.0, -2.0]),
-                "abar": np.array([2.0, 1.0]), "dt": np.ones(2),
-                **{key: 0.0 for key in benchmark.SCALARS}}
+        return {
+            "time": np.array([0.0, 1.0]),
+            "lbar": np.array([-1.0, -2.0]),
+            "abar": np.array([2.0, 1.0]),
+            "dt": np.ones(2),
+            **{key: 0.0 for key in benchmark.SCALARS},
+        }
 
     versions = iter(range(100))
     monkeypatch.setattr(benchmark, "run", fake_run)

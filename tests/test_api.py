@@ -1,5 +1,6 @@
 """The Python API (hpcgfmd.Case, run, open), the netCDF view of the result file (xarray with
 h5netcdf), files of the older layout, the solver registry, and the command line's logging."""
+
 import os
 import subprocess
 import sys
@@ -10,11 +11,10 @@ import numpy as np
 import pytest
 
 import hpcgfmd
-from hpcgfmd.errors import CaseError
-from hpcgfmd.case import parse_case
-from hpcgfmd.solvers import registered
-
 from cases import GROUPS, case_text, physical_text
+from hpcgfmd.case import parse_case
+from hpcgfmd.errors import CaseError
+from hpcgfmd.solvers import registered
 
 REPO = Path(__file__).resolve().parents[1]
 ELASTIC = {**GROUPS, "maugis": 1.0, "modulus_ratio": 1.0}  # fast: about 80 steps at nx = 1024
@@ -24,8 +24,11 @@ ELASTIC = {**GROUPS, "maugis": 1.0, "modulus_ratio": 1.0}  # fast: about 80 step
 def written(tmp_path_factory):
     """A small elastic case run through the API into a file, with snapshots."""
     path = tmp_path_factory.mktemp("api") / "case.h5"
-    case = hpcgfmd.Case(**ELASTIC, numerics={"nx": 1024},
-                        output={"snapshot_contact_widths": [0.1], "snapshot_zero_load": True})
+    case = hpcgfmd.Case(
+        **ELASTIC,
+        numerics={"nx": 1024},
+        output={"snapshot_contact_widths": [0.1], "snapshot_zero_load": True},
+    )
     result = hpcgfmd.run(case, path, planner_effort="FFTW_ESTIMATE")
     return path, case, result
 
@@ -45,14 +48,17 @@ def test_case_from_a_path(tmp_path):
         assert hpcgfmd.Case.from_toml(source).numerics.nx == 4096
 
 
-@pytest.mark.parametrize("change, words", [
-    ({"maugis": -1.0}, ["[case] maugis", "-1.0", "> 0"]),
-    ({"modulus_ratio": 2.0}, ["modulus_ratio", "2.0", "(0, 1]"]),
-    ({"numerics": {"nx": 63}}, ["[numerics] nx", "63", "even integer"]),
-    ({"output": {"checkpoint_steps": -2}}, ["checkpoint_steps", "-2"]),
-    # so fast that a step's square underflows (the SLS step divides by it)
-    ({"velocity": 1e160}, ["[numerics] dt (default)", "at least 1.49e-154"]),
-])
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        ({"maugis": -1.0}, ["[case] maugis", "-1.0", "> 0"]),
+        ({"modulus_ratio": 2.0}, ["modulus_ratio", "2.0", "(0, 1]"]),
+        ({"numerics": {"nx": 63}}, ["[numerics] nx", "63", "even integer"]),
+        ({"output": {"checkpoint_steps": -2}}, ["checkpoint_steps", "-2"]),
+        # so fast that a step's square underflows (the SLS step divides by it)
+        ({"velocity": 1e160}, ["[numerics] dt (default)", "at least 1.49e-154"]),
+    ],
+)
 def test_case_keywords_are_validated_like_the_file(change, words):
     with pytest.raises(CaseError) as err:
         hpcgfmd.Case(**{**GROUPS, **change})
@@ -63,6 +69,7 @@ def test_run_in_memory_leaves_nothing_and_matches_the_file(written, tmp_path, mo
     path, case, on_file = written
     monkeypatch.setenv("TMPDIR", str(tmp_path))  # where the temporary file goes
     import tempfile
+
     monkeypatch.setattr(tempfile, "tempdir", None)
     in_memory = hpcgfmd.run(case, planner_effort="FFTW_ESTIMATE")
     assert in_memory.path is None and list(tmp_path.iterdir()) == []
@@ -105,13 +112,22 @@ def test_xarray_opens_series_and_snapshots_with_coordinates(written):
 
 def test_physical_units_in_si(tmp_path):
     xarray = pytest.importorskip("xarray")
-    text = physical_text("nx = 1024", modulus_instantaneous="1e6", relaxation_time="2.0",
-                         work_of_adhesion="0.1", interaction_range="1e-6", depth="3e-5",
-                         cell_length="2e-3")
+    text = physical_text(
+        "nx = 1024",
+        modulus_instantaneous="1e6",
+        relaxation_time="2.0",
+        work_of_adhesion="0.1",
+        interaction_range="1e-6",
+        depth="3e-5",
+        cell_length="2e-3",
+    )
     hpcgfmd.run(text, tmp_path / "p.h5", planner_effort="FFTW_ESTIMATE")
     series = xarray.open_dataset(tmp_path / "p.h5", group="series", engine="h5netcdf")
-    assert {name: series[name].attrs["units"] for name in ("time", "load", "indenter")} == \
-        {"time": "s", "load": "N/m", "indenter": "m"}
+    assert {name: series[name].attrs["units"] for name in ("time", "load", "indenter")} == {
+        "time": "s",
+        "load": "N/m",
+        "indenter": "m",
+    }
     series.close()
 
 
@@ -139,18 +155,32 @@ def test_files_of_the_older_layout_stay_readable(written, tmp_path):
     opened = hpcgfmd.open(old)
     np.testing.assert_array_equal(opened.series.load, result.series.load)
     for command in ("info", "plot"):
-        done = subprocess.run([sys.executable, "-m", "hpcgfmd", command, str(old)],
-                              capture_output=True, text=True, timeout=120, cwd=tmp_path)
+        done = subprocess.run(
+            [sys.executable, "-m", "hpcgfmd", command, str(old)],
+            capture_output=True,
+            text=True,
+            timeout=120,
+            cwd=tmp_path,
+        )
         assert done.returncode == 0, done.stderr
-    assert "pull-off" in subprocess.run([sys.executable, "-m", "hpcgfmd", "info", str(old)],
-                                        capture_output=True, text=True).stdout
+    assert (
+        "pull-off"
+        in subprocess.run(
+            [sys.executable, "-m", "hpcgfmd", "info", str(old)], capture_output=True, text=True
+        ).stdout
+    )
     assert (tmp_path / "old.png").stat().st_size > 10000
 
 
 def test_the_example_runs_and_draws(tmp_path):
     png = tmp_path / "example.png"
-    done = subprocess.run([sys.executable, str(REPO / "docs" / "examples" / "retraction.py"),
-                           str(png)], capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    done = subprocess.run(
+        [sys.executable, str(REPO / "docs" / "examples" / "retraction.py"), str(png)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=tmp_path,
+    )
     assert done.returncode == 0, done.stderr
     assert "pull-off Lbar = -6.3" in done.stdout  # the small viscoelastic case, measured -6.3587
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -166,8 +196,10 @@ def test_every_registered_solver_and_its_keys_are_accepted():
     for name in registered():
         keys = {key.name: key.smallest for key in solver_class(name).KEYS}
         assert set(keys) <= set(numerics_keys())
-        numerics = "\n".join([f'solver = "{name}"', "nx = 1024"]
-                              + [f"{key} = {smallest}" for key, smallest in keys.items()])
+        numerics = "\n".join(
+            [f'solver = "{name}"', "nx = 1024"]
+            + [f"{key} = {smallest}" for key, smallest in keys.items()]
+        )
         case = parse_case(case_text(numerics))
         assert case.numerics.solver == name
         assert dict(case.numerics.solver_settings) == keys
@@ -177,9 +209,13 @@ def test_quiet_and_log_file(tmp_path):
     (tmp_path / "c.toml").write_text(case_text("nx = 1024", maugis=1.0, modulus_ratio=1.0))
 
     def run(*options):
-        return subprocess.run([sys.executable, "-m", "hpcgfmd", "run", "c.toml", "--overwrite",
-                               *options], capture_output=True, text=True, timeout=120,
-                              cwd=tmp_path)
+        return subprocess.run(
+            [sys.executable, "-m", "hpcgfmd", "run", "c.toml", "--overwrite", *options],
+            capture_output=True,
+            text=True,
+            timeout=120,
+            cwd=tmp_path,
+        )
 
     loud = run()
     assert loud.returncode == 0 and "finished:" in loud.stdout and "lambda0 = 1" in loud.stdout
@@ -192,11 +228,14 @@ def test_quiet_and_log_file(tmp_path):
     assert "--log" in missing.stderr and "Traceback" not in missing.stderr
 
 
-@pytest.mark.parametrize("change, words", [
-    ({"numerics": 1024}, ["numerics = 1024", "dict", "[numerics]"]),
-    ({"numerics": [("nx", 1024)]}, ["numerics = ", "dict", "[numerics]"]),
-    ({"output": "x.h5"}, ["output = 'x.h5'", "dict", "[output]"]),
-])
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        ({"numerics": 1024}, ["numerics = 1024", "dict", "[numerics]"]),
+        ({"numerics": [("nx", 1024)]}, ["numerics = ", "dict", "[numerics]"]),
+        ({"output": "x.h5"}, ["output = 'x.h5'", "dict", "[output]"]),
+    ],
+)
 def test_settings_that_are_not_tables_are_named(change, words):
     with pytest.raises(CaseError) as err:
         hpcgfmd.Case(**{**GROUPS, **change})
@@ -205,15 +244,21 @@ def test_settings_that_are_not_tables_are_named(change, words):
 
 def test_numpy_values_are_the_numbers_they_hold():
     # a sweep script looping over numpy arrays gives the case of the same Python numbers
-    plain = hpcgfmd.Case(**{**GROUPS, "modulus_ratio": None}, relaxation_moduli=[3.0, 6.0],
-                         relaxation_times=[0.1, 1.45], numerics={"nx": 2048},
-                         output={"snapshot_times": [0.0, 1.0]})
-    numpy = hpcgfmd.Case(**{key: np.float64(value) for key, value in GROUPS.items()
-                            if key != "modulus_ratio"}, modulus_ratio=None,
-                         relaxation_moduli=np.array([3.0, 6.0]),
-                         relaxation_times=np.array([0.1, 1.45]),
-                         numerics={"nx": np.int64(2048)},
-                         output={"snapshot_times": np.array([0.0, 1.0])})
+    plain = hpcgfmd.Case(
+        **{**GROUPS, "modulus_ratio": None},
+        relaxation_moduli=[3.0, 6.0],
+        relaxation_times=[0.1, 1.45],
+        numerics={"nx": 2048},
+        output={"snapshot_times": [0.0, 1.0]},
+    )
+    numpy = hpcgfmd.Case(
+        **{key: np.float64(value) for key, value in GROUPS.items() if key != "modulus_ratio"},
+        modulus_ratio=None,
+        relaxation_moduli=np.array([3.0, 6.0]),
+        relaxation_times=np.array([0.1, 1.45]),
+        numerics={"nx": np.int64(2048)},
+        output={"snapshot_times": np.array([0.0, 1.0])},
+    )
     assert numpy.identity() == plain.identity() and numpy.text == plain.text
     narrow = hpcgfmd.Case(**{**GROUPS, "maugis": np.float32(3.5), "velocity": np.int32(1)})
     assert narrow.maugis == 3.5 and narrow.velocity == 1.0
@@ -235,14 +280,17 @@ def test_an_unreadable_case_file_is_named(tmp_path):
 
 
 def test_run_refuses_outputs_it_cannot_write_before_computing(tmp_path):
+    from mpi4py import MPI
+
     from hpcgfmd.errors import OutputExistsError, UsageError
     from hpcgfmd.storage.lock import acquire_output_lock
-    from mpi4py import MPI
 
     case = hpcgfmd.Case(**ELASTIC, numerics={"nx": 1024})
     quick = {"planner_effort": "FFTW_ESTIMATE"}
-    for path, overwrite, words in [(tmp_path / "none" / "x.h5", False, ["does not exist"]),
-                                   (tmp_path, True, ["is a directory"])]:
+    for path, overwrite, words in [
+        (tmp_path / "none" / "x.h5", False, ["does not exist"]),
+        (tmp_path, True, ["is a directory"]),
+    ]:
         with pytest.raises(UsageError) as err:
             hpcgfmd.run(case, path, overwrite=overwrite, **quick)
         assert str(path) in str(err.value) and all(w in str(err.value) for w in words)
@@ -280,6 +328,7 @@ def test_run_continues_an_interrupted_case_bitwise(tmp_path):
     parts = hpcgfmd.run(case, tmp_path / "parts.h5", **quick)
     assert parts.attrs["finished"] and parts.attrs["steps"] == whole.attrs["steps"] > 20
     for name in ("time", "load", "contact_half_width", "iterations"):
-        np.testing.assert_array_equal(getattr(parts.series, name),
-                                      getattr(whole.series, name), err_msg=name)
+        np.testing.assert_array_equal(
+            getattr(parts.series, name), getattr(whole.series, name), err_msg=name
+        )
     assert not os.path.exists(tmp_path / "parts.checkpoint.h5")

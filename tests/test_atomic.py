@@ -1,4 +1,5 @@
 """hpcgfmd.atomic: a replaced file is its old or its whole new content, never a part."""
+
 import os
 
 import pytest
@@ -9,11 +10,10 @@ from hpcgfmd import atomic
 def test_replacing_keeps_old_content_on_error(tmp_path):
     path = tmp_path / "table.csv"
     path.write_text("old\n")
-    with pytest.raises(RuntimeError):
-        with atomic.replacing(path) as temporary:
-            with open(temporary, "w") as fh:
-                fh.write("half a ta")
-            raise RuntimeError("killed")
+    with pytest.raises(RuntimeError), atomic.replacing(path) as temporary:
+        with open(temporary, "w") as fh:
+            fh.write("half a ta")
+        raise RuntimeError("killed")
     assert path.read_text() == "old\n"
     assert os.listdir(tmp_path) == ["table.csv"]  # no temporary left
 

@@ -6,6 +6,7 @@ the file and what is expected, no traceback, no PNG) and through the Python API
 (:class:`~hpcgfmd.errors.ResultFileError`). A file of a run killed between two appends (series
 one entry longer than ``steps_complete``) is legitimate and still reads.
 """
+
 import ctypes
 import os
 import shutil
@@ -16,11 +17,10 @@ import h5py
 import numpy as np
 import pytest
 
+import cases
 import hpcgfmd
 from hpcgfmd.errors import ResultFileError
 from hpcgfmd.storage.result_file import SERIES
-
-import cases
 
 NAME = "bad.h5"
 
@@ -29,15 +29,22 @@ NAME = "bad.h5"
 def good(tmp_path_factory):
     """A real output file of `python -m hpcgfmd run` (small elastic case, about a second)."""
     directory = tmp_path_factory.mktemp("good")
-    (directory / "case.toml").write_text(cases.case_text("nx = 1024", maugis=1.0,
-                                                         modulus_ratio=1.0))
-    done = subprocess.run([sys.executable, "-m", "hpcgfmd", "run", "case.toml", "-o", "out.h5"],
-                          cwd=directory, capture_output=True, text=True, timeout=300)
+    (directory / "case.toml").write_text(
+        cases.case_text("nx = 1024", maugis=1.0, modulus_ratio=1.0)
+    )
+    done = subprocess.run(
+        [sys.executable, "-m", "hpcgfmd", "run", "case.toml", "-o", "out.h5"],
+        cwd=directory,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stderr
     return directory / "out.h5"
 
 
 # --- the bad files: each builder makes tmp_path / NAME ---------------------------------------
+
 
 def missing(path, good):
     pass
@@ -83,18 +90,23 @@ def series_one_short(path, good):
 
 
 def snapshots_truncated(path, good):
-    _edited(path, good, lambda f, n: f["snapshots/gap"].resize(
-        (int(f["snapshots"].attrs["complete"]) - 1, f["snapshots/x"].shape[0])))
+    _edited(
+        path,
+        good,
+        lambda f, n: f["snapshots/gap"].resize(
+            (int(f["snapshots"].attrs["complete"]) - 1, f["snapshots/x"].shape[0])
+        ),
+    )
 
 
 def cut_short(path, good):
     data = good.read_bytes()
-    path.write_bytes(data[:len(data) // 2])  # HDF5 cannot open it
+    path.write_bytes(data[: len(data) // 2])  # HDF5 cannot open it
 
 
 def cut_short_and_padded(path, good):
     data = good.read_bytes()  # the length HDF5 expects, the second half zeros: it opens, but
-    half = len(data) // 2     # its datasets cannot be read
+    half = len(data) // 2  # its datasets cannot be read
     path.write_bytes(data[:half] + bytes(len(data) - half))
 
 
@@ -141,20 +153,29 @@ def preexec_for(build, path):
     if os.geteuid() != 0:
         return None  # chmod 000 does it
     if not sys.platform.startswith("linux"):
-        pytest.skip("running as root: chmod 000 does not stop root, and dropping"
-                    " CAP_DAC_OVERRIDE needs Linux")
+        pytest.skip(
+            "running as root: chmod 000 does not stop root, and dropping"
+            " CAP_DAC_OVERRIDE needs Linux"
+        )
     try:
-        probe = subprocess.run([sys.executable, "-c", f"open({str(path)!r}, 'rb')"],
-                               preexec_fn=_obey_file_modes, capture_output=True, text=True)
+        probe = subprocess.run(
+            [sys.executable, "-c", f"open({str(path)!r}, 'rb')"],
+            preexec_fn=_obey_file_modes,
+            capture_output=True,
+            text=True,
+        )
     except subprocess.SubprocessError as err:
-        pytest.skip(f"running as root: chmod 000 does not stop root, and CAP_DAC_OVERRIDE"
-                    f" cannot be dropped here ({err})")
+        pytest.skip(
+            f"running as root: chmod 000 does not stop root, and CAP_DAC_OVERRIDE"
+            f" cannot be dropped here ({err})"
+        )
     if "PermissionError" not in probe.stderr:
         pytest.skip("running as root: the file stays readable without CAP_DAC_OVERRIDE")
     return _obey_file_modes
 
 
 # --- the tests --------------------------------------------------------------------------------
+
 
 def check_message(message, path, words):
     assert "\n" not in message.strip() and "Traceback" not in message, message
@@ -168,8 +189,14 @@ def check_message(message, path, words):
 def test_command_refuses_with_one_line_and_status_2(good, tmp_path, build, words, command):
     build(tmp_path / NAME, good)
     preexec = preexec_for(build, tmp_path / NAME)
-    done = subprocess.run([sys.executable, "-m", "hpcgfmd", command, NAME], cwd=tmp_path,
-                          capture_output=True, text=True, timeout=120, preexec_fn=preexec)
+    done = subprocess.run(
+        [sys.executable, "-m", "hpcgfmd", command, NAME],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        preexec_fn=preexec,
+    )
     assert done.returncode == 2, (done.returncode, done.stderr)
     assert len(done.stderr.splitlines()) == 1 and done.stderr.strip(), done.stderr
     check_message(done.stderr, NAME, words)
@@ -187,11 +214,18 @@ def test_open_raises_result_file_error(good, tmp_path, build, words):
             hpcgfmd.open(path)
         message = str(err.value)
     else:  # root reads any file: open it in a child without that capability
-        script = ("import sys, hpcgfmd\nfrom hpcgfmd.errors import ResultFileError\n"
-                  "try:\n    hpcgfmd.open(sys.argv[1])\nexcept ResultFileError as err:\n"
-                  "    print(err)\nelse:\n    sys.exit('no ResultFileError')\n")
-        done = subprocess.run([sys.executable, "-c", script, path], capture_output=True,
-                              text=True, timeout=120, preexec_fn=preexec)
+        script = (
+            "import sys, hpcgfmd\nfrom hpcgfmd.errors import ResultFileError\n"
+            "try:\n    hpcgfmd.open(sys.argv[1])\nexcept ResultFileError as err:\n"
+            "    print(err)\nelse:\n    sys.exit('no ResultFileError')\n"
+        )
+        done = subprocess.run(
+            [sys.executable, "-c", script, path],
+            capture_output=True,
+            text=True,
+            timeout=120,
+            preexec_fn=preexec,
+        )
         assert done.returncode == 0, done.stderr
         message = done.stdout
     check_message(message, path, words)
@@ -211,12 +245,16 @@ def test_run_killed_between_two_appends_still_reads(good, tmp_path):
         f["snapshots/surface"].resize((s + 1, f["snapshots/x"].shape[0]))
     opened = hpcgfmd.open(path)
     for name in SERIES:
-        np.testing.assert_array_equal(getattr(opened.series, name),
-                                      getattr(reference.series, name))
+        np.testing.assert_array_equal(getattr(opened.series, name), getattr(reference.series, name))
     np.testing.assert_array_equal(opened.snapshots.surface, reference.snapshots.surface)
     np.testing.assert_array_equal(opened.snapshots.time, reference.snapshots.time)
     for command in ("info", "plot"):
-        done = subprocess.run([sys.executable, "-m", "hpcgfmd", command, "killed.h5"],
-                              cwd=tmp_path, capture_output=True, text=True, timeout=120)
+        done = subprocess.run(
+            [sys.executable, "-m", "hpcgfmd", command, "killed.h5"],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
         assert done.returncode == 0, done.stderr
     assert (tmp_path / "killed.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -7,6 +7,7 @@ reports is checked against runs made independently of it, through the Python API
 pull-off loads and their errors, and the paper method's extrapolated cost against a full run
 of that method. No timing is checked here (timings belong to the benchmarks).
 """
+
 import csv
 import math
 import os
@@ -21,21 +22,62 @@ import hpcgfmd
 from hpcgfmd.studies import report
 
 MPIRUN = shutil.which("mpirun")
-GROUPS = {"maugis": 3.5, "modulus_ratio": 0.1, "velocity": 1.0, "depth": 0.03, "cell": 2.0,
-          "adhesion": 1e-4}
+GROUPS = {
+    "maugis": 3.5,
+    "modulus_ratio": 0.1,
+    "velocity": 1.0,
+    "depth": 0.03,
+    "cell": 2.0,
+    "adhesion": 1e-4,
+}
 PAPER_E = 100
-SMALL = ["--cases", "3.5:1", "--geometry", "0.03", "2", "1e-4", "--nx", "10", "11",
-         "--paper-equilibration", str(PAPER_E), "--paper-steps", "2"]
+SMALL = [
+    "--cases",
+    "3.5:1",
+    "--geometry",
+    "0.03",
+    "2",
+    "1e-4",
+    "--nx",
+    "10",
+    "11",
+    "--paper-equilibration",
+    str(PAPER_E),
+    "--paper-steps",
+    "2",
+]
 
 
 def bench(tmp_path, ranks, *extra):
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
+    env = dict(
+        os.environ,
+        OMPI_ALLOW_RUN_AS_ROOT="1",
+        OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+        OMPI_MCA_rmaps_base_oversubscribe="1",
+        OPENBLAS_NUM_THREADS="1",
+    )
     launcher = [MPIRUN, "-n", str(ranks)] if ranks > 1 else []
     out = tmp_path / f"sve{ranks}"
-    proc = subprocess.run([*launcher, sys.executable, "-m", "hpcgfmd", "bench", "speed",
-                           *SMALL, "--out", str(out), *extra], capture_output=True,
-                          text=True, timeout=600, env=env, cwd=tmp_path, check=False)
+    proc = subprocess.run(
+        [
+            *launcher,
+            sys.executable,
+            "-m",
+            "hpcgfmd",
+            "bench",
+            "speed",
+            *SMALL,
+            "--out",
+            str(out),
+            *extra,
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env=env,
+        cwd=tmp_path,
+        check=False,
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
     with open(f"{out}.csv") as fh:
         rows = list(csv.DictReader(fh))
@@ -47,11 +89,11 @@ def bench(tmp_path, ranks, *extra):
     table = [line for line in text.splitlines() if line.startswith("|")]
     assert len(table) == len(rows) + 2  # a header line, then one line per row
     assert all(line.count("|") == 13 for line in table)
-    assert [line.split(" | ")[4] for line in table[2:]] == [
-        f"{row['steps']}" for row in rows]
+    assert [line.split(" | ")[4] for line in table[2:]] == [f"{row['steps']}" for row in rows]
     # the small case has no run at 5e-3 on the knob's grid (finer than the reference's)
-    assert text.rstrip().endswith("targets: none judged (no run at accuracy 5e-3 with the"
-                                  " knob's grid)")
+    assert text.rstrip().endswith(
+        "targets: none judged (no run at accuracy 5e-3 with the knob's grid)"
+    )
     assert {row["commit"] for row in rows} == {report.commit() + f" (code {CODE})"}
     return rows
 
@@ -63,8 +105,11 @@ def assert_reported(text, title):
     """``text`` starts with the title, the date, the machine and the commit of this code."""
     lines = text.splitlines()
     assert lines[0].startswith(title), lines[0]
-    assert re.match(r"date \d{4}-\d\d-\d\d \d\d:\d\d UTC; machine .*, load average .*;"
-                    r" commit \S+ \(code [0-9a-f]{16}\)$", lines[1]), lines[1]
+    assert re.match(
+        r"date \d{4}-\d\d-\d\d \d\d:\d\d UTC; machine .*, load average .*;"
+        r" commit \S+ \(code [0-9a-f]{16}\)$",
+        lines[1],
+    ), lines[1]
     assert f"(code {CODE})" in lines[1] and report.machine() in lines[1]
 
 
@@ -88,16 +133,18 @@ def test_pull_off_and_errors_match_independent_runs(serial):
     rows = by_label(serial)
     reference = next(r for r in serial if r["solver"] == "reference")
     # the reference's settings, as its label states them, run again through the API
-    ref = pull_off(edge_fraction=0.25, load_tolerance=5e-4, time_tolerance=2e-4,
-                   tolerance=1e-7).pull_off().lbar
+    ref = (
+        pull_off(edge_fraction=0.25, load_tolerance=5e-4, time_tolerance=2e-4, tolerance=1e-7)
+        .pull_off()
+        .lbar
+    )
     assert float(reference["pulloff_Lbar"]) == pytest.approx(ref, rel=1e-6)
     coarse = pull_off(accuracy=1e-2).pull_off().lbar
     row = rows["accuracy=1e-2"]
     assert float(row["accuracy"]) == 1e-2
     assert float(row["pulloff_Lbar"]) == pytest.approx(coarse, rel=1e-6)
     # the error column is the relative distance of the two independent pull-offs
-    assert float(row["pulloff_error"]) == pytest.approx(abs(coarse - ref) / abs(ref),
-                                                        abs=2e-6)
+    assert float(row["pulloff_error"]) == pytest.approx(abs(coarse - ref) / abs(ref), abs=2e-6)
     # and it means something here: well above the runs' agreement
     assert float(row["pulloff_error"]) > 1e-5
 
@@ -116,7 +163,7 @@ def test_each_accuracy_is_reached_and_costs_more_when_finer(serial):
     # the knob resolves with, 0.056 (dx/w)^2.2 = 2.3e-2 (a fast retraction's zone is wider:
     # numerics.md); measured 2.4e-4
     coarse, fine = (float(rows[label]["pulloff_Lbar"]) for label in ("nx=1024", "accuracy=5e-3"))
-    assert 1e-5 < abs(coarse - fine) / abs(fine) < 0.056 * 1.5 ** -2.2
+    assert 1e-5 < abs(coarse - fine) / abs(fine) < 0.056 * 1.5**-2.2
 
 
 @pytest.mark.slow
@@ -141,9 +188,12 @@ def test_grid_from_the_accuracy_is_the_knobs_and_no_nx_is_given():
 
     geometry = {k: GROUPS[k] for k in ("modulus_ratio", "depth", "cell", "adhesion")}
     cases = auto_grid_cases(3.5, 1.0, geometry)
-    assert [(label, nx) for label, _, nx in cases] == [("1e-2", 2048), ("5e-3", 3072),
-                                                       ("1e-3", 16384)]
-    for (label, text, nx), accuracy in zip(cases, (1e-2, 5e-3, 1e-3)):
+    assert [(label, nx) for label, _, nx in cases] == [
+        ("1e-2", 2048),
+        ("5e-3", 3072),
+        ("1e-3", 16384),
+    ]
+    for (_label, text, nx), accuracy in zip(cases, (1e-2, 5e-3, 1e-3)):
         case = parse_case(text)
         assert case.numerics.nx_automatic  # the grid is left to the knob
         assert case.numerics.accuracy == accuracy
@@ -157,8 +207,7 @@ def test_paper_method_extrapolation_against_a_full_run(serial):
     rows = by_label(serial)
     paper = rows[f"E={PAPER_E}"]
     assert paper["extrapolated"] == "True"
-    full = pull_off(solver="paper", step_control="fixed", dt=0.02,
-                    equilibration_steps=PAPER_E)
+    full = pull_off(solver="paper", step_control="fixed", dt=0.02, equilibration_steps=PAPER_E)
     # steps and transforms of the whole run (preload and per-step extras included) within 5 %
     assert int(paper["steps"]) == pytest.approx(full.attrs["steps"], rel=0.05)
     assert int(paper["fft_pairs"]) == pytest.approx(full.attrs["fft_pairs"], rel=0.05)
@@ -175,8 +224,10 @@ def test_paper_time_error_rows_are_its_fixed_steps_solved_exactly(serial):
     # retraction, solved by CG, against the reference; run again here through the API.
     reference = float(next(r for r in serial if r["solver"] == "reference")["pulloff_Lbar"])
     rows = {r["label"]: r for r in serial if r["solver"] == "paper-time"}
-    assert sorted(rows) == ["time error at dt=tau/100 (CG, fixed steps)",
-                            "time error at dt=tau/50 (CG, fixed steps)"]
+    assert sorted(rows) == [
+        "time error at dt=tau/100 (CG, fixed steps)",
+        "time error at dt=tau/50 (CG, fixed steps)",
+    ]
     errors = []
     for division in (50, 100):
         row = rows[f"time error at dt=tau/{division} (CG, fixed steps)"]
@@ -186,12 +237,16 @@ def test_paper_time_error_rows_are_its_fixed_steps_solved_exactly(serial):
         assert int(row["steps"]) == run.attrs["steps"]
         # (the same plans, from the session's wisdom; the tolerance leaves room for others)
         assert float(row["iterations_per_step"]) == pytest.approx(
-            run.attrs["iterations"] / run.attrs["steps"], rel=1e-2)
+            run.attrs["iterations"] / run.attrs["steps"], rel=1e-2
+        )
         errors.append(abs(value / reference - 1))
         assert float(row["pulloff_error"]) == pytest.approx(errors[-1], abs=2e-6)
     # the paper's rows say that their error is the lag alone
-    assert all("equilibration lag alone" in r["label"] for r in serial
-               if r["solver"] == "paper" and "authors" not in r["label"])
+    assert all(
+        "equilibration lag alone" in r["label"]
+        for r in serial
+        if r["solver"] == "paper" and "authors" not in r["label"]
+    )
 
 
 @pytest.mark.slow
@@ -217,23 +272,41 @@ def test_two_ranks_same_numbers(serial, tmp_path):
         # crossings make every history estimate noisy), not to round-off (fixed steps do:
         # tests/test_distributed.py).
         rel = float(row["accuracy"]) / 2 if row["accuracy"] else 5e-5
-        assert float(row["pulloff_Lbar"]) == pytest.approx(float(match["pulloff_Lbar"]),
-                                                           rel=rel)
+        assert float(row["pulloff_Lbar"]) == pytest.approx(float(match["pulloff_Lbar"]), rel=rel)
 
 
 def test_bad_case_one_line_status_2(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "hpcgfmd", "bench", "--cases", "seven",
-                           "--out", str(tmp_path / "x")], capture_output=True, text=True,
-                          timeout=60, cwd=tmp_path, check=False)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "hpcgfmd",
+            "bench",
+            "--cases",
+            "seven",
+            "--out",
+            str(tmp_path / "x"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=tmp_path,
+        check=False,
+    )
     assert proc.returncode == 2
     assert proc.stderr.strip().count("\n") == 0 and "seven" in proc.stderr
     assert list(tmp_path.iterdir()) == []
 
 
 def test_collect_without_tables_one_line_status_2(tmp_path):
-    run = subprocess.run([sys.executable, "-m", "hpcgfmd", "bench", "--collect", "--out",
-                          "nothing"], cwd=tmp_path, capture_output=True, text=True, timeout=60,
-                         check=False)
+    run = subprocess.run(
+        [sys.executable, "-m", "hpcgfmd", "bench", "--collect", "--out", "nothing"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
     assert run.returncode == 2
     assert run.stderr.count("\n") == 1 and "nothing-<lambda0>-<V_z>.csv" in run.stderr
     assert list(tmp_path.iterdir()) == []  # nothing written
@@ -263,18 +336,25 @@ def test_curve_distance_follows_the_attached_branch_past_the_pull_off():
 
 
 def hpcgfmd_bench(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "hpcgfmd", "bench", *args], cwd=cwd,
-                          capture_output=True, text=True, timeout=300, check=False)
+    return subprocess.run(
+        [sys.executable, "-m", "hpcgfmd", "bench", *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
 
 
 def test_verdicts_state_the_target_and_the_amount():
     assert report.verdict("case_cpu", 2.0, "(7, 9)") == (
         "target CPU time of a paper case at accuracy 5e-3 (no nx), at most 5 s: (7, 9) 2 s"
-        " met, 3 s to spare")
+        " met, 3 s to spare"
+    )
     assert report.verdict("case_cpu", [("(7, 9)", 2.0), ("(7, 0.045)", 20.0)]).endswith(
-        ": (7, 9) 2 s met, 3 s to spare; (7, 0.045) 20 s MISSED by 4.00x, 15 s over")
-    assert report.verdict("two_ranks", 1.5, "2^22").endswith("2^22 1.5x MISSED by 1.07x,"
-                                                              " 0.1x over")
+        ": (7, 9) 2 s met, 3 s to spare; (7, 0.045) 20 s MISSED by 4.00x, 15 s over"
+    )
+    assert report.verdict("two_ranks", 1.5, "2^22").endswith("2^22 1.5x MISSED by 1.07x, 0.1x over")
     assert report.verdict("knob", 0).endswith("at most 0: 0 met")
 
 
@@ -282,9 +362,22 @@ def test_cases_mode_runs_each_case_in_its_process_and_judges_the_targets(tmp_pat
     # the small case instead of the paper's: its row, CPU time from the child process,
     # iterations split as the targets count them, the verdicts after the table
     out = tmp_path / "cases"
-    done = hpcgfmd_bench("cases", "--cases", "3.5:1", "--geometry", "0.03", "2", "1e-4",
-                         "--numerics", "nx=1024", "--default-ranks", "0", "--out", str(out),
-                         cwd=tmp_path)
+    done = hpcgfmd_bench(
+        "cases",
+        "--cases",
+        "3.5:1",
+        "--geometry",
+        "0.03",
+        "2",
+        "1e-4",
+        "--numerics",
+        "nx=1024",
+        "--default-ranks",
+        "0",
+        "--out",
+        str(out),
+        cwd=tmp_path,
+    )
     assert done.returncode == 0, done.stderr
     assert_reported(done.stdout, "The paper's four cases at the default accuracy")
     assert (tmp_path / "cases.md").read_text().strip() == done.stdout.strip()
@@ -301,13 +394,16 @@ def test_cases_mode_runs_each_case_in_its_process_and_judges_the_targets(tmp_pat
     assert all(": (3.5, 1) " in line for line in verdicts)
 
 
-@pytest.mark.parametrize("args, error", [
-    (("cases", "--cases", "seven"), "--cases seven"),
-    (("cases", "--numerics", "accuracy"), "--numerics accuracy: expected key=value"),
-    (("grid", "1:0.1"), "1:0.1: expected lambda0:k:V_z:h0/R"),
-    (("convergence", "--cases", "7:0.45"), "give --nx or --dt-nx"),
-    (("fft", "--sizes", "15"), "expected even lengths"),
-])
+@pytest.mark.parametrize(
+    "args, error",
+    [
+        (("cases", "--cases", "seven"), "--cases seven"),
+        (("cases", "--numerics", "accuracy"), "--numerics accuracy: expected key=value"),
+        (("grid", "1:0.1"), "1:0.1: expected lambda0:k:V_z:h0/R"),
+        (("convergence", "--cases", "7:0.45"), "give --nx or --dt-nx"),
+        (("fft", "--sizes", "15"), "expected even lengths"),
+    ],
+)
 def test_modes_refuse_bad_arguments_in_one_line(tmp_path, args, error):
     done = hpcgfmd_bench(*args, cwd=tmp_path)
     assert done.returncode == 2 and error in done.stderr, done.stderr
@@ -332,15 +428,30 @@ def test_grid_and_convergence_modes(tmp_path):
     done = hpcgfmd_bench("grid", "1:0.1:10:0.1", "1:1:10:0.1", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert_reported(done.stdout, "Grid error of the pull-off")
-    assert re.search(r"^target steps of a nearly relaxed case .*: 1:0.1:10:0.1 against"
-                     r" 1:1:10:0.1 \(w/dx 8.28, 16.56\) [\d.]+x (met|MISSED)", done.stdout,
-                     re.MULTILINE)
+    assert re.search(
+        r"^target steps of a nearly relaxed case .*: 1:0.1:10:0.1 against"
+        r" 1:1:10:0.1 \(w/dx 8.28, 16.56\) [\d.]+x (met|MISSED)",
+        done.stdout,
+        re.MULTILINE,
+    )
     # convergence: a grid too coarse for a case leaves its cells empty
-    done = hpcgfmd_bench("convergence", "--cases", "7:9", "7:0.045", "--nx", "16384",
-                         "--dt-factors", "4", "--dt-nx", "16384", cwd=tmp_path)
+    done = hpcgfmd_bench(
+        "convergence",
+        "--cases",
+        "7:9",
+        "7:0.045",
+        "--nx",
+        "16384",
+        "--dt-factors",
+        "4",
+        "--dt-nx",
+        "16384",
+        cwd=tmp_path,
+    )
     assert done.returncode == 0, done.stderr
     assert "7:0.045 nx 2^14 dt x 1: skipped" in done.stdout
-    assert re.search(r"^\| 7, 9 \| -8\.\d{4} \| -8\.\d{4} \| dt [\d.]+ % \|$", done.stdout,
-                     re.MULTILINE)
+    assert re.search(
+        r"^\| 7, 9 \| -8\.\d{4} \| -8\.\d{4} \| dt [\d.]+ % \|$", done.stdout, re.MULTILINE
+    )
     assert "| 7, 0.045 |  |  |  |" in done.stdout
     assert list(tmp_path.iterdir()) == []  # in memory: no file written

@@ -1,6 +1,7 @@
 """Checkpoint files (hpcgfmd.storage.checkpoint) on one rank (COMM_SELF): round trip, other
 files refused, atomic replacement; and the parallel check tests/mpi/check_checkpoint.py
 under mpirun."""
+
 import os
 import shutil
 import subprocess
@@ -11,14 +12,17 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
+from cases import case_text
 from hpcgfmd.case import parse_case
 from hpcgfmd.parallel.domain import Domain
 from hpcgfmd.storage import checkpoint as ckpt
-from hpcgfmd.storage.checkpoint import (checkpoint_path, read_checkpoint, remove_checkpoint,
-                                        write_checkpoint)
+from hpcgfmd.storage.checkpoint import (
+    checkpoint_path,
+    read_checkpoint,
+    remove_checkpoint,
+    write_checkpoint,
+)
 from hpcgfmd.storage.result_file import ResultFile
-
-from cases import case_text
 
 COMM = MPI.COMM_SELF
 CASE_TEXT = case_text("nx = 64", maugis=1.0, modulus_ratio=1.0)
@@ -26,9 +30,16 @@ CASE_TEXT = case_text("nx = 64", maugis=1.0, modulus_ratio=1.0)
 
 def state(n):
     rng = np.random.default_rng(3)
-    return ({"u": rng.standard_normal(n), "traction": rng.standard_normal(n)},
-            {"step": 17, "time": 4.25, "config": CASE_TEXT, "flag": False,
-             "times": np.array([0.5, 1.0, 2.0])})
+    return (
+        {"u": rng.standard_normal(n), "traction": rng.standard_normal(n)},
+        {
+            "step": 17,
+            "time": 4.25,
+            "config": CASE_TEXT,
+            "flag": False,
+            "times": np.array([0.5, 1.0, 2.0]),
+        },
+    )
 
 
 def test_checkpoint_round_trip(tmp_path):
@@ -105,9 +116,15 @@ def test_parallel_checkpoint(tmp_path, args):
         pytest.skip("no mpirun")
     # Should pytest itself run under an MPI launcher, keep its variables out of the new job.
     env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "PRTE_"))}
-    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OPENBLAS_NUM_THREADS="1")
+    env.update(
+        OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OPENBLAS_NUM_THREADS="1"
+    )
     script = Path(__file__).parent / "mpi" / "check_checkpoint.py"
-    run = subprocess.run([mpirun, *args, sys.executable, str(script), str(tmp_path)], env=env,
-                         capture_output=True, text=True, timeout=60)
+    run = subprocess.run(
+        [mpirun, *args, sys.executable, str(script), str(tmp_path)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert run.returncode == 0, run.stdout + run.stderr

@@ -1,4 +1,5 @@
 """The command line as a user meets it: subprocesses of `python -m hpcgfmd`."""
+
 import re
 import signal
 import subprocess
@@ -8,9 +9,8 @@ import h5py
 import numpy as np
 import pytest
 
-from hpcgfmd.storage.reader import read_series
-
 import cases
+from hpcgfmd.storage.reader import read_series
 
 
 def case_text(numerics="nx = 1024", output="", **changes):
@@ -19,8 +19,13 @@ def case_text(numerics="nx = 1024", output="", **changes):
 
 
 def hpcgfmd(*args, cwd, timeout=300):
-    return subprocess.run([sys.executable, "-m", "hpcgfmd", *map(str, args)], cwd=cwd,
-                          capture_output=True, text=True, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "hpcgfmd", *map(str, args)],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
 
 
 BAD = [
@@ -31,8 +36,11 @@ BAD = [
     ("negative", case_text(depth="-0.1"), ["depth", "-0.1", "> 0"]),
     ("k above one", case_text(modulus_ratio="1.5"), ["modulus_ratio", "1.5", "(0, 1]"]),
     ("cell too small", case_text(cell="0.5"), ["cell", "0.5", "too small"]),
-    ("nx unresolved", case_text(maugis="7.0", numerics="nx = 64"),
-     ["nx", "64", "points", "at least", "nx >= "]),
+    (
+        "nx unresolved",
+        case_text(maugis="7.0", numerics="nx = 64"),
+        ["nx", "64", "points", "at least", "nx >= "],
+    ),
     ("nx odd", case_text(numerics="nx = 1001"), ["nx", "1001", "even integer"]),
     ("tolerance", case_text(numerics="nx = 1024\ntolerance = 0.5"), ["tolerance", "0.5"]),
     ("tolerance floor", case_text(numerics="nx = 1024\ntolerance = 1e-20"), ["tolerance", "1e-20"]),
@@ -40,30 +48,58 @@ BAD = [
     ("not a table", "output = 3\n" + case_text(), ["output = 3", "section"]),
     # passes the static check (L >= 6 sqrt(2 R h0)) but the adhesive contact found by the
     # preload is wider than L/4
-    ("cell after preload", case_text(maugis="1.0", adhesion="1e-2", depth="0.005",
-                                     cell="0.61"), ["cell", "0.61", "after the preload"]),
+    (
+        "cell after preload",
+        case_text(maugis="1.0", adhesion="1e-2", depth="0.005", cell="0.61"),
+        ["cell", "0.61", "after the preload"],
+    ),
     ("both forms", case_text() + "[physical]\nradius = 1.0\n", ["exactly one of"]),
     ("unknown section", case_text() + "[solver]\nx = 1\n", ["[solver]", "unknown section"]),
     ("not toml", "[case\nmaugis = ", ["not valid TOML"]),
-    ("physical moduli", cases.physical_text(modulus_relaxed="2e6", modulus_instantaneous="1e6",
-                                            interaction_range="1e-8"),
-     ["modulus_instantaneous", "1000000.0", "modulus_relaxed"]),
+    (
+        "physical moduli",
+        cases.physical_text(
+            modulus_relaxed="2e6", modulus_instantaneous="1e6", interaction_range="1e-8"
+        ),
+        ["modulus_instantaneous", "1000000.0", "modulus_relaxed"],
+    ),
     ("snapshot list", case_text(output="snapshot_times = [1, -2]"), ["snapshot_times", "list"]),
-    ("checkpoint steps", case_text(output="checkpoint_steps = -1"),
-     ["checkpoint_steps", "-1", "integer >= 0"]),
-    ("checkpoint interval", case_text(output="checkpoint_interval = 0"),
-     ["checkpoint_interval", "0", "> 0"]),
-    ("solver", case_text(numerics='nx = 1024\nsolver = "fire"'),
-     ["solver", "'fire'", "'cg'", "'paper'"]),
-    ("step control", case_text(numerics='nx = 1024\nstep_control = "auto"'),
-     ["step_control", "'auto'", "'adaptive'", "'fixed'"]),
+    (
+        "checkpoint steps",
+        case_text(output="checkpoint_steps = -1"),
+        ["checkpoint_steps", "-1", "integer >= 0"],
+    ),
+    (
+        "checkpoint interval",
+        case_text(output="checkpoint_interval = 0"),
+        ["checkpoint_interval", "0", "> 0"],
+    ),
+    (
+        "solver",
+        case_text(numerics='nx = 1024\nsolver = "fire"'),
+        ["solver", "'fire'", "'cg'", "'paper'"],
+    ),
+    (
+        "step control",
+        case_text(numerics='nx = 1024\nstep_control = "auto"'),
+        ["step_control", "'auto'", "'adaptive'", "'fixed'"],
+    ),
     ("edge fraction", case_text(numerics="nx = 1024\nedge_fraction = 0"), ["edge_fraction", "> 0"]),
-    ("load tolerance", case_text(numerics="nx = 1024\nload_tolerance = -1"),
-     ["load_tolerance", "-1", "> 0"]),
-    ("dt bounds", case_text(numerics="nx = 1024\ndt_min = 2.0\ndt_max = 1.0"),
-     ["dt_min", "2", "dt_max"]),
-    ("equilibration steps", case_text(numerics="nx = 1024\nequilibration_steps = 0"),
-     ["equilibration_steps", "0", "integer >= 1"]),
+    (
+        "load tolerance",
+        case_text(numerics="nx = 1024\nload_tolerance = -1"),
+        ["load_tolerance", "-1", "> 0"],
+    ),
+    (
+        "dt bounds",
+        case_text(numerics="nx = 1024\ndt_min = 2.0\ndt_max = 1.0"),
+        ["dt_min", "2", "dt_max"],
+    ),
+    (
+        "equilibration steps",
+        case_text(numerics="nx = 1024\nequilibration_steps = 0"),
+        ["equilibration_steps", "0", "integer >= 1"],
+    ),
 ]
 
 
@@ -106,24 +142,41 @@ def test_existing_output_is_refused(tmp_path):
 
 
 def test_run_info_plot_end_to_end(tmp_path):
-    (tmp_path / "case.toml").write_text(case_text(
-        output="snapshot_contact_widths = [0.1]\nsnapshot_zero_load = true"))
+    (tmp_path / "case.toml").write_text(
+        case_text(output="snapshot_contact_widths = [0.1]\nsnapshot_zero_load = true")
+    )
     res = hpcgfmd("run", "case.toml", "-o", "out.h5", cwd=tmp_path)
     assert res.returncode == 0, res.stderr
     assert "chi_ve = 1" in res.stdout and "w/dx" in res.stdout and "finished" in res.stdout
     with h5py.File(tmp_path / "out.h5", "r") as f:
         a = f.attrs
         assert a["finished"] and a["config"] == (tmp_path / "case.toml").read_text()
-        for key in ("hpcgfmd_version", "lambda0", "lambda_inf", "k", "Vz", "chi_ve", "alpha",
-                    "beta", "load_scale", "zone_points"):
+        for key in (
+            "hpcgfmd_version",
+            "lambda0",
+            "lambda_inf",
+            "k",
+            "Vz",
+            "chi_ve",
+            "alpha",
+            "beta",
+            "load_scale",
+            "zone_points",
+        ):
             assert key in a
         assert a["beta"] == pytest.approx(1e-4 ** (1 / 3))
         assert a["load_scale"] == pytest.approx(1e-4 ** (2 / 3))
         series = f["series"]
         n = series["time"].shape[0]
         assert n == a["steps"] + 1
-        for name in ("indenter", "load", "contact_half_width", "cohesive_half_width",
-                     "iterations", "residual"):
+        for name in (
+            "indenter",
+            "load",
+            "contact_half_width",
+            "cohesive_half_width",
+            "iterations",
+            "residual",
+        ):
             assert series[name].shape == (n,)
         assert series["time"][0] == 0 and series["indenter"][0] == pytest.approx(-0.03)
         assert series["load"][0] > 0 and series["load"][:].min() < 0
@@ -149,8 +202,12 @@ def test_run_info_plot_end_to_end(tmp_path):
     assert (tmp_path / "out.png").read_bytes() == png
     assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml", "out.h5", "out.png"]
     # info into a reader that has already gone (| head -1): status 1, no traceback
-    proc = subprocess.Popen([sys.executable, "-m", "hpcgfmd", "info", "out.h5"], cwd=tmp_path,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "hpcgfmd", "info", "out.h5"],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
     proc.stdout.close()  # before the interpreter has started (about 0.5 s): info writes after
     assert proc.wait(timeout=60) == 1
     assert proc.stderr.read() == b""
@@ -162,33 +219,54 @@ def test_physical_form_equals_case_form_in_si_units(tmp_path):
     work = alpha * E0 * R
     beta = (R**2 * work / E0) ** (1 / 3)
     dmax = (work**2 * R / (E0**2 * lam**3)) ** (1 / 3)
-    phys = cases.physical_text('nx = 1024\nstep_control = "fixed"\ntolerance = 1e-9',
-                               radius=R, modulus_relaxed=E0, modulus_instantaneous=E0 / 0.1,
-                               relaxation_time=tau, work_of_adhesion=work, interaction_range=dmax,
-                               velocity=Vz * beta**2 / (R * tau), depth=0.03 * R, cell_length=2 * R)
+    phys = cases.physical_text(
+        'nx = 1024\nstep_control = "fixed"\ntolerance = 1e-9',
+        radius=R,
+        modulus_relaxed=E0,
+        modulus_instantaneous=E0 / 0.1,
+        relaxation_time=tau,
+        work_of_adhesion=work,
+        interaction_range=dmax,
+        velocity=Vz * beta**2 / (R * tau),
+        depth=0.03 * R,
+        cell_length=2 * R,
+    )
     (tmp_path / "p.toml").write_text(phys)
     # fixed steps: adaptive decisions may round differently between the two unit systems
-    (tmp_path / "c.toml").write_text(case_text('nx = 1024\nstep_control = "fixed"\ntolerance = 1e-9',
-                                               maugis="3.5", modulus_ratio="0.1"))
+    (tmp_path / "c.toml").write_text(
+        case_text(
+            'nx = 1024\nstep_control = "fixed"\ntolerance = 1e-9', maugis="3.5", modulus_ratio="0.1"
+        )
+    )
     for name in ("p", "c"):
         assert hpcgfmd("run", f"{name}.toml", cwd=tmp_path).returncode == 0
     with h5py.File(tmp_path / "p.h5") as p, h5py.File(tmp_path / "c.h5") as c:
         for key in ("lambda0", "k", "Vz", "alpha", "chi_ve"):
             assert p.attrs[key] == pytest.approx(c.attrs[key], rel=1e-12)
         assert p.attrs["beta"] == pytest.approx(beta, rel=1e-12)
-        np.testing.assert_allclose(p["series/load"][:], c["series/load"][:] * E0 * R,
-                                   rtol=1e-6, atol=1e-9 * E0 * R)
+        np.testing.assert_allclose(
+            p["series/load"][:], c["series/load"][:] * E0 * R, rtol=1e-6, atol=1e-9 * E0 * R
+        )
         np.testing.assert_allclose(p["series/time"][:], c["series/time"][:] * tau, rtol=1e-12)
-        np.testing.assert_allclose(p["series/contact_half_width"][:],
-                                   c["series/contact_half_width"][:] * R, rtol=1e-6, atol=1e-12)
+        np.testing.assert_allclose(
+            p["series/contact_half_width"][:],
+            c["series/contact_half_width"][:] * R,
+            rtol=1e-6,
+            atol=1e-12,
+        )
 
 
 def test_killed_run_leaves_a_readable_file(tmp_path):
     # Progress lines (one per step at this interval) tell when steps have been written.
-    (tmp_path / "case.toml").write_text(case_text(maugis="3.5", numerics="nx = 4096",
-                                                  output="progress_interval = 1e-6"))
-    proc = subprocess.Popen([sys.executable, "-m", "hpcgfmd", "run", "case.toml"],
-                            cwd=tmp_path, stdout=subprocess.PIPE, text=True)
+    (tmp_path / "case.toml").write_text(
+        case_text(maugis="3.5", numerics="nx = 4096", output="progress_interval = 1e-6")
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "hpcgfmd", "run", "case.toml"],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     try:
         steps = 0
         while steps < 10:
@@ -209,10 +287,10 @@ def test_killed_run_leaves_a_readable_file(tmp_path):
     assert s.time.size == n and np.all(np.diff(s.time) > 0) and np.all(s.iterations > 0)
     info = hpcgfmd("info", "case.h5", cwd=tmp_path).stdout  # its loads so far, said so
     assert "NOT finished" in info and "steps so far" in info
-    assert "pull-off (the most tensile load so far): load = " in info or \
-        "pull-off: none, no tensile load recorded" in info, info
-
-
+    assert (
+        "pull-off (the most tensile load so far): load = " in info
+        or "pull-off: none, no tensile load recorded" in info
+    ), info
 
 
 def test_bench_takes_the_common_options(tmp_path):
@@ -244,8 +322,9 @@ def test_fixed_steps_too_long_for_the_pull_off_are_warned(tmp_path, dt, warned):
     # finished) or an edge moving 7.6 zone widths a step (1.0): the pull-off is not resolved
     # and the run says so; at 0.1 the edge moves within the allowance (Lbar -6.3635 against
     # -6.358 with adaptive steps)
-    (tmp_path / "case.toml").write_text(cases.case_text(
-        f'accuracy = 1e-2\nstep_control = "fixed"\ndt = {dt}', ""))
+    (tmp_path / "case.toml").write_text(
+        cases.case_text(f'accuracy = 1e-2\nstep_control = "fixed"\ndt = {dt}', "")
+    )
     res = hpcgfmd("run", "case.toml", "--quiet", cwd=tmp_path)
     assert res.returncode == 0, res.stderr
     lines = [line for line in res.stderr.splitlines() if "fixed steps" in line]
@@ -263,9 +342,10 @@ def test_an_approach_into_contact_is_not_an_unresolved_pull_off(tmp_path):
     # fixed steps through an approach, a dwell and the retraction: the jump into contact
     # (9.2 zone widths in one step) belongs to the approach; the retraction's edge moves
     # 0.28 zone widths a step at most, within the allowance (2.24), so no warning
-    (tmp_path / "case.toml").write_text(cases.case_text(
-        'nx = 2048\nstep_control = "fixed"\ndt = 0.05', "")
+    (tmp_path / "case.toml").write_text(
+        cases.case_text('nx = 2048\nstep_control = "fixed"\ndt = 0.05', "")
         + "\n[[protocol]]\napproach = 0.03\n[[protocol]]\ndwell = 0.3\n[[protocol]]\n"
-        "retract = inf\n")
+        "retract = inf\n"
+    )
     res = hpcgfmd("run", "case.toml", cwd=tmp_path)
     assert res.returncode == 0 and "fixed steps" not in res.stderr, res.stderr

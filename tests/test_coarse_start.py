@@ -1,4 +1,5 @@
 """The preload's coarse-to-fine start (hpcgfmd/runs/coarse_start.py)."""
+
 import os
 import shutil
 import subprocess
@@ -80,9 +81,13 @@ def preload_on(ranks):
     """The printed preload of tests/mpi/check_preload.py on ``ranks`` ranks."""
     script = Path(__file__).parent / "mpi" / "check_preload.py"
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    done = subprocess.run([shutil.which("mpirun"), "--oversubscribe", "-n", str(ranks),
-                           sys.executable, str(script)], capture_output=True, text=True,
-                          env=env, timeout=240)
+    done = subprocess.run(
+        [shutil.which("mpirun"), "--oversubscribe", "-n", str(ranks), sys.executable, str(script)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=240,
+    )
     assert done.returncode == 0, done.stdout + done.stderr
     return dict(line.split(" ", 1) for line in done.stdout.splitlines() if " " in line)
 

@@ -7,6 +7,7 @@ the solver tolerance times the conditioning; at the default 1e-7 they agree to a
 (measured 3.9e-9 in the load), at 1e-13 to 8.5e-13 (load) and 2.6e-12 (contact half-width),
 which is also what two serial runs differ by (FFTW_MEASURE plans are chosen by timing).
 """
+
 import os
 import random
 import shutil
@@ -18,18 +19,27 @@ import time
 import h5py
 import numpy as np
 import pytest
+
 from cases import case_text
 
 MPIRUN = shutil.which("mpirun")
-pytestmark = [pytest.mark.mpi, pytest.mark.slow,
-              pytest.mark.skipif(MPIRUN is None, reason="OpenMPI's mpirun is not installed")]
+pytestmark = [
+    pytest.mark.mpi,
+    pytest.mark.slow,
+    pytest.mark.skipif(MPIRUN is None, reason="OpenMPI's mpirun is not installed"),
+]
 
 
 def case(nx=2048, checkpoint_steps=0, tolerance="1e-13", more="", **groups):
     """The tests' case at the solver's round-off floor, with snapshots and checkpoints."""
-    return case_text(f"nx = {nx}\ntolerance = {tolerance}{more}",
-                     "snapshot_times = [0.0, 3.0, 8.0, 12.0]\nsnapshot_zero_load = true\n"
-                     f"checkpoint_steps = {checkpoint_steps}", **groups)
+    return case_text(
+        f"nx = {nx}\ntolerance = {tolerance}{more}",
+        "snapshot_times = [0.0, 3.0, 8.0, 12.0]\nsnapshot_zero_load = true\n"
+        f"checkpoint_steps = {checkpoint_steps}",
+        **groups,
+    )
+
+
 SERIES = ("time", "indenter", "load", "contact_half_width", "cohesive_half_width")
 CYCLE = "\n[[protocol]]\napproach = 0.03\n[[protocol]]\ndwell = 0.3\n[[protocol]]\nretract = inf\n"
 LOAD_RAMP = "\n[[protocol]]\nretract = -inf\nload_rate = 1e-3\n"
@@ -41,14 +51,25 @@ def command(ranks, *args):
 
 
 def environment():
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
+    env = dict(
+        os.environ,
+        OMPI_ALLOW_RUN_AS_ROOT="1",
+        OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+        OMPI_MCA_rmaps_base_oversubscribe="1",
+        OPENBLAS_NUM_THREADS="1",
+    )
     return env
 
 
 def run(ranks, *args, cwd, timeout=240):
-    return subprocess.run(command(ranks, *args), cwd=cwd, capture_output=True, text=True,
-                          timeout=timeout, env=environment())
+    return subprocess.run(
+        command(ranks, *args),
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=environment(),
+    )
 
 
 def read(path):
@@ -77,7 +98,8 @@ def assert_same(reference, other, tolerance, edge_tolerance=None, field_toleranc
     differ by 2.0e-12 there (FFTW_MEASURE picks its plans by timing), against 5.9e-13 in
     the load (measured). Since each solve's K u is the running one (its increments carry
     the rank count's transform round-off, no transform at the solve's end), the serial and
-    the 3-rank run of the 9 x 2^8 grid differed by 1.5e-10 there (measured once in CI). ``field_tolerance`` for the snapshots (default ``tolerance``): the
+    the 3-rank run of the 9 x 2^8 grid differed by 1.5e-10 there (measured once in CI).
+    ``field_tolerance`` for the snapshots (default ``tolerance``): the
     contact pressure is the reaction K u + H + mu, whose multiplier mu is converged to the
     solver tolerance (measured between rank counts: 6e-12 to 2.5e-11 of the peak pressure).
     """
@@ -129,16 +151,20 @@ def test_same_answer_on_a_grid_of_nine_times_a_power_of_two(tmp_path):
     assert_same(answers[0], answers[1], 1e-10, edge_tolerance=EDGE)
 
 
-@pytest.mark.parametrize("groups", [
-    # the branch tractions are real-space blocks of each rank (hpcgfmd.model.halfspace)
-    dict(modulus_ratio=None, relaxation_moduli=[3.0, 6.0], relaxation_times=[0.1, 1.45]),
-    # the indenter's search: every rank takes the same decisions from reduced loads
-    dict(drive_stiffness=0.3),
-    # a protocol: the jump into contact, a dwell, the retraction
-    dict(velocity=10.0, protocol=CYCLE),
-    # load control: the search for the indenter under a falling load
-    dict(modulus_ratio=1.0, drive_stiffness=0, protocol=LOAD_RAMP)],
-    ids=["prony", "spring", "cycle", "load-control"])
+@pytest.mark.parametrize(
+    "groups",
+    [
+        # the branch tractions are real-space blocks of each rank (hpcgfmd.model.halfspace)
+        dict(modulus_ratio=None, relaxation_moduli=[3.0, 6.0], relaxation_times=[0.1, 1.45]),
+        # the indenter's search: every rank takes the same decisions from reduced loads
+        dict(drive_stiffness=0.3),
+        # a protocol: the jump into contact, a dwell, the retraction
+        dict(velocity=10.0, protocol=CYCLE),
+        # load control: the search for the indenter under a falling load
+        dict(modulus_ratio=1.0, drive_stiffness=0, protocol=LOAD_RAMP),
+    ],
+    ids=["prony", "spring", "cycle", "load-control"],
+)
 def test_prony_spring_and_protocols_same_answer_on_two_ranks(tmp_path, groups):
     answers = []
     groups = dict(groups)
@@ -156,9 +182,14 @@ def test_prony_spring_and_protocols_same_answer_on_two_ranks(tmp_path, groups):
 def interrupt(tmp_path, ranks, signum):
     """Start a run, signal it at a random step after its first checkpoint, return the result."""
     (tmp_path / "case.toml").write_text(case(checkpoint_steps=5))
-    process = subprocess.Popen(command(ranks, "run", "case.toml", "-o", "out.h5"),
-                               cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                               text=True, env=environment())
+    process = subprocess.Popen(
+        command(ranks, "run", "case.toml", "-o", "out.h5"),
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=environment(),
+    )
     deadline = time.monotonic() + 120
     while not (tmp_path / "out.checkpoint.h5").exists():
         assert process.poll() is None and time.monotonic() < deadline, process.communicate()
@@ -169,11 +200,13 @@ def interrupt(tmp_path, ranks, signum):
     return process.returncode, stdout, stderr
 
 
-@pytest.mark.parametrize("first, second, signum", [(0, 0, signal.SIGTERM),
-                                                    (2, 3, signal.SIGUSR1),
-                                                    (0, 2, signal.SIGUSR1)])
-def test_interrupted_run_resumes_to_the_uninterrupted_series(serial_run, tmp_path, first,
-                                                               second, signum):
+@pytest.mark.parametrize(
+    "first, second, signum",
+    [(0, 0, signal.SIGTERM), (2, 3, signal.SIGUSR1), (0, 2, signal.SIGUSR1)],
+)
+def test_interrupted_run_resumes_to_the_uninterrupted_series(
+    serial_run, tmp_path, first, second, signum
+):
     cwd, reference = serial_run
     status, stdout, stderr = interrupt(tmp_path, first, signum)
     assert status == 75, (stdout, stderr)
@@ -228,10 +261,17 @@ def test_failure_on_one_rank_stops_all_ranks(tmp_path):
         "    comm.Barrier()\n"
         "    return 0\n"
         "cli.main = boom\n"
-        "raise SystemExit(entry.main())\n")
+        "raise SystemExit(entry.main())\n"
+    )
     started = time.monotonic()
-    done = subprocess.run([MPIRUN, "-n", "2", sys.executable, str(script)], cwd=tmp_path,
-                          capture_output=True, text=True, timeout=60, env=environment())
+    done = subprocess.run(
+        [MPIRUN, "-n", "2", sys.executable, str(script)],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=environment(),
+    )
     assert done.returncode != 0
     assert "disk gone on rank 1" in done.stderr
     assert "aborting all 2 ranks" in done.stderr
@@ -259,8 +299,7 @@ def test_ranks_that_own_no_nodes(tmp_path):
     assert serial.returncode == 0, serial.stderr
     done = run(10, "run", "case.toml", "-o", "ten.h5", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
-    assert_same(read(tmp_path / "serial.h5"), read(tmp_path / "ten.h5"), 1e-10,
-                edge_tolerance=EDGE)
+    assert_same(read(tmp_path / "serial.h5"), read(tmp_path / "ten.h5"), 1e-10, edge_tolerance=EDGE)
 
 
 def test_signal_during_set_up_exits_75_with_nothing_written(tmp_path):
@@ -268,9 +307,14 @@ def test_signal_during_set_up_exits_75_with_nothing_written(tmp_path):
     # (SLURM's warning can come at any moment); nothing was computed, so nothing is written.
     text = case(nx=65536, tolerance="1e-7")
     (tmp_path / "case.toml").write_text(text)
-    process = subprocess.Popen(command(2, "run", "case.toml", "-o", "out.h5"), cwd=tmp_path,
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               env=environment())
+    process = subprocess.Popen(
+        command(2, "run", "case.toml", "-o", "out.h5"),
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=environment(),
+    )
     for line in process.stdout:  # the run starts planning right after this line
         if line.startswith("writing out.h5"):
             break

@@ -14,6 +14,7 @@
   to a section of a doc names a heading there.
 - The Python examples of README.md and docs/api.md print what their comments state.
 """
+
 import math
 import re
 import shlex
@@ -25,23 +26,24 @@ from importlib import resources
 from pathlib import Path
 
 import pytest
-from cases import case_text, physical_text
 
-from hpcgfmd.errors import SweepError
+from cases import case_text, physical_text
 from hpcgfmd.case import parse_case
 from hpcgfmd.case.numerics import numerics_keys
-from hpcgfmd.solvers import registered, solver_class
 from hpcgfmd.case.output import OUTPUT_KEYS
+from hpcgfmd.errors import SweepError
+from hpcgfmd.runs.sweep import parse_sweep
+from hpcgfmd.solvers import registered, solver_class
+from hpcgfmd.studies.bench import MODES
 
 NUMERICS_KEYS = numerics_keys()
-from hpcgfmd.runs.sweep import parse_sweep
-from hpcgfmd.studies.bench import MODES
 
 REPO = Path(__file__).resolve().parents[1]
 DOCS = [REPO / "README.md"] + sorted((REPO / "docs").glob("*.md"))
 DEFAULT_CASE = resources.files("hpcgfmd").joinpath("default_case.toml").read_text()
-PHYSICAL = physical_text(relaxation_time="2.0", interaction_range="1e-6", depth="3e-5",
-                         cell_length="2e-3")
+PHYSICAL = physical_text(
+    relaxation_time="2.0", interaction_range="1e-6", depth="3e-5", cell_length="2e-3"
+)
 
 
 def blocks(language):
@@ -49,16 +51,26 @@ def blocks(language):
     found = []
     for path in DOCS:
         text = path.read_text()
-        for i, match in enumerate(re.finditer(rf"^```{language}\n(.*?)^```", text,
-                                              re.MULTILINE | re.DOTALL)):
+        for i, match in enumerate(
+            re.finditer(rf"^```{language}\n(.*?)^```", text, re.MULTILINE | re.DOTALL)
+        ):
             found.append((path.relative_to(REPO), i, match.group(1)))
     return found
 
 
 def test_the_docs_exist_and_have_blocks():
     names = {p.name for p in DOCS}
-    assert {"README.md", "model.md", "case-file.md", "output.md", "numerics.md",
-            "parallel.md", "api.md", "results.md", "testing.md"} <= names
+    assert {
+        "README.md",
+        "model.md",
+        "case-file.md",
+        "output.md",
+        "numerics.md",
+        "parallel.md",
+        "api.md",
+        "results.md",
+        "testing.md",
+    } <= names
     assert len(blocks("toml")) >= 5 and len(blocks("sh")) >= 5
     assert len((REPO / "README.md").read_text().splitlines()) < 200
 
@@ -69,8 +81,13 @@ TOML = blocks("toml")
 @pytest.mark.parametrize("script", sorted(p.name for p in (REPO / "scripts").glob("*.py")))
 def test_every_script_answers_help(script):
     # --help prints the usage or the docstring and runs nothing (hand-parsed scripts too)
-    done = subprocess.run([sys.executable, str(REPO / "scripts" / script), "--help"],
-                          capture_output=True, text=True, timeout=120, check=False)
+    done = subprocess.run(
+        [sys.executable, str(REPO / "scripts" / script), "--help"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
     assert done.returncode == 0 and done.stderr == "", done.stderr
     assert done.stdout.startswith("usage:") or len(done.stdout.splitlines()) > 3
 
@@ -103,8 +120,9 @@ def test_linked_anchors_exist():
     anchors = {}
     for path in DOCS:
         text = re.sub(r"^```.*?^```", "", path.read_text(), flags=re.MULTILINE | re.DOTALL)
-        anchors[path.resolve()] = {anchor(line.lstrip("#")) for line in text.splitlines()
-                                   if line.startswith("#")}
+        anchors[path.resolve()] = {
+            anchor(line.lstrip("#")) for line in text.splitlines() if line.startswith("#")
+        }
     linked, missing = 0, []
     for path in DOCS:
         for name, target in re.findall(r"\]\(([\w./-]*\.md)?#([\w-]+)\)", path.read_text()):
@@ -119,14 +137,18 @@ def test_linked_anchors_exist():
 def test_cited_sections_exist():
     # a citation `name.md, "Heading"` in the docs, the package or the scripts names (the
     # start of) a heading of docs/name.md
-    headings = {path.name: [re.sub(r"^#+\s*", "", line).strip()
-                            for line in path.read_text().splitlines() if line.startswith("#")]
-                for path in REPO.glob("docs/*.md")}
+    headings = {
+        path.name: [
+            re.sub(r"^#+\s*", "", line).strip()
+            for line in path.read_text().splitlines()
+            if line.startswith("#")
+        ]
+        for path in REPO.glob("docs/*.md")
+    }
     sources = DOCS + sorted(REPO.glob("hpcgfmd/**/*.py")) + sorted(REPO.glob("scripts/*.py"))
     cited, missing = 0, []
     for path in sources:
-        for name, title in re.findall(r'([a-z-]+\.md)[,:]?\s*\(?\s*"([^"]+)"',
-                                      path.read_text()):
+        for name, title in re.findall(r'([a-z-]+\.md)[,:]?\s*\(?\s*"([^"]+)"', path.read_text()):
             if name in headings:
                 cited += 1
                 title = " ".join(title.split())
@@ -139,11 +161,17 @@ def test_python_examples_print_what_their_comments_state():
     # the first ```python block of README.md and of docs/api.md that makes a Case: one case,
     # run once; each print(...) # value[, value] comment holds to the digits it states
     import hpcgfmd
+
     examples = []
     for source in ("README.md", "docs/api.md"):
-        block = next(text for path, _, text in blocks("python")
-                     if str(path) == source and "hpcgfmd.Case(" in text)
-        case = re.search(r"^case = (hpcgfmd\.Case\(.*?\))\n", block, re.MULTILINE | re.DOTALL).group(1)
+        block = next(
+            text
+            for path, _, text in blocks("python")
+            if str(path) == source and "hpcgfmd.Case(" in text
+        )
+        case = re.search(
+            r"^case = (hpcgfmd\.Case\(.*?\))\n", block, re.MULTILINE | re.DOTALL
+        ).group(1)
         prints = re.findall(r"^print\((.*)\)\s+# (.*)$", block, re.MULTILINE)
         assert prints, source
         examples.append((source, case, prints))
@@ -193,13 +221,29 @@ def default_rows(section):
 def namespace(case):
     """The names the default expressions use, in the case's units."""
     u, num = case.units, case.numerics
-    return {"dmax": case.dmax * u.length, "v_z": case.indenter_speed * u.length / u.time,
-            "h0": case.depth * u.length, "tau": u.time, "L": case.cell * u.length, "R": u.length,
-            "w": case.zone_width * u.length, "nx": num.nx, "dt": num.dt * u.time,
-            "fixed": num.step_control == "fixed", "accuracy": num.accuracy, "k": case.modulus_ratio,
-            "chi_ve": case.chi_ve, "lambda0": case.maugis, "compliant": case.compliant,
-            "ceil": math.ceil,
-            "log2": math.log2, "sqrt": math.sqrt, "min": min, "max": max, "round": round}
+    return {
+        "dmax": case.dmax * u.length,
+        "v_z": case.indenter_speed * u.length / u.time,
+        "h0": case.depth * u.length,
+        "tau": u.time,
+        "L": case.cell * u.length,
+        "R": u.length,
+        "w": case.zone_width * u.length,
+        "nx": num.nx,
+        "dt": num.dt * u.time,
+        "fixed": num.step_control == "fixed",
+        "accuracy": num.accuracy,
+        "k": case.modulus_ratio,
+        "chi_ve": case.chi_ve,
+        "lambda0": case.maugis,
+        "compliant": case.compliant,
+        "ceil": math.ceil,
+        "log2": math.log2,
+        "sqrt": math.sqrt,
+        "min": min,
+        "max": max,
+        "round": round,
+    }
 
 
 def parsed(case, key):
@@ -221,14 +265,16 @@ def parsed(case, key):
     return getattr(out, key)
 
 
-CASES = {"default_case.toml": DEFAULT_CASE, "physical": PHYSICAL,
-         "fixed steps": case_text('step_control = "fixed"'),
-         "creeping": case_text("", maugis=1.0, velocity=0.1, depth=0.1, cell=3.578),
-         "compliant": case_text("", drive_stiffness=0.3)}
+CASES = {
+    "default_case.toml": DEFAULT_CASE,
+    "physical": PHYSICAL,
+    "fixed steps": case_text('step_control = "fixed"'),
+    "creeping": case_text("", maugis=1.0, velocity=0.1, depth=0.1, cell=3.578),
+    "compliant": case_text("", drive_stiffness=0.3),
+}
 
 
-@pytest.mark.parametrize("section, keys", [("numerics", NUMERICS_KEYS),
-                                           ("output", OUTPUT_KEYS)])
+@pytest.mark.parametrize("section, keys", [("numerics", NUMERICS_KEYS), ("output", OUTPUT_KEYS)])
 def test_every_key_has_a_documented_default(section, keys):
     assert set(default_rows(section)) == set(keys)
 
@@ -249,8 +295,12 @@ def test_documented_defaults_are_the_parsed_ones(name):
             if isinstance(want, float) or isinstance(got, float):
                 assert got == pytest.approx(want, rel=1e-12), (name, key, expression)
             else:
-                assert list(got) == list(want) if isinstance(want, list) else got == want, \
-                    (name, key, expression, got)
+                assert list(got) == list(want) if isinstance(want, list) else got == want, (
+                    name,
+                    key,
+                    expression,
+                    got,
+                )
             checked += 1
     assert checked >= 10
 
@@ -264,8 +314,9 @@ def help_text(*words):
         command = [sys.executable, str(REPO / words[0]), "--help"]
     else:
         command = [sys.executable, "-m", "hpcgfmd", *words, "--help"]
-    done = subprocess.run(command, capture_output=True, text=True, timeout=120, cwd=REPO,
-                          check=False)
+    done = subprocess.run(
+        command, capture_output=True, text=True, timeout=120, cwd=REPO, check=False
+    )
     assert done.returncode == 0, done.stderr
     return done.stdout
 
@@ -274,8 +325,9 @@ def assert_options_listed(source, line, words, text, what):
     for word in words:
         if word.startswith("-") and word != "-":
             option = word.split("=")[0]
-            assert re.search(rf"(^|[\s,\[]){re.escape(option)}\b", text), \
+            assert re.search(rf"(^|[\s,\[]){re.escape(option)}\b", text), (
                 f"{source}: {line}: {option} is not an option of {what}"
+            )
 
 
 def commands():
@@ -298,8 +350,13 @@ def tracked_files():
     if not (REPO / ".git").exists():
         return None
     try:
-        done = subprocess.run(["git", "-C", str(REPO), "ls-files", "-z"], capture_output=True,
-                              text=True, timeout=60, check=False)
+        done = subprocess.run(
+            ["git", "-C", str(REPO), "ls-files", "-z"],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        )
     except OSError:
         return None
     return set(done.stdout.split("\0")) - {""} if done.returncode == 0 else None
@@ -322,17 +379,18 @@ def test_shell_commands_exist(source, line):
         if re.match(r"(scripts|jobs)/", word):
             assert in_repository(word), f"{source}: {word} is not in the repository (git)"
     script = next((word for word in words if re.fullmatch(r"scripts/\w+\.py", word)), None)
-    if script is not None and "python" in " ".join(words[:words.index(script)]):
-        rest = words[words.index(script) + 1:]
+    if script is not None and "python" in " ".join(words[: words.index(script)]):
+        rest = words[words.index(script) + 1 :]
         assert_options_listed(source, line, rest, help_text(script), script)
         return
     if "hpcgfmd" not in words or "-m" not in words:
         return
-    rest = words[words.index("hpcgfmd") + 1:]
+    rest = words[words.index("hpcgfmd") + 1 :]
     subcommand = rest[0] if rest and not rest[0].startswith("-") else None
     if subcommand is not None:
         assert subcommand in ("run", "farm", "info", "plot", "paper", "bench"), (source, line)
     mode = rest[1] if subcommand == "bench" and len(rest) > 1 and rest[1] in MODES else None
     text = help_text(subcommand, mode)
-    assert_options_listed(source, line, rest, text,
-                          " ".join(w for w in ("hpcgfmd", subcommand, mode) if w))
+    assert_options_listed(
+        source, line, rest, text, " ".join(w for w in ("hpcgfmd", subcommand, mode) if w)
+    )

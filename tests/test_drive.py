@@ -9,12 +9,13 @@ soft spring is load control: it lets go at the curve's minimum load).
 Elastic cylinder, lambda0 = 3.5, the tests' small cell, nx = 4096 (w/dx = 6, where the
 elastic curve follows Baney-Hui within 1 %: tests/test_retraction.py).
 """
+
 import numpy as np
 import pytest
 
 from cases import PHYSICAL, case_text, whole_run
-from hpcgfmd.model import theory
 from hpcgfmd.case import parse_case
+from hpcgfmd.model import theory
 
 NUMERICS = "nx = 4096"
 
@@ -22,21 +23,24 @@ NUMERICS = "nx = 4096"
 def retraction(text):
     """(time, indenter, drive, load, contact half-width) of a whole serial run, and the run."""
     records, sim = whole_run(text)
-    return np.array([(r.time, r.indenter, r.drive, r.load, r.contact_half_width)
-                     for r in records]), sim
+    return np.array(
+        [(r.time, r.indenter, r.drive, r.load, r.contact_half_width) for r in records]
+    ), sim
 
 
 @pytest.fixture(scope="module")
 def displacement_curve():
     # accuracy 1e-3: the curve sampled finely (1590 steps) for the spring's tangency, solved
     # as tightly as the compliant runs it is the reference of (tolerance 0.02 accuracy)
-    series, _ = retraction(case_text(NUMERICS + "\naccuracy = 1e-3\ntolerance = 2e-5",
-                                     modulus_ratio=1.0))
+    series, _ = retraction(
+        case_text(NUMERICS + "\naccuracy = 1e-3\ntolerance = 2e-5", modulus_ratio=1.0)
+    )
     return series
 
 
-@pytest.mark.parametrize("groups", [dict(modulus_ratio=1.0), dict(modulus_ratio=0.1)],
-                         ids=["elastic", "viscoelastic"])
+@pytest.mark.parametrize(
+    "groups", [dict(modulus_ratio=1.0), dict(modulus_ratio=0.1)], ids=["elastic", "viscoelastic"]
+)
 def test_a_stiff_spring_is_displacement_control(groups):
     # k_s = 1e6 E0: the indenter lags the drive by L / k_s ~ 4e-9 R; the pull-off moves by
     # the solves' own load error (measured 8e-6 elastic), both solved to the compliant
@@ -47,8 +51,9 @@ def test_a_stiff_spring_is_displacement_control(groups):
     assert abs(stiff[:, 3].min() / fixed[:, 3].min() - 1.0) < 1e-4
     # the indenter within SPRING_TRAVEL dmax of the balance (measured 3e-8 R: 5e-5 dmax)
     dmax = parse_case(case_text("nx = 2048", **groups)).dmax
-    np.testing.assert_allclose(stiff[:, 2], stiff[:, 1] - stiff[:, 3] / 1e6, rtol=0,
-                               atol=1e-3 * dmax)
+    np.testing.assert_allclose(
+        stiff[:, 2], stiff[:, 1] - stiff[:, 3] / 1e6, rtol=0, atol=1e-3 * dmax
+    )
     assert sim.spring.solves <= 0.1 * sim.surface.step_index  # one solve per step nearly always
 
 
@@ -108,7 +113,7 @@ def test_jump_order_and_drive_series():
         run, _ = retraction(case_text(NUMERICS, modulus_ratio=1.0, drive_stiffness=stiffness))
         last = np.flatnonzero(run[:, 4] > 0)[-1]
         jumps.append(run[last, 1])
-        attached = run[:last + 1]
+        attached = run[: last + 1]
         imbalance = attached[:, 3] - stiffness * (attached[:, 1] - attached[:, 2])
         assert np.abs(imbalance).max() <= 4.0 * tolerance
     assert jumps[1] < jumps[0]
@@ -125,4 +130,3 @@ def test_drive_stiffness_keys():
         parse_case(case_text(drive_stiffness=-1.0))
     physical = parse_case(PHYSICAL + "drive_stiffness = 2e5\n")
     assert physical.drive_stiffness == pytest.approx(0.2, rel=1e-15)  # in E0 = 1e6 Pa
-

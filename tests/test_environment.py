@@ -1,4 +1,5 @@
 """The set-up (scripts/setup.sh) provides what the README promises."""
+
 import h5py
 
 
@@ -7,4 +8,3 @@ def test_h5py_is_built_against_parallel_hdf5():
     # wheel has no mpio driver, so this fails if setup.sh installed the wheel instead.
     assert h5py.get_config().mpi
     assert "mpio" in h5py.registered_drivers()
-

@@ -6,6 +6,7 @@ bytes, or one whose seal is missing is detected by its digest, not by being read
 then resumes from the previous generation and says so, and finishes equal to the uninterrupted
 run; with no usable generation the command refuses in one line and touches nothing.
 """
+
 import hashlib
 import os
 import shutil
@@ -18,22 +19,27 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from hpcgfmd.errors import Interrupted
-from hpcgfmd.case import parse_case
-from hpcgfmd.runs.single_case import run_case
-from hpcgfmd.storage.checkpoint import (checkpoint_path, checkpoint_problem, previous_path,
-                                        usable_checkpoint, write_checkpoint)
-from hpcgfmd.storage.reader import read_series
-
 from cases import FIXED_STEPS, StopAtStep, case_text
+from hpcgfmd.case import parse_case
+from hpcgfmd.errors import Interrupted
+from hpcgfmd.runs.single_case import run_case
+from hpcgfmd.storage.checkpoint import (
+    checkpoint_path,
+    checkpoint_problem,
+    previous_path,
+    usable_checkpoint,
+    write_checkpoint,
+)
+from hpcgfmd.storage.reader import read_series
 
 COMM = MPI.COMM_SELF
 # fixed steps: the resumed run repeats the uninterrupted one bit for bit; a checkpoint every
 # 5 steps, so that a stop after step 12 leaves generations at steps 10 and 12
 # the solver's tolerance given: resumed parts are compared with the whole run to round-off
 # amplified by the solves, which a solve stopped at the default 2.5e-3 amplifies to 2e-6
-TEXT = case_text("nx = 1024\ntolerance = 1e-3\n" + FIXED_STEPS + "dt = 0.05",
-                 "checkpoint_steps = 5")
+TEXT = case_text(
+    "nx = 1024\ntolerance = 1e-3\n" + FIXED_STEPS + "dt = 0.05", "checkpoint_steps = 5"
+)
 
 
 def flip_bytes(path, dataset="fields/surface.u", at=100):
@@ -104,8 +110,7 @@ def interrupted_run(directory, stop=12):
 @pytest.fixture(scope="module")
 def whole(tmp_path_factory):
     out = tmp_path_factory.mktemp("whole") / "whole.h5"
-    run_case(parse_case(TEXT), out, COMM, planner_effort="FFTW_ESTIMATE",
-             stop=StopAtStep(10**9))
+    run_case(parse_case(TEXT), out, COMM, planner_effort="FFTW_ESTIMATE", stop=StopAtStep(10**9))
     return read_series(out)
 
 
@@ -117,8 +122,9 @@ def assert_same_run(path, whole):
     parts = read_series(path)
     np.testing.assert_array_equal(parts.time, whole.time)
     np.testing.assert_allclose(parts.load, whole.load, rtol=0, atol=1e-6)
-    np.testing.assert_allclose(parts.contact_half_width, whole.contact_half_width, rtol=0,
-                               atol=1e-5)
+    np.testing.assert_allclose(
+        parts.contact_half_width, whole.contact_half_width, rtol=0, atol=1e-5
+    )
 
 
 @pytest.mark.parametrize("damage", [flip_bytes, truncate])
@@ -128,8 +134,13 @@ def test_resume_passes_over_a_damaged_checkpoint_and_finishes_equal(tmp_path, da
     damage(newest)
     # through the command line: one warning naming both files, then the run finishes
     (tmp_path / "case.toml").write_text(TEXT)
-    proc = subprocess.run([sys.executable, "-m", "hpcgfmd", "run", "case.toml", "-o", "case.h5"],
-                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, "-m", "hpcgfmd", "run", "case.toml", "-o", "case.h5"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stderr
     warnings = [line for line in proc.stderr.splitlines() if "previous checkpoint" in line]
     names = os.path.basename(newest), os.path.basename(previous_path(newest))
@@ -149,8 +160,13 @@ def test_no_usable_checkpoint_refuses_in_one_line_and_touches_nothing(tmp_path):
     truncate(previous_path(newest))
     before = {p: digest_of(p) for p in (out, newest, previous_path(newest))}
     (tmp_path / "case.toml").write_text(TEXT)
-    proc = subprocess.run([sys.executable, "-m", "hpcgfmd", "run", "case.toml", "-o", "case.h5"],
-                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, "-m", "hpcgfmd", "run", "case.toml", "-o", "case.h5"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "cannot resume" in lines[0] and "Traceback" not in proc.stderr
@@ -159,17 +175,27 @@ def test_no_usable_checkpoint_refuses_in_one_line_and_touches_nothing(tmp_path):
 
 # --- one writer per output, and output directories that cannot be written -----------------
 
+
 def hpcgfmd_run(*args, cwd, timeout=300):
-    return subprocess.run([sys.executable, "-m", "hpcgfmd", "run", *args], cwd=cwd,
-                          capture_output=True, text=True, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "hpcgfmd", "run", *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
 
 
 def started_run(tmp_path, *args, steps=5):
     """A run in the background that has written ``steps`` steps (its progress lines)."""
     (tmp_path / "slow.toml").write_text(case_text("nx = 4096", "progress_interval = 1e-6"))
-    proc = subprocess.Popen([sys.executable, "-m", "hpcgfmd", "run", "slow.toml", "-o", "out.h5",
-                             *args], cwd=tmp_path, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "hpcgfmd", "run", "slow.toml", "-o", "out.h5", *args],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     seen = 0
     while seen < steps:
         line = proc.stdout.readline()
@@ -210,8 +236,12 @@ def test_the_lock_of_a_killed_run_is_free_for_the_next_one(tmp_path):
 
 def mount_tmpfs(where, options):
     where.mkdir()
-    if subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(where)],
-                      capture_output=True).returncode != 0:
+    if (
+        subprocess.run(
+            ["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(where)], capture_output=True
+        ).returncode
+        != 0
+    ):
         pytest.skip("cannot mount a tmpfs here (needs root)")
 
 
@@ -220,7 +250,8 @@ def test_missing_and_read_only_output_directories_refused_before_any_work(tmp_pa
     missing = hpcgfmd_run("case.toml", "-o", "nowhere/out.h5", cwd=tmp_path)
     assert missing.returncode == 2
     assert missing.stderr.strip().splitlines() == [
-        f"hpcgfmd: error: -o nowhere/out.h5: directory {tmp_path / 'nowhere'} does not exist"]
+        f"hpcgfmd: error: -o nowhere/out.h5: directory {tmp_path / 'nowhere'} does not exist"
+    ]
     mount_tmpfs(tmp_path / "ro", "ro,size=1m")
     try:
         refused = hpcgfmd_run("case.toml", "-o", "ro/out.h5", cwd=tmp_path)
@@ -230,14 +261,20 @@ def test_missing_and_read_only_output_directories_refused_before_any_work(tmp_pa
         assert "Read-only file system" in lines[0]
         # before any computation: no preload was solved (its log line) and nothing written
         assert "writing" not in refused.stdout and os.listdir(tmp_path / "ro") == []
-        (tmp_path / "sweep.toml").write_text(case_text("nx = 1024", prefix="base.")
-                                             + "[grid]\nvelocity = [1.0, 2.0]\n")
-        farm = subprocess.run([sys.executable, "-m", "hpcgfmd", "farm", "sweep.toml", "-o",
-                               "ro/out"], cwd=tmp_path, capture_output=True, text=True,
-                              timeout=120)
+        (tmp_path / "sweep.toml").write_text(
+            case_text("nx = 1024", prefix="base.") + "[grid]\nvelocity = [1.0, 2.0]\n"
+        )
+        farm = subprocess.run(
+            [sys.executable, "-m", "hpcgfmd", "farm", "sweep.toml", "-o", "ro/out"],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
         assert farm.returncode == 2
         assert farm.stderr.strip().splitlines() == [
-            "hpcgfmd: error: -o ro/out: cannot write there (Read-only file system)"]
+            "hpcgfmd: error: -o ro/out: cannot write there (Read-only file system)"
+        ]
     finally:
         subprocess.run(["umount", str(tmp_path / "ro")])
 
@@ -245,9 +282,10 @@ def test_missing_and_read_only_output_directories_refused_before_any_work(tmp_pa
 # --- a full disk ------------------------------------------------------------------------------
 
 SNAPSHOTS = ", ".join(f"{0.1 * i:.1f}" for i in range(200))
-FILLING = case_text("nx = 1024\n" + FIXED_STEPS + "dt = 0.05",
-                    "checkpoint_steps = 5\nprogress_interval = 1e-6\n"
-                    f"snapshot_times = [{SNAPSHOTS}]")
+FILLING = case_text(
+    "nx = 1024\n" + FIXED_STEPS + "dt = 0.05",
+    f"checkpoint_steps = 5\nprogress_interval = 1e-6\nsnapshot_times = [{SNAPSHOTS}]",
+)
 
 
 @pytest.fixture(scope="module")
@@ -258,7 +296,8 @@ def filling_whole(tmp_path_factory):
 
 
 def test_disk_full_while_writing_the_output_stops_and_the_same_command_finishes(
-        tmp_path, filling_whole):
+    tmp_path, filling_whole
+):
     disk = tmp_path / "disk"
     mount_tmpfs(disk, "size=900k")  # room to start; 200 snapshots of 24 KiB do not fit
     try:
@@ -284,9 +323,13 @@ def test_disk_full_while_writing_a_checkpoint_keeps_the_previous_one(tmp_path, f
     mount_tmpfs(disk, "size=20m")
     try:
         (tmp_path / "case.toml").write_text(FILLING)
-        run = subprocess.Popen([sys.executable, "-m", "hpcgfmd", "run", "case.toml", "-o",
-                                "disk/out.h5"], cwd=tmp_path, stdout=subprocess.PIPE,
-                               stderr=subprocess.PIPE, text=True)
+        run = subprocess.Popen(
+            [sys.executable, "-m", "hpcgfmd", "run", "case.toml", "-o", "disk/out.h5"],
+            cwd=tmp_path,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         seen = 0
         while seen < 12:  # checkpoints at steps 5 and 10 are written
             line = run.stdout.readline()
@@ -316,11 +359,13 @@ def test_disk_full_while_writing_a_checkpoint_keeps_the_previous_one(tmp_path, f
 
 # --- a non-finite value inside a solve ----------------------------------------------------------
 
+
 def poison(monkeypatch, at_step, velocity=None):
     """The test hook: a NaN written into the SLS history's state before step ``at_step`` (of
     the case with ``velocity``, or of every case), as a memory fault or a numerical blow-up
     would leave it."""
     from hpcgfmd.runs.protocol import Retraction
+
     advance = Retraction._advance
 
     def poisoned(self, dt, end=None):
@@ -334,8 +379,13 @@ def poison(monkeypatch, at_step, velocity=None):
 def test_non_finite_value_fails_the_case_naming_step_and_quantity(tmp_path, monkeypatch):
     poison(monkeypatch, at_step=7)
     with pytest.raises(FloatingPointError) as err:
-        run_case(parse_case(TEXT), tmp_path / "case.h5", COMM, planner_effort="FFTW_ESTIMATE",
-                 stop=StopAtStep(10**9))
+        run_case(
+            parse_case(TEXT),
+            tmp_path / "case.h5",
+            COMM,
+            planner_effort="FFTW_ESTIMATE",
+            stop=StopAtStep(10**9),
+        )
     message = str(err.value)
     assert "\n" not in message and message.startswith("step 7 (t = 0.35 tau)")
     assert "non-finite values in: u, history, substrate traction" in message
@@ -346,30 +396,41 @@ def test_non_finite_value_fails_the_case_naming_step_and_quantity(tmp_path, monk
 def test_farm_records_a_non_finite_case_and_goes_on(tmp_path, monkeypatch):
     from hpcgfmd.runs.farm import run_farm
     from hpcgfmd.runs.sweep import load_sweep
+
     poison(monkeypatch, at_step=4, velocity=2.0)
-    (tmp_path / "sweep.toml").write_text(case_text("nx = 1024", prefix="base.")
-                                         + "[grid]\nvelocity = [1.0, 2.0, 3.0]\n")
+    (tmp_path / "sweep.toml").write_text(
+        case_text("nx = 1024", prefix="base.") + "[grid]\nvelocity = [1.0, 2.0, 3.0]\n"
+    )
     status = run_farm(load_sweep(str(tmp_path / "sweep.toml")), COMM, str(tmp_path / "out"))
     assert status == 101  # EXIT_FAILED_BASE + one failed case
     import csv
+
     with open(tmp_path / "out" / "summary.csv") as fh:
         rows = {row["name"]: row for row in csv.DictReader(fh)}
     assert [rows[f"velocity_{v}"]["status"] for v in ("1.0", "2.0", "3.0")] == [
-        "finished", "failed", "finished"]
+        "finished",
+        "failed",
+        "finished",
+    ]
     assert rows["velocity_2.0"]["error"].startswith("FloatingPointError: step 4 ")
 
 
 # --- one rank of a parallel run killed --------------------------------------------------------
 
 MPIRUN = shutil.which("mpirun")
-MPI_ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OMPI_MCA_rmaps_base_oversubscribe="1")
+MPI_ENV = dict(
+    os.environ,
+    OMPI_ALLOW_RUN_AS_ROOT="1",
+    OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+    OMPI_MCA_rmaps_base_oversubscribe="1",
+)
 
 
 def rank_pid(launcher, rank):
     """The pid of MPI rank ``rank`` among the children of the ``mpirun`` process."""
-    for child in subprocess.run(["pgrep", "-P", str(launcher)], capture_output=True,
-                                text=True).stdout.split():
+    for child in subprocess.run(
+        ["pgrep", "-P", str(launcher)], capture_output=True, text=True
+    ).stdout.split():
         try:
             with open(f"/proc/{child}/environ", "rb") as fh:
                 env = dict(item.split(b"=", 1) for item in fh.read().split(b"\0") if b"=" in item)
@@ -385,9 +446,14 @@ def rank_pid(launcher, rank):
 @pytest.mark.skipif(MPIRUN is None, reason="OpenMPI's mpirun is not installed")
 def test_killed_rank_ends_the_job_and_the_run_resumes_on_one_rank(tmp_path, whole):
     (tmp_path / "case.toml").write_text(TEXT + "progress_interval = 1e-6\n")
-    job = subprocess.Popen([MPIRUN, "-n", "2", sys.executable, "-m", "hpcgfmd", "run",
-                            "case.toml", "-o", "out.h5"], cwd=tmp_path, env=MPI_ENV,
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    job = subprocess.Popen(
+        [MPIRUN, "-n", "2", sys.executable, "-m", "hpcgfmd", "run", "case.toml", "-o", "out.h5"],
+        cwd=tmp_path,
+        env=MPI_ENV,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         seen = 0
         while seen < 12:
@@ -410,17 +476,21 @@ def test_killed_rank_ends_the_job_and_the_run_resumes_on_one_rank(tmp_path, whol
 
 # --- a farm killed and started again --------------------------------------------------------
 
+
 @pytest.mark.slow
 def test_farm_killed_and_started_again_finishes_every_case_once(tmp_path):
     import csv
     import time
-    base = case_text(FIXED_STEPS + "nx = 2048\ntolerance = 1e-13", "checkpoint_steps = 5",
-                     prefix="base.")
+
+    base = case_text(
+        FIXED_STEPS + "nx = 2048\ntolerance = 1e-13", "checkpoint_steps = 5", prefix="base."
+    )
     grid = "[grid]\nvelocity = [0.6, 0.8, 1.0]\n"
     (tmp_path / "sweep.toml").write_text(base + grid)
     command = [sys.executable, "-m", "hpcgfmd", "farm", "sweep.toml", "-o", "out"]
-    farm = subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+    farm = subprocess.Popen(
+        command, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
     out = tmp_path / "out"
     deadline = time.monotonic() + 200
 
@@ -435,11 +505,11 @@ def test_farm_killed_and_started_again_finishes_every_case_once(tmp_path):
             assert farm.poll() is None and time.monotonic() < deadline, farm.communicate()
             if out.exists():
                 farm.send_signal(signal.SIGSTOP)
-                names = [p for p in os.listdir(out) if p.endswith(".h5")
-                         and ".checkpoint" not in p]
+                names = [p for p in os.listdir(out) if p.endswith(".h5") and ".checkpoint" not in p]
                 done = [p for p in names if finished(out / p)]
-                resumable = [p for p in names if p not in done
-                             and os.path.exists(checkpoint_path(out / p))]
+                resumable = [
+                    p for p in names if p not in done and os.path.exists(checkpoint_path(out / p))
+                ]
                 if done and resumable:
                     farm.kill()
                     break
@@ -448,9 +518,13 @@ def test_farm_killed_and_started_again_finishes_every_case_once(tmp_path):
         farm.wait(timeout=30)
     finally:
         farm.kill()
-    finished_before = {p: os.path.getmtime(out / p) for p in os.listdir(out)
-                       if p.endswith(".h5") and ".checkpoint" not in p
-                       and read_series(out / p).attrs.get("finished", False)}
+    finished_before = {
+        p: os.path.getmtime(out / p)
+        for p in os.listdir(out)
+        if p.endswith(".h5")
+        and ".checkpoint" not in p
+        and read_series(out / p).attrs.get("finished", False)
+    }
     assert finished_before and len(finished_before) < 3
     again = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert again.returncode == 0, again.stdout + again.stderr
@@ -474,54 +548,82 @@ def test_farm_killed_and_started_again_finishes_every_case_once(tmp_path):
 
 def parse_sweep_text(text):
     from hpcgfmd.runs.sweep import parse_sweep
+
     return parse_sweep(text)
 
 
 # --- names from swept values, and no input reaching eval, pickle or a shell -------------------
 
+
 def test_swept_values_cannot_name_a_file_outside_the_output_directory(tmp_path):
     from hpcgfmd.runs.farm import case_file
-    hostile = ["../../etc/passwd", "/tmp/x", "..", "a/../../b", "~root", "$(rm -rf x)",
-               "`id`", "..\\\\..\\\\w", "\u202e\u0000evil"]
+
+    hostile = [
+        "../../etc/passwd",
+        "/tmp/x",
+        "..",
+        "a/../../b",
+        "~root",
+        "$(rm -rf x)",
+        "`id`",
+        "..\\\\..\\\\w",
+        "\u202e\u0000evil",
+    ]
     base = case_text("nx = 1024", prefix="base.")
-    quoted = ", ".join('"' + v.replace("\\\\", "\\\\\\\\").replace('"', '\\\\"') + '"'
-                       for v in hostile if "\u0000" not in v)
-    sweep = parse_sweep_text(base + f"[grid]\nsolver = [\"cg\", {quoted}]\n")
+    quoted = ", ".join(
+        '"' + v.replace("\\\\", "\\\\\\\\").replace('"', '\\\\"') + '"'
+        for v in hostile
+        if "\u0000" not in v
+    )
+    sweep = parse_sweep_text(base + f'[grid]\nsolver = ["cg", {quoted}]\n')
     out = tmp_path / "out"
     assert len(sweep.cases) == len(hostile)  # "cg" and all but the one with a NUL
     for item in sweep.cases[1:]:
         assert item.case is None  # not a solver: each case is kept with its error
         path = os.path.realpath(case_file(str(out), item))
         assert os.path.dirname(path) == os.path.realpath(out), (item.name, path)
-        assert set(item.name) <= set("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
-                                     "0123456789.+-_")
+        assert set(item.name) <= set(
+            "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789.+-_"
+        )
 
 
 def test_no_input_reaches_eval_pickle_or_a_shell():
     import ast
     import pathlib
+
     package = pathlib.Path(__file__).resolve().parents[1] / "hpcgfmd"
     found = []
     for path in package.rglob("*.py"):
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.Call):
                 func = node.func
-                name = (func.id if isinstance(func, ast.Name)
-                        else func.attr if isinstance(func, ast.Attribute) else "")
+                name = (
+                    func.id
+                    if isinstance(func, ast.Name)
+                    else func.attr
+                    if isinstance(func, ast.Attribute)
+                    else ""
+                )
                 if name in ("eval", "exec", "system", "popen", "loads") and not (
-                        name == "loads" and isinstance(func, ast.Attribute)
-                        and getattr(func.value, "id", "") in ("tomllib", "json")):
+                    name == "loads"
+                    and isinstance(func, ast.Attribute)
+                    and getattr(func.value, "id", "") in ("tomllib", "json")
+                ):
                     found.append(f"{path.name}:{node.lineno} {name}")
                 for kw in node.keywords:
-                    if kw.arg == "shell" or (kw.arg == "allow_pickle"
-                                             and getattr(kw.value, "value", False)):
+                    if kw.arg == "shell" or (
+                        kw.arg == "allow_pickle" and getattr(kw.value, "value", False)
+                    ):
                         found.append(f"{path.name}:{node.lineno} {kw.arg}")
             if isinstance(node, (ast.Import, ast.ImportFrom)):
                 names = [a.name for a in node.names] + [getattr(node, "module", "") or ""]
                 # (the benchmarks launch hpcgfmd and git with fixed argument lists, no shell)
                 allowed = ("subprocess",) if "studies" in path.parts else ()
-                if any(n.split(".")[0] in ("pickle", "marshal", "shelve", "subprocess")
-                       and n not in allowed for n in names):
+                if any(
+                    n.split(".")[0] in ("pickle", "marshal", "shelve", "subprocess")
+                    and n not in allowed
+                    for n in names
+                ):
                     found.append(f"{path.name}:{node.lineno} import {names}")
     assert found == []
 
@@ -543,8 +645,10 @@ def test_too_little_space_to_start_is_refused_before_any_work(tmp_path):
 def test_list_values_keep_their_separators_in_case_names():
     # [1, 2] and [12] are different values: different names (the "_" was dropped once)
     base = case_text("nx = 1024", prefix="base.")
-    sweep = parse_sweep_text(base + "[[cases]]\noutput.snapshot_times = [1, 2]\n"
-                             "[[cases]]\noutput.snapshot_times = [12]\n")
+    sweep = parse_sweep_text(
+        base + "[[cases]]\noutput.snapshot_times = [1, 2]\n"
+        "[[cases]]\noutput.snapshot_times = [12]\n"
+    )
     names = [item.name for item in sweep.cases]
     assert names == ["snapshot_times_1_2", "snapshot_times_12"]
 
@@ -564,8 +668,11 @@ def test_damaged_checkpoint_attributes_are_reported_not_raised(tmp_path):
 
 def test_farm_passes_over_a_damaged_checkpoint_and_refuses_when_none_is_usable(tmp_path):
     from hpcgfmd.runs.farm import case_file, run_farm
-    sweep_text = (case_text("nx = 1024\n" + FIXED_STEPS + "dt = 0.05", "checkpoint_steps = 5",
-                            prefix="base.") + "[grid]\nvelocity = [1.0, 2.0]\n")
+
+    sweep_text = (
+        case_text("nx = 1024\n" + FIXED_STEPS + "dt = 0.05", "checkpoint_steps = 5", prefix="base.")
+        + "[grid]\nvelocity = [1.0, 2.0]\n"
+    )
     sweep = parse_sweep_text(sweep_text)
     out = tmp_path / "out"
     out.mkdir()
@@ -580,6 +687,7 @@ def test_farm_passes_over_a_damaged_checkpoint_and_refuses_when_none_is_usable(t
     status = run_farm(sweep, COMM, str(out))
     assert status == 101
     import csv
+
     with open(out / "summary.csv") as fh:
         rows = list(csv.DictReader(fh))
     assert [r["status"] for r in rows] == ["finished", "failed"]
@@ -591,6 +699,7 @@ def test_a_file_system_without_flock_runs_unlocked_with_a_warning(tmp_path, monk
     # Lustre mounted noflock answers ENOSYS, NFSv3 without lockd ENOLCK: the run goes on
     import errno
     import fcntl
+
     from hpcgfmd.storage import lock as lock_module
 
     def no_flock(fd, operation):

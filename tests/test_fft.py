@@ -2,6 +2,7 @@
 apply_diagonal and the split forward and inverse transforms (those of the damped Verlet
 solver) against numpy's rfft/irfft, their buffers, the wavenumber layout, block_range, and
 the MPI check program tests/mpi/check_fft.py."""
+
 import os
 import shutil
 import subprocess
@@ -13,9 +14,9 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
+from hpcgfmd.parallel.blocks import block_range
 from hpcgfmd.parallel.fft import SerialRealFFT, TransposedRealFFT, plan_real_fft
 from hpcgfmd.parallel.fft_transposed import split_length
-from hpcgfmd.parallel.blocks import block_range
 
 SIZES = [2, 16, 30, 64, 96, 1000, 2**12]
 
@@ -28,8 +29,9 @@ def reference(field, multiplier):
 
 def apply(fft, field, multiplier):
     out = np.empty(fft.x_stop - fft.x_start)
-    return fft.apply_diagonal(field[fft.x_start:fft.x_stop],
-                              multiplier[np.abs(fft.wavenumber)], out)
+    return fft.apply_diagonal(
+        field[fft.x_start : fft.x_stop], multiplier[np.abs(fft.wavenumber)], out
+    )
 
 
 def numpy_modes(fft, field):
@@ -159,8 +161,9 @@ def test_transport_on_one_rank(transport):
 
 def test_factory_picks_the_serial_transform_on_one_rank():
     assert isinstance(plan_real_fft(MPI.COMM_SELF, 16, "FFTW_ESTIMATE"), SerialRealFFT)
-    assert isinstance(plan_real_fft(MPI.COMM_SELF, 16, "FFTW_ESTIMATE", transposed=True),
-                      TransposedRealFFT)
+    assert isinstance(
+        plan_real_fft(MPI.COMM_SELF, 16, "FFTW_ESTIMATE", transposed=True), TransposedRealFFT
+    )
 
 
 @pytest.mark.parametrize("n", [0, 1, 5, 8, 64, 97])
@@ -183,8 +186,13 @@ MPI_RUNS = [(2, []), (3, []), (6, ["64", "16"])]
 @pytest.mark.parametrize("ranks, sizes", MPI_RUNS)
 def test_transposed_fft_under_mpirun(ranks, sizes):
     script = Path(__file__).parent / "mpi" / "check_fft.py"
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    env = dict(
+        os.environ,
+        OMPI_ALLOW_RUN_AS_ROOT="1",
+        OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+        OPENBLAS_NUM_THREADS="1",
+        OMP_NUM_THREADS="1",
+    )
     command = ["mpirun", "--oversubscribe", "-n", str(ranks), sys.executable, str(script), *sizes]
     result = subprocess.run(command, env=env, capture_output=True, text=True, timeout=60)
     assert result.returncode == 0, result.stdout + result.stderr

@@ -13,6 +13,7 @@ The bulk goes through the parser functions (``HPCGFMD_FUZZ_EXAMPLES`` per parser
 ``farm --dry-run`` (exit 0 or 2 with one line on stderr, no traceback, no file written).
 ``python scripts/fuzz.py --examples 10000`` runs the bulk properties with another budget.
 """
+
 import collections
 import functools
 import json
@@ -28,21 +29,25 @@ hypothesis = pytest.importorskip("hypothesis", reason="pip install 'hpcgfmd[test
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from hpcgfmd.errors import CaseError, SweepError  # noqa: E402
+import cases  # noqa: E402
 from hpcgfmd.case import parse_case  # noqa: E402
 from hpcgfmd.case.groups import GROUP_KEYS as CASE_KEYS  # noqa: E402
 from hpcgfmd.case.numerics import MIN_TOLERANCE, numerics_keys  # noqa: E402
 from hpcgfmd.case.output import OUTPUT_KEYS  # noqa: E402
 from hpcgfmd.case.units import PHYSICAL_KEYS  # noqa: E402
+from hpcgfmd.errors import CaseError, SweepError  # noqa: E402
 from hpcgfmd.runs.single_case import describe  # noqa: E402
 from hpcgfmd.runs.sweep import parse_sweep  # noqa: E402
 
-import cases  # noqa: E402
-
 EXAMPLES = int(os.environ.get("HPCGFMD_FUZZ_EXAMPLES", "2000"))
 CLI_EXAMPLES = int(os.environ.get("HPCGFMD_FUZZ_CLI_EXAMPLES", "30"))
-FUZZ_SETTINGS = dict(derandomize=True, deadline=None, database=None, print_blob=False,
-                     suppress_health_check=list(HealthCheck))
+FUZZ_SETTINGS = dict(
+    derandomize=True,
+    deadline=None,
+    database=None,
+    print_blob=False,
+    suppress_health_check=list(HealthCheck),
+)
 # inputs tried and their outcome ("valid" / "invalid") per parser, read by scripts/fuzz.py
 OUTCOMES = {"case": collections.Counter(), "sweep": collections.Counter()}
 
@@ -69,17 +74,56 @@ def positive(low, high):
 
 LONG = "x" * 10_000
 SPECIAL_NUMBERS = [
-    "nan", "+nan", "-nan", "inf", "+inf", "-inf", "1e308", "-1e308", "1.7976931348623157e308",
-    "1e400", "1e-308", "5e-324", "-1e-308", "1e-400", "0", "0.0", "-0.0", "+0", "-1", "-7.5",
-    "9223372036854775807", "-9223372036854775808", "9223372036854775808", "9" * 30,
-    "0x7fffffff", "0o755", "0b1010", "1_000_000", "1e3", "65536.0", "65537",
-    "2048", "1", "true", "false",
+    "nan",
+    "+nan",
+    "-nan",
+    "inf",
+    "+inf",
+    "-inf",
+    "1e308",
+    "-1e308",
+    "1.7976931348623157e308",
+    "1e400",
+    "1e-308",
+    "5e-324",
+    "-1e-308",
+    "1e-400",
+    "0",
+    "0.0",
+    "-0.0",
+    "+0",
+    "-1",
+    "-7.5",
+    "9223372036854775807",
+    "-9223372036854775808",
+    "9223372036854775808",
+    "9" * 30,
+    "0x7fffffff",
+    "0o755",
+    "0b1010",
+    "1_000_000",
+    "1e3",
+    "65536.0",
+    "65537",
+    "2048",
+    "1",
+    "true",
+    "false",
 ]
 SPECIAL_STRINGS = [
-    '""', "''", toml_string("λ₀ = 7 · Ångström · 日本語 · 🙂"),
-    toml_string("7.0"), toml_string("cg"), toml_string("paper"), toml_string("adaptive"),
-    toml_string("case.toml"), toml_string("a\nb\r\nc\u2028d\x0c"), toml_string("\x00"),
-    '"""multi\nline"""', "'literal \\ string'", toml_string("../../etc/passwd"),
+    '""',
+    "''",
+    toml_string("λ₀ = 7 · Ångström · 日本語 · 🙂"),
+    toml_string("7.0"),
+    toml_string("cg"),
+    toml_string("paper"),
+    toml_string("adaptive"),
+    toml_string("case.toml"),
+    toml_string("a\nb\r\nc\u2028d\x0c"),
+    toml_string("\x00"),
+    '"""multi\nline"""',
+    "'literal \\ string'",
+    toml_string("../../etc/passwd"),
 ]
 # built when drawn: a strategy holding them would have a repr of many kB
 HUGE_INTEGERS = st.sampled_from([400, 4301]).map(lambda n: "9" * n)  # 4301: int()'s limit
@@ -111,8 +155,11 @@ def any_values():
         lambda inner: st.one_of(
             st.lists(inner, max_size=4).map(lambda v: "[" + ", ".join(v) + "]"),
             st.lists(st.tuples(any_keys(), inner), max_size=3).map(
-                lambda kv: "{" + ", ".join(f"{k} = {v}" for k, v in kv) + "}")),
-        max_leaves=8)
+                lambda kv: "{" + ", ".join(f"{k} = {v}" for k, v in kv) + "}"
+            ),
+        ),
+        max_leaves=8,
+    )
     return st.integers(0, 9).flatmap(lambda i: st.text(max_size=12) if i == 0 else values)
 
 
@@ -122,39 +169,71 @@ def any_keys():
     return st.one_of(
         st.from_regex(r"[A-Za-z0-9_-]{1,12}", fullmatch=True),
         st.text(max_size=12).map(toml_string),
-        st.sampled_from(['""', "colour", "a.b", "case.maugis", "numerics.nx", "base", "grid",
-                         toml_string("key\nwith newline"), toml_string("ключ"), "'lit'"]),
+        st.sampled_from(
+            [
+                '""',
+                "colour",
+                "a.b",
+                "case.maugis",
+                "numerics.nx",
+                "base",
+                "grid",
+                toml_string("key\nwith newline"),
+                toml_string("ключ"),
+                "'lit'",
+            ]
+        ),
     )
 
 
 # valid values of every key (some combinations are still rejected, e.g. dt_min > dt_max)
 VALID = {
-    "case": {"maugis": positive(1.0, 8.0), "modulus_ratio": positive(0.02, 1.0),
-             "velocity": positive(0.05, 10.0), "depth": positive(0.01, 0.1),
-             "cell": positive(3.0, 10.0), "adhesion": positive(1e-5, 1e-3)},
-    "physical": {"radius": positive(5e-4, 2e-3), "modulus_relaxed": positive(5e5, 2e6),
-                 "modulus_instantaneous": positive(5e6, 2e7),
-                 "relaxation_time": positive(0.5, 2.0), "work_of_adhesion": positive(0.02, 0.1),
-                 "interaction_range": positive(1e-7, 4e-7), "velocity": positive(5e-7, 2e-6),
-                 "depth": positive(5e-5, 1.5e-4), "cell_length": positive(8e-3, 2e-2)},
-    "numerics": {"accuracy": positive(1e-3, 0.05),
-                 "nx": st.sampled_from(["1024", "2048", "4096", "8192", "65536"]),
-                 "dt": positive(1e-4, 0.1), "tolerance": positive(1e-10, 1e-3),
-                 "max_iterations": st.integers(1, 20000).map(str),
-                 "solver": st.sampled_from(['"cg"', '"paper"']),
-                 "step_control": st.sampled_from(['"adaptive"', '"fixed"']),
-                 "dt_min": positive(1e-6, 1e-3), "dt_max": positive(0.01, 1.0),
-                 "edge_fraction": positive(0.25, 4.0), "load_tolerance": positive(1e-3, 0.1),
-                 "time_tolerance": positive(1e-3, 0.1),
-                 "equilibration_steps": st.integers(1, 100000).map(str)},
-    "output": {"snapshot_times": st.lists(positive(0.0, 10.0), max_size=3).map(
-                   lambda v: "[" + ", ".join(v) + "]"),
-               "snapshot_contact_widths": st.lists(positive(0.0, 1.0), max_size=3).map(
-                   lambda v: "[" + ", ".join(v) + "]"),
-               "snapshot_zero_load": st.sampled_from(["true", "false"]),
-               "progress_interval": positive(0.1, 100.0),
-               "checkpoint_interval": positive(1.0, 3600.0),
-               "checkpoint_steps": st.integers(0, 1000).map(str)},
+    "case": {
+        "maugis": positive(1.0, 8.0),
+        "modulus_ratio": positive(0.02, 1.0),
+        "velocity": positive(0.05, 10.0),
+        "depth": positive(0.01, 0.1),
+        "cell": positive(3.0, 10.0),
+        "adhesion": positive(1e-5, 1e-3),
+    },
+    "physical": {
+        "radius": positive(5e-4, 2e-3),
+        "modulus_relaxed": positive(5e5, 2e6),
+        "modulus_instantaneous": positive(5e6, 2e7),
+        "relaxation_time": positive(0.5, 2.0),
+        "work_of_adhesion": positive(0.02, 0.1),
+        "interaction_range": positive(1e-7, 4e-7),
+        "velocity": positive(5e-7, 2e-6),
+        "depth": positive(5e-5, 1.5e-4),
+        "cell_length": positive(8e-3, 2e-2),
+    },
+    "numerics": {
+        "accuracy": positive(1e-3, 0.05),
+        "nx": st.sampled_from(["1024", "2048", "4096", "8192", "65536"]),
+        "dt": positive(1e-4, 0.1),
+        "tolerance": positive(1e-10, 1e-3),
+        "max_iterations": st.integers(1, 20000).map(str),
+        "solver": st.sampled_from(['"cg"', '"paper"']),
+        "step_control": st.sampled_from(['"adaptive"', '"fixed"']),
+        "dt_min": positive(1e-6, 1e-3),
+        "dt_max": positive(0.01, 1.0),
+        "edge_fraction": positive(0.25, 4.0),
+        "load_tolerance": positive(1e-3, 0.1),
+        "time_tolerance": positive(1e-3, 0.1),
+        "equilibration_steps": st.integers(1, 100000).map(str),
+    },
+    "output": {
+        "snapshot_times": st.lists(positive(0.0, 10.0), max_size=3).map(
+            lambda v: "[" + ", ".join(v) + "]"
+        ),
+        "snapshot_contact_widths": st.lists(positive(0.0, 1.0), max_size=3).map(
+            lambda v: "[" + ", ".join(v) + "]"
+        ),
+        "snapshot_zero_load": st.sampled_from(["true", "false"]),
+        "progress_interval": positive(0.1, 100.0),
+        "checkpoint_interval": positive(1.0, 3600.0),
+        "checkpoint_steps": st.integers(0, 1000).map(str),
+    },
 }
 assert set(VALID["case"]) == set(CASE_KEYS) and set(VALID["physical"]) == set(PHYSICAL_KEYS)
 assert set(VALID["numerics"]) == set(numerics_keys()) and set(VALID["output"]) == set(OUTPUT_KEYS)
@@ -169,10 +248,11 @@ def extreme_numbers():
     """Numbers of the right type at the edges: any float (huge, tiny, subnormal, negative,
     NaN, inf), huge and negative integers."""
     return st.one_of(
-        st.sampled_from(SPECIAL_NUMBERS[:27]), HUGE_INTEGERS,
+        st.sampled_from(SPECIAL_NUMBERS[:27]),
+        HUGE_INTEGERS,
         st.floats(min_value=0.0, exclude_min=True, allow_infinity=False).map(toml_float),
         st.floats().map(toml_float),
-        st.integers(min_value=-2**70, max_value=2**1100).map(str),
+        st.integers(min_value=-(2**70), max_value=2**1100).map(str),
     )
 
 
@@ -194,12 +274,24 @@ def foreign_line(draw):
 
 # positive numbers of any magnitude for the keys that take one: valid one by one, they may
 # over- or underflow in combination
-EXTREME_KEYS = {*CASE_KEYS, *PHYSICAL_KEYS, "accuracy", "dt", "tolerance", "dt_min", "dt_max",
-                "edge_fraction", "load_tolerance", "time_tolerance", "progress_interval",
-                "checkpoint_interval"}
+EXTREME_KEYS = {
+    *CASE_KEYS,
+    *PHYSICAL_KEYS,
+    "accuracy",
+    "dt",
+    "tolerance",
+    "dt_min",
+    "dt_max",
+    "edge_fraction",
+    "load_tolerance",
+    "time_tolerance",
+    "progress_interval",
+    "checkpoint_interval",
+}
 ANY_POSITIVE = st.one_of(
     st.floats(min_value=5e-324, max_value=1.7976931348623157e308).map(toml_float),
-    st.integers(-323, 308).map(lambda e: f"1e{e}"))
+    st.integers(-323, 308).map(lambda e: f"1e{e}"),
+)
 EXTREME_NX = st.integers(32, 2**1100).map(lambda n: str(2 * n))
 
 
@@ -238,43 +330,88 @@ def section_lines(draw, name, rate, required, target=None, extreme=False):
 def case_sections(draw, prefix="", mode=None):
     """The sections of a case file (headers with ``prefix``, "base." in a sweep file): valid,
     or with exactly one mutation, or with a few or many, or numbers of any magnitude."""
-    mode = mode or draw(st.sampled_from(["valid", "valid", "one", "one", "one", "few", "many",
-                                         "extreme", "extreme"]))
+    mode = mode or draw(
+        st.sampled_from(
+            ["valid", "valid", "one", "one", "one", "few", "many", "extreme", "extreme"]
+        )
+    )
     rate = {"valid": 0, "one": 0, "few": 5, "many": 40, "extreme": 0}[mode]
-    form = draw(st.sampled_from(["case", "case", "case", "physical", "physical", "both",
-                                 "neither"] if mode not in ("valid", "extreme")
-                                else ["case", "physical"]))
-    forms = {"case": ["case"], "physical": ["physical"], "both": ["case", "physical"],
-             "neither": []}[form]
+    form = draw(
+        st.sampled_from(
+            ["case", "case", "case", "physical", "physical", "both", "neither"]
+            if mode not in ("valid", "extreme")
+            else ["case", "physical"]
+        )
+    )
+    forms = {
+        "case": ["case"],
+        "physical": ["physical"],
+        "both": ["case", "physical"],
+        "neither": [],
+    }[form]
     names = forms + [name for name in ("numerics", "output") if chance(draw, 50)]
     target = (None, None)
     if mode == "one":
         section = draw(st.sampled_from(names + ["file"]))
         if section != "file":
             target = (section, draw(st.sampled_from([*VALID[section], "+"])))
-    blocks = [(f"[{prefix}{name}]",
-               draw(section_lines(name, rate, name in forms,
-                                  target[1] if name == target[0] else None, mode == "extreme")))
-              for name in names]
+    blocks = [
+        (
+            f"[{prefix}{name}]",
+            draw(
+                section_lines(
+                    name,
+                    rate,
+                    name in forms,
+                    target[1] if name == target[0] else None,
+                    mode == "extreme",
+                )
+            ),
+        )
+        for name in names
+    ]
     whole = mode == "one" and target == (None, None)
     if (whole and chance(draw, 50)) or chance(draw, rate):
         # an unknown section, an array of tables, a table where a value belongs
-        header = draw(st.sampled_from(
-            ["[solver]", "[[case]]", "[numerics.nx]", "[case.maugis]", "[output.extra]",
-             f"[{prefix}physical]", f"[{prefix}numerics]", "[]", "[ case ]", '["case"]',
-             "[case", "[[numerics]]", "[" + toml_string("sec\ntion") + "]", '["λ"]']))
+        header = draw(
+            st.sampled_from(
+                [
+                    "[solver]",
+                    "[[case]]",
+                    "[numerics.nx]",
+                    "[case.maugis]",
+                    "[output.extra]",
+                    f"[{prefix}physical]",
+                    f"[{prefix}numerics]",
+                    "[]",
+                    "[ case ]",
+                    '["case"]',
+                    "[case",
+                    "[[numerics]]",
+                    "[" + toml_string("sec\ntion") + "]",
+                    '["λ"]',
+                ]
+            )
+        )
         blocks.insert(draw(st.integers(0, len(blocks))), (header, [foreign_line(draw)]))
     elif whole or chance(draw, rate):  # a value where a section belongs
-        blocks.insert(0, ("", [f"{draw(st.sampled_from(['numerics', 'output', 'case']))}"
-                               f" = {draw(any_values())}"]))
+        blocks.insert(
+            0,
+            (
+                "",
+                [f"{draw(st.sampled_from(['numerics', 'output', 'case']))} = {draw(any_values())}"],
+            ),
+        )
     if not prefix and chance(draw, 50):
         draw(st.randoms(use_true_random=False)).shuffle(blocks)
     return blocks
 
 
 def render(blocks) -> str:
-    return "".join((f"{header}\n" if header else "") + "".join(f"{line}\n" for line in lines)
-                   for header, lines in blocks)
+    return "".join(
+        (f"{header}\n" if header else "") + "".join(f"{line}\n" for line in lines)
+        for header, lines in blocks
+    )
 
 
 @st.composite
@@ -287,15 +424,19 @@ def mutated(draw, texts):
     if how == "cut":
         return text[:i]
     if how == "delete":
-        return text[:i] + text[i + draw(st.integers(1, 40)):]
+        return text[:i] + text[i + draw(st.integers(1, 40)) :]
     if how == "insert":
-        garbage = st.one_of(st.text(max_size=8), st.sampled_from(
-            ["\x00", "\ufeff", "\r", '"', "[", "]", "=", "\n=\n", "#", "\\", "[[", "{"]))
+        garbage = st.one_of(
+            st.text(max_size=8),
+            st.sampled_from(
+                ["\x00", "\ufeff", "\r", '"', "[", "]", "=", "\n=\n", "#", "\\", "[[", "{"]
+            ),
+        )
         return text[:i] + draw(garbage) + text[i:]
     if how == "line":  # a line duplicated
         lines = text.splitlines(keepends=True) or [""]
         j = draw(st.integers(0, len(lines) - 1))
-        return "".join(lines[:j + 1] + lines[j:])
+        return "".join(lines[: j + 1] + lines[j:])
     raw = bytearray(text.encode())
     if raw:
         raw[min(i, len(raw) - 1)] = draw(st.integers(0, 255))
@@ -320,9 +461,13 @@ def case_files():
 # --- sweep files ---------------------------------------------------------------------------
 
 # the files of the directory of the sweep file (parse_sweep's ``directory``)
-BASE_FILES = {"case.toml": cases.case_text().encode(), "bad.toml": b"[case\nmaugis = ",
-              "binary.toml": bytes(range(256)) * 4, "empty.toml": b"",
-              "utf16.toml": cases.case_text().encode("utf-16")}
+BASE_FILES = {
+    "case.toml": cases.case_text().encode(),
+    "bad.toml": b"[case\nmaugis = ",
+    "binary.toml": bytes(range(256)) * 4,
+    "empty.toml": b"",
+    "utf16.toml": cases.case_text().encode("utf-16"),
+}
 
 
 def make_sweep_directory(path):
@@ -333,9 +478,22 @@ def make_sweep_directory(path):
 
 
 # base = ... other than the valid "case.toml"
-BASE_NAMES = ['"missing.toml"', '"bad.toml"', '"binary.toml"', '"empty.toml"', '"utf16.toml"',
-              '"sub"', '""', '"."', '"/"', toml_string("case.toml\x00"), '"/proc/self/mem"',
-              '"/dev/null"', toml_string("λ.toml"), toml_string("sub/../case.toml")]
+BASE_NAMES = [
+    '"missing.toml"',
+    '"bad.toml"',
+    '"binary.toml"',
+    '"empty.toml"',
+    '"utf16.toml"',
+    '"sub"',
+    '""',
+    '"."',
+    '"/"',
+    toml_string("case.toml\x00"),
+    '"/proc/self/mem"',
+    '"/dev/null"',
+    toml_string("λ.toml"),
+    toml_string("sub/../case.toml"),
+]
 
 
 def sweep_keys(form):
@@ -343,7 +501,9 @@ def sweep_keys(form):
     pairs = [(section, key) for section in (form, "numerics", "output") for key in VALID[section]]
     return st.sampled_from(pairs).flatmap(
         lambda pair: st.sampled_from([pair[1], f"{pair[0]}.{pair[1]}"]).map(
-            lambda spelling: (pair[0], spelling)))
+            lambda spelling: (pair[0], spelling)
+        )
+    )
 
 
 def list_text(values):
@@ -355,9 +515,26 @@ def sweep_sections(draw):
     """The sections of a sweep file: valid, or with exactly one mutation, or a few or many."""
     mode = draw(st.sampled_from(["valid", "valid", "one", "one", "one", "few", "many"]))
     rate = {"valid": 0, "one": 0, "few": 5, "many": 40}[mode]
-    target = draw(st.sampled_from(["base", "base case", "grid key", "grid value", "grid",
-                                   "cases key", "cases value", "cases", "farm", "top"])
-                  ) if mode == "one" else None
+    target = (
+        draw(
+            st.sampled_from(
+                [
+                    "base",
+                    "base case",
+                    "grid key",
+                    "grid value",
+                    "grid",
+                    "cases key",
+                    "cases value",
+                    "cases",
+                    "farm",
+                    "top",
+                ]
+            )
+        )
+        if mode == "one"
+        else None
+    )
 
     def hit(part):
         return target == part or chance(draw, rate)
@@ -371,8 +548,9 @@ def sweep_sections(draw):
     elif base == "file":
         blocks.append(("", ['base = "case.toml"']))
     else:
-        base_mode = ("one" if target == "base case" else "valid" if mode in ("valid", "one")
-                     else None)  # few, many: any base
+        base_mode = (
+            "one" if target == "base case" else "valid" if mode in ("valid", "one") else None
+        )  # few, many: any base
         base_blocks = draw(case_sections(prefix="base.", mode=base_mode))
     form = "physical" if any(h == "[base.physical]" for h, _ in base_blocks) else "case"
     keys = sweep_keys(form)
@@ -381,11 +559,19 @@ def sweep_sections(draw):
         section, key = draw(keys)
         if hit("grid key"):
             key = draw(any_keys())
-        values = draw(st.lists(VALID[section][key.split(".")[-1]] if key.split(".")[-1]
-                               in VALID[section] else any_values(), min_size=1, max_size=3))
+        values = draw(
+            st.lists(
+                VALID[section][key.split(".")[-1]]
+                if key.split(".")[-1] in VALID[section]
+                else any_values(),
+                min_size=1,
+                max_size=3,
+            )
+        )
         if hit("grid value"):
             values[draw(st.integers(0, len(values) - 1))] = draw(
-                st.one_of(any_values(), extreme_numbers()))
+                st.one_of(any_values(), extreme_numbers())
+            )
         value = list_text(values)
         if hit("grid value") and chance(draw, 30):
             value = draw(st.one_of(st.just("[]"), any_values(), extreme_numbers()))
@@ -400,8 +586,11 @@ def sweep_sections(draw):
             section, key = draw(keys)
             if hit("cases key"):
                 key = draw(any_keys())
-            value = (draw(VALID[section][key.split(".")[-1]]) if key.split(".")[-1]
-                     in VALID[section] else draw(any_values()))
+            value = (
+                draw(VALID[section][key.split(".")[-1]])
+                if key.split(".")[-1] in VALID[section]
+                else draw(any_values())
+            )
             if hit("cases value"):
                 value = draw(st.one_of(any_values(), extreme_numbers()))
             lines.append(f"{key} = {value}")
@@ -412,8 +601,11 @@ def sweep_sections(draw):
     if farm or chance(draw, 40):
         lines = []
         if chance(draw, 70):
-            ranks = (draw(st.one_of(st.integers(-3, 0).map(str), scalar_values()))
-                     if farm and chance(draw, 50) else str(draw(st.integers(1, 4))))
+            ranks = (
+                draw(st.one_of(st.integers(-3, 0).map(str), scalar_values()))
+                if farm and chance(draw, 50)
+                else str(draw(st.integers(1, 4)))
+            )
             lines.append(f"ranks_per_case = {ranks}")
         if chance(draw, 50):
             output = draw(scalar_values()) if farm and chance(draw, 50) else '"study"'
@@ -425,13 +617,36 @@ def sweep_sections(draw):
         if chance(draw, 33):
             blocks.insert(0, ("", [f"{draw(any_keys())} = {draw(any_values())}"]))
         elif chance(draw, 50):  # a value for a section
-            blocks.insert(0, ("", [f"{draw(st.sampled_from(['farm', 'grid', 'cases']))}"
-                                   f" = {draw(st.one_of(any_values(), extreme_numbers()))}"]))
+            blocks.insert(
+                0,
+                (
+                    "",
+                    [
+                        f"{draw(st.sampled_from(['farm', 'grid', 'cases']))}"
+                        f" = {draw(st.one_of(any_values(), extreme_numbers()))}"
+                    ],
+                ),
+            )
         else:
-            blocks.append((draw(st.sampled_from(["[colour]", "[[grid]]", "[farm.output]",
-                                                 "[cases]", "[[farm]]", "[base]", "[grid.x]",
-                                                 "[" + toml_string("sec\ntion") + "]"])),
-                           [foreign_line(draw)]))
+            blocks.append(
+                (
+                    draw(
+                        st.sampled_from(
+                            [
+                                "[colour]",
+                                "[[grid]]",
+                                "[farm.output]",
+                                "[cases]",
+                                "[[farm]]",
+                                "[base]",
+                                "[grid.x]",
+                                "[" + toml_string("sec\ntion") + "]",
+                            ]
+                        )
+                    ),
+                    [foreign_line(draw)],
+                )
+            )
     return blocks + base_blocks
 
 
@@ -454,14 +669,21 @@ def check_case(case, where="case"):
         assert isinstance(value, float) and math.isfinite(value) and value > 0, (where, key, value)
     assert case.modulus_ratio <= 1.0, where
     assert case.cell >= 6.0 * math.sqrt(2.0 * case.depth) * (1 - 1e-12), where
-    for name in ("beta", "load_scale", "sigma_a", "dmax", "zone_width", "chi_ve",
-                 "indenter_speed", "lambda_inf"):
+    for name in (
+        "beta",
+        "load_scale",
+        "sigma_a",
+        "dmax",
+        "zone_width",
+        "chi_ve",
+        "indenter_speed",
+        "lambda_inf",
+    ):
         value = getattr(case, name)
         assert math.isfinite(value) and value > 0, (where, name, value)
     n = case.numerics
     assert isinstance(n.nx, int) and n.nx >= 64 and n.nx % 2 == 0, (where, n.nx)
-    for name in ("dt", "dt_min", "tolerance", "edge_fraction", "load_tolerance",
-                 "time_tolerance"):
+    for name in ("dt", "dt_min", "tolerance", "edge_fraction", "load_tolerance", "time_tolerance"):
         value = getattr(n, name)
         assert math.isfinite(value) and value > 0, (where, name, value)
     assert 0 < n.dt_min <= n.dt_max, where
@@ -543,7 +765,7 @@ def sample(strategy, n):
             found.append(text)
 
     collect()
-    return found[::max(1, len(found) // n)][:n]
+    return found[:: max(1, len(found) // n)][:n]
 
 
 def run_command(command, text, directory):
@@ -552,21 +774,30 @@ def run_command(command, text, directory):
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(text)
     before = sorted(os.listdir(directory))
-    proc = subprocess.run([sys.executable, "-m", "hpcgfmd", command, "f.toml", "--dry-run"],
-                          cwd=directory, capture_output=True, text=True, errors="replace",
-                          timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "hpcgfmd", command, "f.toml", "--dry-run"],
+        cwd=directory,
+        capture_output=True,
+        text=True,
+        errors="replace",
+        timeout=120,
+    )
     problems = []
     if proc.returncode not in (0, 2):
         problems.append(f"exit status {proc.returncode}")
     if "Traceback" in proc.stderr:
         problems.append("a traceback")
-    if proc.returncode == 2 and not (proc.stderr.endswith("\n") and proc.stderr.count("\n") == 1
-                                     and proc.stderr.strip()):
+    if proc.returncode == 2 and not (
+        proc.stderr.endswith("\n") and proc.stderr.count("\n") == 1 and proc.stderr.strip()
+    ):
         problems.append("not one line on stderr")
     if sorted(os.listdir(directory)) != before:
         problems.append(f"files written: {set(os.listdir(directory)) - set(before)}")
-    return (f"{command} {text[:300]!r}: {', '.join(problems)}; stderr {proc.stderr[-2000:]!r}"
-            if problems else None), proc.returncode
+    return (
+        f"{command} {text[:300]!r}: {', '.join(problems)}; stderr {proc.stderr[-2000:]!r}"
+        if problems
+        else None
+    ), proc.returncode
 
 
 @pytest.mark.slow
@@ -577,7 +808,8 @@ def test_commands_fuzz(tmp_path):
     jobs = []
     case_inputs = [cases.case_text()] + sample(case_files(), CLI_EXAMPLES)
     sweep_inputs = ['base = "case.toml"\n[grid]\nvelocity = [0.5, 1.0]\n'] + sample(
-        sweep_files(), CLI_EXAMPLES)
+        sweep_files(), CLI_EXAMPLES
+    )
     for command, inputs in (("run", case_inputs), ("farm", sweep_inputs)):
         for i, text in enumerate(inputs):
             directory = tmp_path / f"{command}{i}"

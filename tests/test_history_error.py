@@ -7,6 +7,7 @@ cos(2 pi x / L) (docs/model.md, "Substrate"). The stepping is the protocol's: th
 traction H of the step, p_{n+1} = K u_{n+1} + H, then the estimate's correction. The
 "contact" is where cos > 0, so the contact sums of the mode's traction are not zero.
 """
+
 import importlib.util
 import math
 import os
@@ -40,8 +41,9 @@ class Mode:
         half_q = np.pi * np.abs(self.fft.wavenumber) / CELL
         self.half_q_mode = np.pi / CELL  # |q|/2 of the mode
         self.half_q = half_q
-        self.substrate = MaxwellHalfSpace(GeneralizedMaxwell.standard_linear(E0, EINF, TAU),
-                                          half_q, N, N)
+        self.substrate = MaxwellHalfSpace(
+            GeneralizedMaxwell.standard_linear(E0, EINF, TAU), half_q, N, N
+        )
         self.estimator = HistoryError(self.substrate, self.fft, self.domain, crossing_reach)
         self.state = np.where(self.shape > 0, 2, 0).astype(np.int8)
         self.contact_weight = self.shape[self.state == 2].sum() * self.domain.dx
@@ -53,8 +55,13 @@ class Mode:
 
     def exact(self, t):
         """Exact traction amplitude of the mode (stress)."""
-        memory = quad(lambda s: math.exp(-(t - s) / TAU) * self.dg(s), 0.0, t,
-                      epsabs=1e-15, epsrel=1e-13)[0] if t > 0 else 0.0
+        memory = (
+            quad(
+                lambda s: math.exp(-(t - s) / TAU) * self.dg(s), 0.0, t, epsabs=1e-15, epsrel=1e-13
+            )[0]
+            if t > 0
+            else 0.0
+        )
         return self.half_q_mode * (E0 * self.g(t) + (EINF - E0) * memory)
 
     def amplitude(self, p):
@@ -83,8 +90,17 @@ class Mode:
         for j in range(2, 2 + steps):
             older, before, after = self.u((j - 1) * h), self.u(j * h), self.u((j + 1) * h)
             p = self.step(before, p, h, after)
-            e, kept = self.estimator.estimate(older, (j - 1) * h, self.state, before, j * h,
-                                              self.state, after, (j + 1) * h, self.state)
+            e, kept = self.estimator.estimate(
+                older,
+                (j - 1) * h,
+                self.state,
+                before,
+                j * h,
+                self.state,
+                after,
+                (j + 1) * h,
+                self.state,
+            )
             estimates.append(e / abs(self.contact_weight))
             self.kept.append(kept / abs(self.contact_weight))
             if corrected:
@@ -155,7 +171,9 @@ def test_a_crossing_window_takes_the_last_smooth_curvature():
     h = 0.02  # tau / 50: the smooth window, one step back, is within CURVATURE_LIFETIME
     jump = np.zeros(N)
     jump[14:18] = 4e-3  # nodes near the crossing node 15, the contact's last
-    crossed = lambda state: np.where(np.arange(N) == 15, 1, state).astype(np.int8)
+
+    def crossed(state):
+        return np.where(np.arange(N) == 15, 1, state).astype(np.int8)
 
     def third_estimate(with_jump, age=None, elapsed=None, reach=0.0, crossing=None):
         mode = Mode(lambda t: t * t, lambda t: 2 * t, reach * CELL / N)
@@ -170,8 +188,9 @@ def test_a_crossing_window_takes_the_last_smooth_curvature():
             after += jump
         if with_jump if crossing is None else crossing:
             state_after = crossed(mode.state)
-        e, kept = mode.estimator.estimate(older, 3 * h, mode.state, before, 4 * h, mode.state,
-                                          after, 5 * h, state_after)
+        e, kept = mode.estimator.estimate(
+            older, 3 * h, mode.state, before, 4 * h, mode.state, after, 5 * h, state_after
+        )
         return e / abs(mode.contact_weight), kept / abs(mode.contact_weight)
 
     smooth, smooth_kept = third_estimate(with_jump=False)
@@ -211,9 +230,15 @@ def test_crossing_mask_matches_the_whole_grid_on_one_rank():
 @pytest.mark.parametrize("ranks", [2, 3])
 def test_crossing_mask_matches_the_whole_grid_under_mpirun(ranks):
     script = Path(__file__).parent / "mpi" / "check_crossings.py"
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    env = dict(
+        os.environ,
+        OMPI_ALLOW_RUN_AS_ROOT="1",
+        OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+        OPENBLAS_NUM_THREADS="1",
+        OMP_NUM_THREADS="1",
+    )
     command = ["mpirun", "--oversubscribe", "-n", str(ranks), sys.executable, str(script)]
-    result = subprocess.run(command, env=env, capture_output=True, text=True, timeout=300,
-                            check=False)
+    result = subprocess.run(
+        command, env=env, capture_output=True, text=True, timeout=300, check=False
+    )
     assert result.returncode == 0, result.stdout + result.stderr

@@ -1,12 +1,12 @@
 """Dugdale-Maugis law integrated over the linear interpolant (its energy against quadrature, its
 traction against the energy's finite differences); contact-edge measures."""
+
 import numpy as np
 import pytest
-
 from mpi4py import MPI
 
-from hpcgfmd.parallel.domain import Domain
 from hpcgfmd.model.interface import DugdaleMaugis, edge_positions
+from hpcgfmd.parallel.domain import Domain
 
 
 def periodic(gap):
@@ -52,9 +52,18 @@ def test_energy_is_the_law_integrated_over_the_linear_interpolant():
     reference = 0.0
     for a, b in zip(gap, np.roll(gap, -1)):
         crossing = (law.dmax - a) / (b - a) if (a - law.dmax) * (b - law.dmax) < 0 else None
-        reference -= law.sigma_a * dx * quad(
-            lambda s, a=a, b=b: max(law.dmax - (a + s * (b - a)), 0.0), 0.0, 1.0,
-            points=None if crossing is None else [crossing], epsabs=1e-15, epsrel=1e-13)[0]
+        reference -= (
+            law.sigma_a
+            * dx
+            * quad(
+                lambda s, a=a, b=b: max(law.dmax - (a + s * (b - a)), 0.0),
+                0.0,
+                1.0,
+                points=None if crossing is None else [crossing],
+                epsabs=1e-15,
+                epsrel=1e-13,
+            )[0]
+        )
     assert law.energy(periodic(gap), dx) == pytest.approx(reference, rel=1e-12)
 
 

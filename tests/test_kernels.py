@@ -2,11 +2,11 @@
 every span, NaN passed over as by one running max/min, and the entry bound of
 ``dot_and_entry`` against its definition node by node; the projection's compiled pass
 against numpy's minimum to the bit."""
+
 import numpy as np
 import pytest
 
-from hpcgfmd.solvers import step_kernels
-from hpcgfmd.solvers import kernels
+from hpcgfmd.solvers import kernels, step_kernels
 
 
 def _outside(a, lo, hi):
@@ -31,8 +31,10 @@ def test_extremes_pass_over_nan():
     """A NaN node leaves the extremes of the others (the residual's NaN shows in its sum)."""
     r = np.random.default_rng(1).standard_normal(23)
     r[[0, 5, 22]] = np.nan
-    assert kernels._extremes(r, 9, 12) == (np.nanmax(_outside(r, 9, 12)),
-                                           np.nanmin(_outside(r, 9, 12)))
+    assert kernels._extremes(r, 9, 12) == (
+        np.nanmax(_outside(r, 9, 12)),
+        np.nanmin(_outside(r, 9, 12)),
+    )
 
 
 def test_residual_extremes_and_sum():
@@ -48,8 +50,10 @@ def test_residual_extremes_and_sum():
     assert (high, low) == (_outside(expected, lo, hi).max(), _outside(expected, lo, hi).min())
 
 
-@pytest.mark.parametrize("m, lo, hi, margin", [(41, 15, 22, 3), (41, 0, 5, 2), (41, 35, 41, 4),
-                                               (9, 3, 3, 16), (6, 0, 6, 1), (0, 0, 0, 16)])
+@pytest.mark.parametrize(
+    "m, lo, hi, margin",
+    [(41, 15, 22, 3), (41, 0, 5, 2), (41, 35, 41, 4), (9, 3, 3, 16), (6, 0, 6, 1), (0, 0, 0, 16)],
+)
 def test_entry_bound_below_every_node_outside(m, lo, hi, margin):
     """No node outside [lo, hi) reaches ``level`` along d before the returned length, and
     the nodes within the margin give their exact entry lengths."""
@@ -93,7 +97,7 @@ def _gaps(rng, m, dmax):
         a = int(rng.integers(0, m + 2))
         b = int(rng.integers(a, m + 3))
         gap_ext[a:b] = rng.uniform(0.0, dmax, b - a)
-        gap_ext[a + (b - a) // 3:a + (b - a) // 2] = 0.0
+        gap_ext[a + (b - a) // 3 : a + (b - a) // 2] = 0.0
     return gap_ext
 
 
@@ -109,7 +113,8 @@ def test_cohesive_energy_is_the_laws(m):
     for _ in range(60):
         gap_ext = _gaps(rng, m, dmax)
         assert kernels.cohesive_energy(gap_ext, dmax) == pytest.approx(
-            -law.energy(gap_ext, 1.0), rel=1e-13, abs=1e-15)
+            -law.energy(gap_ext, 1.0), rel=1e-13, abs=1e-15
+        )
     assert kernels.cohesive_energy(np.full(m + 2, 2.0 * dmax), dmax) == 0.0
     everywhere = np.full(m + 2, 0.25 * dmax)
     assert kernels.cohesive_energy(everywhere, dmax) == pytest.approx(0.75 * dmax * m)
@@ -137,8 +142,9 @@ def test_interface_traction_is_the_law_and_the_reaction(grid_factory, sigma_a):
         k_u = rng.standard_normal(grid.n)
         out = np.full(grid.n, np.nan)
         solver.problem.interface_traction(u, k_u, wall, history, 0.37, out, applied)
-        expected = DugdaleMaugis(sigma_a, dmax).traction(np.r_[(wall - u)[-1], wall - u,
-                                                               (wall - u)[0]])
+        expected = DugdaleMaugis(sigma_a, dmax).traction(
+            np.r_[(wall - u)[-1], wall - u, (wall - u)[0]]
+        )
         balance = k_u + history + 0.37
         if applied is not None:
             balance -= applied

@@ -3,6 +3,7 @@
 Every module of hpcgfmd is parsed (ast, nothing is run) and each import of another hpcgfmd
 module, at the top or inside a function, is checked against the rules below.
 """
+
 import ast
 from pathlib import Path
 
@@ -64,7 +65,7 @@ def imported(path, source=None):
             found += [a.name for a in node.names if a.name.split(".")[0] == "hpcgfmd"]
         elif isinstance(node, ast.ImportFrom):
             if node.level:
-                base = package[:len(package) - node.level + 1]
+                base = package[: len(package) - node.level + 1]
                 target = ".".join(base + ([node.module] if node.module else []))
             else:
                 target = node.module or ""
@@ -78,8 +79,11 @@ def imported(path, source=None):
                 found.append(target)
     # __init__'s lazy table names its modules as strings
     if path == PACKAGE / "__init__.py":
-        table = next(n for n in tree.body if isinstance(n, ast.Assign)
-                     and getattr(n.targets[0], "id", "") == "_API")
+        table = next(
+            n
+            for n in tree.body
+            if isinstance(n, ast.Assign) and getattr(n.targets[0], "id", "") == "_API"
+        )
         found += [f"hpcgfmd.{value.elts[0].value}" for value in table.value.values]
     return found
 
@@ -127,8 +131,10 @@ def test_an_import_through_the_package_root_is_caught():
     # foundation, only its __version__ is.
     case = PACKAGE / "model" / "material.py"
     assert violations(case, "from hpcgfmd import runs\n") == ["hpcgfmd.runs"]
-    assert violations(case, "from hpcgfmd import errors, runs as r, solvers\n") \
-        == ["hpcgfmd.runs", "hpcgfmd.solvers"]
+    assert violations(case, "from hpcgfmd import errors, runs as r, solvers\n") == [
+        "hpcgfmd.runs",
+        "hpcgfmd.solvers",
+    ]
     assert violations(PACKAGE / "model" / "x.py", "from .. import runs\n") == ["hpcgfmd.runs"]
     assert violations(case, "import hpcgfmd.runs\n") == ["hpcgfmd.runs"]
     assert violations(case, "import hpcgfmd\n") == ["hpcgfmd"]

@@ -1,5 +1,6 @@
 """The standard linear solid as the one-branch half-space: its step against the convolution
 integral, creep against J(t), one elastic mode."""
+
 import math
 
 import numpy as np
@@ -33,13 +34,24 @@ def test_step_factors_follow_the_convolution_integral_of_a_piecewise_linear_stra
     stress, stepped = [0.0], 0.0
     for n, dt in enumerate(steps):
         factors = SLS.step_factors(dt)
-        stepped = (factors.e_eff * strain[n + 1] + factors.decays[0] * stepped
-                   + factors.e_history * strain[n])
+        stepped = (
+            factors.e_eff * strain[n + 1]
+            + factors.decays[0] * stepped
+            + factors.e_history * strain[n]
+        )
         stress.append(stepped)
     for n, t in enumerate(times):
-        exact = sum(rate * quad(lambda s, t=t: float(SLS.relaxation_modulus(t - s)), start,
-                                end, epsabs=1e-15, epsrel=1e-13)[0]
-                    for rate, start, end in zip(rates[:n], times[:n], times[1:n + 1]))
+        exact = sum(
+            rate
+            * quad(
+                lambda s, t=t: float(SLS.relaxation_modulus(t - s)),
+                start,
+                end,
+                epsabs=1e-15,
+                epsrel=1e-13,
+            )[0]
+            for rate, start, end in zip(rates[:n], times[:n], times[1 : n + 1])
+        )
         assert stress[n] == pytest.approx(exact, rel=1e-12, abs=1e-13), (n, t)
 
 
@@ -89,7 +101,8 @@ def test_one_mode_elastic_amplitude_to_roundoff(grid_factory):
         q = 2 * math.pi * mode / grid.cell
         p = 0.3 * np.cos(q * grid.x + 0.4 * (mode < 128))
         u = np.zeros(grid.n)
-        res = solver.solve(u, np.full(grid.n, 10.0), half_space.operators(math.inf),
-                           np.zeros(grid.n), applied=p)
+        res = solver.solve(
+            u, np.full(grid.n, 10.0), half_space.operators(math.inf), np.zeros(grid.n), applied=p
+        )
         assert res.converged
         np.testing.assert_allclose(u, 2 * p / (q * 2.5), rtol=0, atol=1e-13 * np.abs(u).max())

@@ -1,5 +1,6 @@
 """The paper pipeline (hpcgfmd/paper): its measures on curves with known answers, Eq. 8's limits,
 an elastic retraction against Baney-Hui, and `python -m hpcgfmd paper` on a tiny study."""
+
 import csv
 import re
 import subprocess
@@ -8,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from cases import case_text
 from mpi4py import MPI
 
+from cases import case_text
 from hpcgfmd.errors import SweepError, UsageError
 from hpcgfmd.model import theory
 from hpcgfmd.paper import checks, curves, study
@@ -23,10 +24,23 @@ def synthetic(abar, lbar, depth=0.1, k=0.1, lambda0=7.0, vz=1.0):
     beta = 0.0368
     time = np.arange(abar.size, dtype=float)
     return curves.Retraction(
-        time=time, abar=abar, lbar=lbar, x=lbar / np.sqrt(abar), y=np.pi / 4 * abar**1.5,
-        rhodot=-np.gradient(abar * beta, time), pull_off=int(np.argmin(lbar)),
-        groups={"lambda0": lambda0, "k": k, "Vz": vz, "chi_ve": vz * lambda0**2,
-                "depth": depth, "cell": 10.0}, beta=beta)
+        time=time,
+        abar=abar,
+        lbar=lbar,
+        x=lbar / np.sqrt(abar),
+        y=np.pi / 4 * abar**1.5,
+        rhodot=-np.gradient(abar * beta, time),
+        pull_off=int(np.argmin(lbar)),
+        groups={
+            "lambda0": lambda0,
+            "k": k,
+            "Vz": vz,
+            "chi_ve": vz * lambda0**2,
+            "depth": depth,
+            "cell": 10.0,
+        },
+        beta=beta,
+    )
 
 
 def test_eq8_limits_and_its_velocity_convention():
@@ -71,8 +85,8 @@ def test_distances_and_merging_of_curves():
     assert np.isnan(curves.merged_from(deep, apart, tolerance=1e-3)[0])
     # the steady part of both is from the merge to each pull-off
     masks = curves.steady_masks([deep, shallow], "Vz", 1e-6)
-    assert masks[1].sum() == np.count_nonzero(short[:shallow.pull_off + 1] <= start)
-    assert not masks[0][:np.count_nonzero(abar > start)].any()
+    assert masks[1].sum() == np.count_nonzero(short[: shallow.pull_off + 1] <= start)
+    assert not masks[0][: np.count_nonzero(abar > start)].any()
 
 
 def test_vbar_conventions_differ_by_k():
@@ -91,7 +105,8 @@ def test_vbar_conventions_differ_by_k():
     for i in (0, 10, 20, 29):  # vbar 2e4 to 0.8 (the relaxation convention: 4-56 % off)
         eq6 = theory.persson_brener_modulus(slowing.rhodot[i], c0, sls.complex_modulus)
         assert theory.persson_brener(slowing.vbar("retardation")[i], 0.1) == pytest.approx(
-            eq6, rel=1e-8)
+            eq6, rel=1e-8
+        )
 
 
 def test_collapse_ratio_of_identical_pairs_is_zero():
@@ -108,8 +123,11 @@ def test_collapse_ratio_of_identical_pairs_is_zero():
 def test_instantaneous_limit_and_convergence_checks_on_known_curves():
     abar = np.linspace(6.0, 1.0, 60)
     # JKR curves of work ratio w have dgamma_eff / dgamma0 = w at every point; k = 0.1
-    runs = [synthetic(abar, theory.jkr_load(abar, w), lambda0=lam, depth=d)
-            for lam, w in ((3.5, 5.0), (14.0, 9.5)) for d in (0.1, 0.05)]
+    runs = [
+        synthetic(abar, theory.jkr_load(abar, w), lambda0=lam, depth=d)
+        for lam, w in ((3.5, 5.0), (14.0, 9.5))
+        for d in (0.1, 0.05)
+    ]
     masks = [np.ones(abar.size, dtype=bool)] * len(runs)
     short, rising = checks.check_instantaneous(runs, masks, accuracy=1e-2)
     assert short.values["lambda0=14,Vz=1,h0=0.1: largest"] == pytest.approx(0.95)
@@ -130,8 +148,9 @@ def elastic_case(maugis):
     """The elastic case of Fig. 4's tiny sweep (:data:`TINY`) at ``maugis``."""
     from hpcgfmd.case import parse_case
 
-    return parse_case(case_text("accuracy = 1e-2", maugis=maugis, modulus_ratio=1.0,
-                                depth=0.05, cell=4.0))
+    return parse_case(
+        case_text("accuracy = 1e-2", maugis=maugis, modulus_ratio=1.0, depth=0.05, cell=4.0)
+    )
 
 
 #: What the accuracy knob bounds the load-area curve's error by at accuracy 1e-2: the
@@ -150,12 +169,31 @@ def elastic_run(maugis):
     while not sim.detached():
         records.append(sim.step())
     sim.close()
-    column = {name: np.array([getattr(r, name) for r in records]) for name in
-              ("time", "indenter", "load", "contact_half_width", "cohesive_half_width",
-               "iterations", "residual", "dt")}
-    attrs = {"beta": case.beta, "load_scale": case.load_scale, "time_unit": 1.0,
-             "length_unit": 1.0, "lambda0": case.maugis, "k": case.modulus_ratio, "Vz": case.velocity,
-             "chi_ve": case.chi_ve, "depth": case.depth, "cell": case.cell}
+    column = {
+        name: np.array([getattr(r, name) for r in records])
+        for name in (
+            "time",
+            "indenter",
+            "load",
+            "contact_half_width",
+            "cohesive_half_width",
+            "iterations",
+            "residual",
+            "dt",
+        )
+    }
+    attrs = {
+        "beta": case.beta,
+        "load_scale": case.load_scale,
+        "time_unit": 1.0,
+        "length_unit": 1.0,
+        "lambda0": case.maugis,
+        "k": case.modulus_ratio,
+        "Vz": case.velocity,
+        "chi_ve": case.chi_ve,
+        "depth": case.depth,
+        "cell": case.cell,
+    }
     return curves.Retraction.from_series(Series(attrs=attrs, **column))
 
 
@@ -177,9 +215,17 @@ def test_baney_hui_distance_of_a_curve_beside_it_is_its_offset():
     pull_off = int(np.argmin(lbar))
     shifted = abar * (1.0 - offset)
     zeros = np.zeros_like(abar)
-    curve = curves.Retraction(time=zeros, abar=shifted, lbar=lbar, x=zeros, y=zeros,
-                              rhodot=zeros, pull_off=pull_off,
-                              groups={"lambda0": lam, "cell": cell}, beta=beta)
+    curve = curves.Retraction(
+        time=zeros,
+        abar=shifted,
+        lbar=lbar,
+        x=zeros,
+        y=zeros,
+        rhodot=zeros,
+        pull_off=pull_off,
+        groups={"lambda0": lam, "cell": cell},
+        beta=beta,
+    )
     ours, jkr = checks.baney_hui_distance(curve)
     assert jkr > 0.0
     # The reference: each point's distance to the continuous Baney-Hui curve, minimised over
@@ -190,9 +236,16 @@ def test_baney_hui_distance_of_a_curve_beside_it_is_its_offset():
     def distance(a, point):
         return np.hypot(*((np.array([a, baney_hui(a)]) - point) / scale))
 
-    exact = max(optimize.minimize_scalar(distance, bounds=(a - 0.05, a + 0.05), args=((a, l),),
-                                         method="bounded", options={"xatol": 1e-12}).fun
-                for a, l in zip(shifted[:pull_off + 1], lbar[:pull_off + 1]))
+    exact = max(
+        optimize.minimize_scalar(
+            distance,
+            bounds=(a - 0.05, a + 0.05),
+            args=((a, load),),
+            method="bounded",
+            options={"xatol": 1e-12},
+        ).fun
+        for a, load in zip(shifted[: pull_off + 1], lbar[: pull_off + 1])
+    )
     # (the first point's: its width's shift offset / (1 - offset) of abar_c(0) times the sine
     # of the curve's slope there, 51 on these scales: 1.00079e-3)
     assert exact == pytest.approx(offset, rel=2e-3)
@@ -226,8 +279,9 @@ def test_elastic_retraction_lies_on_baney_hui_and_its_work_is_theirs(maugis):
     end = curve.pull_off + 1
     bh = np.array([theory.maugis_dugdale(a, maugis)[0] for a in curve.abar[:end]])
     bh *= theory.periodic_load_factor(curve.abar[:end] * curve.beta, 4.0)
-    work_bh = theory.effective_work_ratio(bh / np.sqrt(curve.abar[:end]),
-                                          np.pi / 4 * curve.abar[:end]**1.5)
+    work_bh = theory.effective_work_ratio(
+        bh / np.sqrt(curve.abar[:end]), np.pi / 4 * curve.abar[:end] ** 1.5
+    )
     deviation = np.abs(curve.effective_work()[:end] / work_bh - 1)
     assert np.median(deviation) <= bound
     assert deviation[-1] <= 2 * bound
@@ -241,7 +295,7 @@ def test_elastic_retraction_lies_on_baney_hui_and_its_work_is_theirs(maugis):
     load *= theory.periodic_load_factor(a * curve.beta, 4.0)
     i = int(np.argmin(load))
     assert 0 < i < len(a) - 1  # a minimum inside the range
-    work = theory.effective_work_ratio(load[i] / np.sqrt(a[i]), np.pi / 4 * a[i]**1.5)
+    work = theory.effective_work_ratio(load[i] / np.sqrt(a[i]), np.pi / 4 * a[i] ** 1.5)
     if maugis >= 3.5:
         assert work == pytest.approx(1.0, abs=1e-2)
     else:
@@ -285,8 +339,10 @@ def test_runs_that_differ_in_their_iteration_cap_alone_are_not_merged():
     # asking for one run under two caps are two settings of the study: refused as before,
     # not merged under the first figure's cap
     text = case_text("accuracy = 1e-2", prefix="base.", depth=0.05) + "[[cases]]\n"
-    texts = {"4": text.replace("accuracy = 1e-2", "accuracy = 1e-2\nmax_iterations = 30"),
-             "5": text}
+    texts = {
+        "4": text.replace("accuracy = 1e-2", "accuracy = 1e-2\nmax_iterations = 30"),
+        "5": text,
+    }
     with pytest.raises(SweepError, match="would both be named"):
         study.paper_study(["4", "5"], texts=texts)
     merged, members = study.paper_study(["4", "5"], texts={"4": text, "5": text})
@@ -295,22 +351,43 @@ def test_runs_that_differ_in_their_iteration_cap_alone_are_not_merged():
 
 # the tests' shared groups (tests/cases.py) as sweep bases: a tiny study of 10 runs
 TINY = {
-    "fig4.toml": case_text("accuracy = 1e-2", prefix="base.", modulus_ratio=1.0, depth=0.05,
-                           cell=4.0) + "[grid]\nmaugis = [1.5, 3.5]\n",
-    "fig5.toml": case_text("accuracy = 1e-2", prefix="base.", depth=0.05,
-                           output="snapshot_contact_widths = [0.18226, 0.10936]\n"
-                                  "snapshot_zero_load = true")
+    "fig4.toml": case_text(
+        "accuracy = 1e-2", prefix="base.", modulus_ratio=1.0, depth=0.05, cell=4.0
+    )
+    + "[grid]\nmaugis = [1.5, 3.5]\n",
+    "fig5.toml": case_text(
+        "accuracy = 1e-2",
+        prefix="base.",
+        depth=0.05,
+        output="snapshot_contact_widths = [0.18226, 0.10936]\nsnapshot_zero_load = true",
+    )
     + "[grid]\nvelocity = [0.3, 3.0]\ndepth = [0.05, 0.025]\n",
     "fig9.toml": case_text("accuracy = 1e-2", prefix="base.", depth=0.025)
-    + "".join(f"[[cases]]\nvelocity = {v}\nmaugis = {m}\n"
-              for v, m in ((1.0, 3.5), (4.0, 1.75), (0.1, 3.5), (0.4, 1.75))),
+    + "".join(
+        f"[[cases]]\nvelocity = {v}\nmaugis = {m}\n"
+        for v, m in ((1.0, 3.5), (4.0, 1.75), (0.1, 3.5), (0.4, 1.75))
+    ),
 }
 
 
 def paper(tmp_path, *args):
-    return subprocess.run([sys.executable, "-m", "hpcgfmd", "paper", "--sweeps",
-                           str(tmp_path / "study"), "-o", str(tmp_path / "out"), *args],
-                          capture_output=True, text=True, timeout=600, check=False)
+    return subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "hpcgfmd",
+            "paper",
+            "--sweeps",
+            str(tmp_path / "study"),
+            "-o",
+            str(tmp_path / "out"),
+            *args,
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
 
 
 @pytest.mark.slow
@@ -326,8 +403,9 @@ def test_paper_command_runs_draws_and_checks_a_tiny_study(tmp_path):
     done = paper(tmp_path, "--figures", figures)
     assert done.returncode == 0, done.stdout + done.stderr
     # one farm of all the figures' runs: after each run, k of 10 and the time left
-    counted = re.findall(r"^paper: (\d+) of 10 runs done, .* elapsed, ETA \d", done.stdout,
-                         re.MULTILINE)
+    counted = re.findall(
+        r"^paper: (\d+) of 10 runs done, .* elapsed, ETA \d", done.stdout, re.MULTILINE
+    )
     assert [int(k) for k in counted] == list(range(1, 11)), done.stdout
     out = tmp_path / "out"
     for figure in figures.split(","):

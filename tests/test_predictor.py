@@ -1,32 +1,33 @@
 """The predictor's extrapolation in time (hpcgfmd/solvers/predictor.py): Lagrange weights
 exact for quadratics, the quadratic guess from three accepted states, and its state across
 a checkpoint and a rejected attempt."""
+
 import dataclasses
 
 import numpy as np
 import pytest
 from mpi4py import MPI
 
+from cases import case_text
 from hpcgfmd.case import parse_case
 from hpcgfmd.parallel.domain import Domain
-from hpcgfmd.state import State
 from hpcgfmd.runs.protocol import Retraction
 from hpcgfmd.solvers.predictor import Predictor, lagrange_weights
 from hpcgfmd.solvers.step_kernels import quadratic_guess
-
-from cases import case_text
+from hpcgfmd.state import State
 
 N, CELL = 64, 4.0
 
 
-@pytest.mark.parametrize("ratio, ratio_previous", [(1.0, 1.0), (2.0, 0.25), (0.25, 2.0),
-                                                   (1.6818, 0.5946)])
+@pytest.mark.parametrize(
+    "ratio, ratio_previous", [(1.0, 1.0), (2.0, 0.25), (0.25, 2.0), (1.6818, 0.5946)]
+)
 def test_lagrange_weights_reproduce_quadratics(ratio, ratio_previous):
     # times in units of dt_n: t_{n-2} = -1 - 1/ratio_previous, t_{n-1} = -1, t_n = 0
     times = np.array([0.0, -1.0, -1.0 - 1.0 / ratio_previous])
     weights = np.array(lagrange_weights(ratio, ratio_previous))
     for power in range(3):
-        assert weights @ times ** power == pytest.approx(ratio ** power, rel=1e-13, abs=1e-13)
+        assert weights @ times**power == pytest.approx(ratio**power, rel=1e-13, abs=1e-13)
 
 
 def test_quadratic_guess_puts_contact_on_the_wall():
@@ -36,14 +37,15 @@ def test_quadratic_guess_puts_contact_on_the_wall():
     out = np.empty(N)
     quadratic_guess(u, u1, u2, 1.5, -0.75, 0.25, wall, contact, out)
     np.testing.assert_array_equal(out[contact], wall[contact])
-    np.testing.assert_allclose(out[~contact], (1.5 * u - 0.75 * u1 + 0.25 * u2)[~contact],
-                               rtol=1e-15, atol=1e-15)
+    np.testing.assert_allclose(
+        out[~contact], (1.5 * u - 0.75 * u1 + 0.25 * u2)[~contact], rtol=1e-15, atol=1e-15
+    )
 
 
 def _motion(t, x):
     """A zero-mean displacement quadratic in time (no contact: the wall stays far above)."""
     shape = np.cos(2.0 * np.pi * x / CELL)
-    return (0.01 + 0.03 * t - 0.02 * t ** 2) * shape
+    return (0.01 + 0.03 * t - 0.02 * t**2) * shape
 
 
 def _start(predictor, u, wall, t, t_next, dt_before, exact):
@@ -51,8 +53,9 @@ def _start(predictor, u, wall, t, t_next, dt_before, exact):
     ratio = 1.0 if dt_before is None else (t_next - t) / dt_before
     gap = wall - u
     energy = lambda v, k_v=None: float(np.sum((v - exact) ** 2))  # noqa: E731
-    predictor.start(u, wall, gap, np.zeros(N, dtype=bool), 0.0, ratio, (np.nan, np.nan),
-                    None, energy, None)
+    predictor.start(
+        u, wall, gap, np.zeros(N, dtype=bool), 0.0, ratio, (np.nan, np.nan), None, energy, None
+    )
 
 
 def test_third_start_extrapolates_a_quadratic_motion_exactly():
@@ -80,8 +83,15 @@ def test_state_round_trip_keeps_the_quadratic():
     first = Predictor(domain, window=0.1)
     for i in range(1, 3):
         u = _motion(times[i - 1], domain.x)
-        _start(first, u, wall, times[i - 1], times[i],
-               None if i == 1 else times[i - 1] - times[i - 2], _motion(times[i], domain.x))
+        _start(
+            first,
+            u,
+            wall,
+            times[i - 1],
+            times[i],
+            None if i == 1 else times[i - 1] - times[i - 2],
+            _motion(times[i], domain.x),
+        )
     state = first.state()
     second = Predictor(domain, window=0.1)
     second.restore(State({k: v.copy() for k, v in state.arrays.items()}, dict(state.scalars)))
@@ -90,8 +100,10 @@ def test_state_round_trip_keeps_the_quadratic():
     _start(second, u, wall, times[2], times[3], times[2] - times[1], exact)
     np.testing.assert_allclose(u, exact, rtol=0, atol=1e-14)
     # without u_{n-2} (after a segment's start, or the preload's first step) it starts linear
-    older = State({k: v.copy() for k, v in state.arrays.items()},
-                  dict(state.scalars, has_before_previous=False))
+    older = State(
+        {k: v.copy() for k, v in state.arrays.items()},
+        dict(state.scalars, has_before_previous=False),
+    )
     old = Predictor(domain, window=0.1)
     old.restore(older)
     assert old.u_before_previous is None
@@ -103,8 +115,9 @@ def test_state_round_trip_keeps_the_quadratic():
 def test_a_retried_step_starts_from_its_first_attempts_predictor_state(monkeypatch):
     # a rejected attempt is undone: the retry's guess reads the same u_{n-1}, u_{n-2} and
     # step ratio as the first attempt did (the attempt's shift of them is reverted)
-    sim = Retraction(parse_case(case_text("nx = 1024")), MPI.COMM_SELF,
-                     planner_effort="FFTW_ESTIMATE")
+    sim = Retraction(
+        parse_case(case_text("nx = 1024")), MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE"
+    )
     sim.preload()
     for _ in range(4):
         sim.step()

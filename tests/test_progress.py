@@ -1,5 +1,6 @@
 """Progress a person can read: a run's time left for every protocol, the farm's k of N with
 its ETA, and the cost model they rest on (hpcgfmd/runs/progress.py, farm.py, cost.py)."""
+
 import itertools
 import math
 import re
@@ -7,9 +8,9 @@ import subprocess
 import sys
 
 import pytest
-from cases import GROUPS
 
 import hpcgfmd
+from cases import GROUPS
 from hpcgfmd.model.loading import START_HEIGHT
 from hpcgfmd.runs.cost import (
     detachment_time,
@@ -28,7 +29,13 @@ APPROACH = [{"approach": 0.03}, {"dwell": 2.0}, {"retract": math.inf}]
 
 def test_durations_read_as_a_person_reads_them():
     assert [duration_text(s) for s in (0.4, 42, 725, 11220, None, math.inf)] == [
-        "0 s", "42 s", "12 min 05 s", "3 h 07 min", "?", "?"]
+        "0 s",
+        "42 s",
+        "12 min 05 s",
+        "3 h 07 min",
+        "?",
+        "?",
+    ]
 
 
 def test_the_farm_line_counts_k_of_n_and_scales_the_estimate_by_what_was_measured():
@@ -51,10 +58,20 @@ def records(case):
     for index, segment in enumerate(estimate):
         for j in range(1, 21):
             drive = segment.start + (segment.end - segment.start) * j / 20
-            out.append(StepRecord(time=time + segment.duration * j / 20, indenter=drive,
-                                  load=0.0, contact_half_width=0.1, cohesive_half_width=0.1,
-                                  iterations=5, residual=0.0, dt=0.1, drive=drive,
-                                  segment=index))
+            out.append(
+                StepRecord(
+                    time=time + segment.duration * j / 20,
+                    indenter=drive,
+                    load=0.0,
+                    contact_half_width=0.1,
+                    cohesive_half_width=0.1,
+                    iterations=5,
+                    residual=0.0,
+                    dt=0.1,
+                    drive=drive,
+                    segment=index,
+                )
+            )
         time += segment.duration
     return estimate, out
 
@@ -83,17 +100,26 @@ def test_a_protocol_that_starts_with_an_approach_has_a_time_left():
 
 def test_run_lines_say_the_time_left_and_the_share_done(tmp_path):
     (tmp_path / "approach.toml").write_text(
-        "[case]\n" + "".join(f"{k} = {v!r}\n" for k, v in GROUPS.items())
+        "[case]\n"
+        + "".join(f"{k} = {v!r}\n" for k, v in GROUPS.items())
         + "[numerics]\nnx = 1024\n[output]\nprogress_interval = 1e-6\n"
-        + "".join(f"[[protocol]]\n{k} = {v}\n" for s in APPROACH for k, v in s.items()))
-    done = subprocess.run([sys.executable, "-m", "hpcgfmd", "run", "approach.toml"],
-                          cwd=tmp_path, capture_output=True, text=True, timeout=300,
-                          check=False)
+        + "".join(f"[[protocol]]\n{k} = {v}\n" for s in APPROACH for k, v in s.items())
+    )
+    done = subprocess.run(
+        [sys.executable, "-m", "hpcgfmd", "run", "approach.toml"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
     assert done.returncode == 0, done.stderr
     lines = [line for line in done.stdout.splitlines() if line.startswith("step")]
-    pattern = re.compile(r"^step +(\d+)  t = \S+  load = \S+  a_c = \S+  iterations = +\d+"
-                         r"  elapsed (\d+ s|\d+ min \d+ s), left ~(\?|[\d a-z]+) \((\d+)% of"
-                         r" the protocol\)$")
+    pattern = re.compile(
+        r"^step +(\d+)  t = \S+  load = \S+  a_c = \S+  iterations = +\d+"
+        r"  elapsed (\d+ s|\d+ min \d+ s), left ~(\?|[\d a-z]+) \((\d+)% of"
+        r" the protocol\)$"
+    )
     matched = [pattern.match(line) for line in lines]
     assert len(lines) > 100 and all(matched), [ln for ln, m in zip(lines, matched) if not m][:3]
     shares = [int(m.group(4)) for m in matched]
@@ -106,18 +132,24 @@ def test_run_lines_say_the_time_left_and_the_share_done(tmp_path):
 def test_the_detachment_time_of_the_paper_runs_is_the_measured_one():
     # measured detachment times of the paper study (accuracy 1e-2; scripts/farm_cost.py):
     # creeping to glassy, both depths, and the elastic solid
-    measured = {(0.045, 0.1, 0.1): 1927.35, (0.45, 0.05, 0.1): 113.84, (4.5, 0.1, 0.1): 11.85,
-                (9.0, 0.05, 0.1): 0.92, (9.0, 0.1, 0.1): 2.32, (1.0, 0.1, 1.0): 78.87}
+    measured = {
+        (0.045, 0.1, 0.1): 1927.35,
+        (0.45, 0.05, 0.1): 113.84,
+        (4.5, 0.1, 0.1): 11.85,
+        (9.0, 0.05, 0.1): 0.92,
+        (9.0, 0.1, 0.1): 2.32,
+        (1.0, 0.1, 1.0): 78.87,
+    }
     for (velocity, depth, k), time in measured.items():
-        case = hpcgfmd.Case(**dict(PAPER, velocity=velocity, depth=depth, modulus_ratio=k),
-                            numerics={"nx": 65536})
-        assert detachment_time(case, depth, case.indenter_speed) == pytest.approx(time,
-                                                                                  rel=0.02)
+        case = hpcgfmd.Case(
+            **dict(PAPER, velocity=velocity, depth=depth, modulus_ratio=k), numerics={"nx": 65536}
+        )
+        assert detachment_time(case, depth, case.indenter_speed) == pytest.approx(time, rel=0.02)
     glassy = hpcgfmd.Case(**dict(PAPER, velocity=9.0), numerics={"nx": 65536})
-    relaxed = hpcgfmd.Case(**dict(PAPER, modulus_ratio=1.0, velocity=9.0),
-                           numerics={"nx": 65536})
+    relaxed = hpcgfmd.Case(**dict(PAPER, modulus_ratio=1.0, velocity=9.0), numerics={"nx": 65536})
     assert pull_off_height(glassy, glassy.indenter_speed) > 3.5 * pull_off_height(
-        relaxed, relaxed.indenter_speed)
+        relaxed, relaxed.indenter_speed
+    )
 
 
 def test_the_cost_orders_a_velocity_sweep_and_the_convergence_series_as_measured():
@@ -125,8 +157,9 @@ def test_the_cost_orders_a_velocity_sweep_and_the_convergence_series_as_measured
     # h0 = 0.1 at V_z = 0.045, 0.45, 0.9, 4.5 took 1010, 317, 231, 194 steps and 6660, 2132,
     # 1555, 1429 iterations; the model before tied them (the same steps at every V_z)
     def case(velocity, **numerics):
-        return hpcgfmd.Case(**dict(PAPER, velocity=velocity),
-                            numerics={"nx": 65536, "accuracy": 1e-2, **numerics})
+        return hpcgfmd.Case(
+            **dict(PAPER, velocity=velocity), numerics={"nx": 65536, "accuracy": 1e-2, **numerics}
+        )
 
     sweep = [case(v) for v in (0.045, 0.45, 0.9, 4.5)]
     costs = [estimated_cost(c) for c in sweep]
@@ -136,8 +169,10 @@ def test_the_cost_orders_a_velocity_sweep_and_the_convergence_series_as_measured
     # Fig. B1: finer grids and shorter fixed steps cost more (measured 2.7, 3.8, 15.3, 91 s
     # at 2^15 to 2^18; 4.1, 7.6, 13.5 s at dt = 0.04, 0.02, 0.01 on 2^16)
     grids = [estimated_cost(case(4.5, nx=n)) for n in (2**15, 2**16, 2**17, 2**18)]
-    fixed = [estimated_cost(case(4.5, nx=2**16, step_control="fixed", dt=dt))
-             for dt in (0.04, 0.02, 0.01)]
+    fixed = [
+        estimated_cost(case(4.5, nx=2**16, step_control="fixed", dt=dt))
+        for dt in (0.04, 0.02, 0.01)
+    ]
     assert grids == sorted(grids) and fixed == sorted(fixed)
     assert 1.6 < fixed[2] / fixed[1] < 2.0 and 20 < grids[3] / grids[0] < 60  # 1.8, 34
 
@@ -145,10 +180,11 @@ def test_the_cost_orders_a_velocity_sweep_and_the_convergence_series_as_measured
 def test_the_steps_of_small_runs_are_ordered_as_predicted():
     # cheap runs of the tests' case: a creeping retraction takes more steps than a faster
     # one, and more than an elastic solid, in the model as in the run
-    cases = [hpcgfmd.Case(**dict(GROUPS, velocity=v, modulus_ratio=k), numerics={"nx": 2048})
-             for v, k in ((0.1, 0.1), (1.0, 0.1), (1.0, 1.0))]
-    measured = [int(hpcgfmd.run(c, planner_effort="FFTW_ESTIMATE").attrs["steps"])
-                for c in cases]
+    cases = [
+        hpcgfmd.Case(**dict(GROUPS, velocity=v, modulus_ratio=k), numerics={"nx": 2048})
+        for v, k in ((0.1, 0.1), (1.0, 0.1), (1.0, 1.0))
+    ]
+    measured = [int(hpcgfmd.run(c, planner_effort="FFTW_ESTIMATE").attrs["steps"]) for c in cases]
     predicted = [estimated_steps(c) for c in cases]
     assert measured[0] > measured[1] > measured[2] and predicted[0] > predicted[1] > predicted[2]
     assert all(0.5 < p / m < 2.0 for p, m in zip(predicted, measured)), (predicted, measured)

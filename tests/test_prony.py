@@ -5,6 +5,7 @@ convolution integral of the relaxation modulus in closed form (a uniform strain 
 eigenvalues of the creep problem (the retardation times), and the limits of the
 Persson-Brener effective work of adhesion.
 """
+
 import math
 
 import numpy as np
@@ -12,37 +13,42 @@ import pytest
 from mpi4py import MPI
 
 from cases import case_text, physical_text, whole_run
+from hpcgfmd.case import Case, parse_case
 from hpcgfmd.errors import CaseError
 from hpcgfmd.model import theory
 from hpcgfmd.model.accuracy import STEP_SHARE
-from hpcgfmd.case import Case, parse_case
 from hpcgfmd.model.halfspace import MaxwellHalfSpace
 from hpcgfmd.model.material import GeneralizedMaxwell
 from hpcgfmd.parallel.fft import plan_real_fft
-from hpcgfmd.runs.protocol import Retraction
 from hpcgfmd.solvers.stepping import KEPT_SHARE
 
 SLS = GeneralizedMaxwell.standard_linear(1.0, 10.0, 1.0)
 
 # A genuine two-branch solid of k = 0.1: E_i / E0 = 3, 6 and tau_i = 0.1, 1.45 tau_r
 # (weighted mean (3 x 0.1 + 6 x 1.45) / 9 = 1).
-TWO_BRANCHES = {"modulus_ratio": None, "relaxation_moduli": [3.0, 6.0],
-                "relaxation_times": [0.1, 1.45]}
+TWO_BRANCHES = {
+    "modulus_ratio": None,
+    "relaxation_moduli": [3.0, 6.0],
+    "relaxation_times": [0.1, 1.45],
+}
 
 
 @pytest.mark.parametrize("dt", [1e-4, 3e-3, 0.3, 5.0, math.inf])
 def test_one_branch_and_equal_times_are_the_sls_step(dt):
     # against the SLS's step, which test_material.py checks against the convolution integral
     sls = SLS.step_factors(dt)
-    for prony in (GeneralizedMaxwell(1.0, (9.0,), (1.0,)),
-                  GeneralizedMaxwell(1.0, (4.5, 2.5, 2.0), (1.0, 1.0, 1.0))):
+    for prony in (
+        GeneralizedMaxwell(1.0, (9.0,), (1.0,)),
+        GeneralizedMaxwell(1.0, (4.5, 2.5, 2.0), (1.0, 1.0, 1.0)),
+    ):
         factors = prony.step_factors(dt)
         assert factors.e_eff == pytest.approx(sls.e_eff, rel=1e-15)
         np.testing.assert_allclose(factors.decays, sls.decays[0], rtol=1e-15)
         assert factors.e_history == pytest.approx(sls.e_history, rel=1e-14, abs=1e-300)
         if math.isfinite(dt):
-            assert prony.curvature_response(dt) == pytest.approx(SLS.curvature_response(dt),
-                                                                 rel=1e-14)
+            assert prony.curvature_response(dt) == pytest.approx(
+                SLS.curvature_response(dt), rel=1e-14
+            )
     assert GeneralizedMaxwell(1.0, (9.0,), (1.0,)).retardation_time == SLS.retardation_time
 
 
@@ -97,8 +103,9 @@ def test_two_branches_follow_the_convolution_integral_to_second_order():
     np.testing.assert_allclose(orders, 2.0, atol=0.15)
 
 
-@pytest.mark.parametrize("material", [SLS, GeneralizedMaxwell(1.0, (3.0, 6.0), (0.1, 1.45))],
-                         ids=["SLS", "two branches"])
+@pytest.mark.parametrize(
+    "material", [SLS, GeneralizedMaxwell(1.0, (3.0, 6.0), (0.1, 1.45))], ids=["SLS", "two branches"]
+)
 def test_the_steps_are_exact_for_a_piecewise_linear_history(material):
     # a ramp up, a faster ramp down and a hold, with kinks on step boundaries: (M40) is exact
     # for one branch (the SLS's (M8), whose first branch is implied by p) and for several
@@ -111,8 +118,12 @@ def test_the_steps_are_exact_for_a_piecewise_linear_history(material):
     for e, tau in zip(material.branch_moduli, material.branch_times):
         for start, rate, end in zip(kinks[:-1], rates, kinks[1:]):  # each ramp's stress
             inside = np.clip(times, start, end) - start
-            reference += e * rate * tau * (np.exp(-(times - start - inside) / tau)
-                                           - np.exp(-(times - start) / tau))
+            reference += (
+                e
+                * rate
+                * tau
+                * (np.exp(-(times - start - inside) / tau) - np.exp(-(times - start) / tau))
+            )
     np.testing.assert_allclose(traction, reference, rtol=0, atol=1e-13)
 
 
@@ -132,8 +143,11 @@ def test_one_branch_and_equal_times_retract_as_the_sls(steps):
     numerics = f"nx = 2048\ntolerance = 1e-10\n{steps}"
     sls = retraction(case_text(numerics))
     for moduli, times in (([9.0], [1.0]), ([4.5, 3.0, 1.5], [1.0, 1.0, 1.0])):
-        prony = retraction(case_text(numerics, modulus_ratio=None, relaxation_moduli=moduli,
-                                     relaxation_times=times))
+        prony = retraction(
+            case_text(
+                numerics, modulus_ratio=None, relaxation_moduli=moduli, relaxation_times=times
+            )
+        )
         assert prony.shape == sls.shape
         np.testing.assert_array_equal(prony[:, 0], sls[:, 0])
         scale = np.abs(sls[:, 1]).max()
@@ -147,9 +161,9 @@ def test_two_branch_adaptive_steps_reach_the_accuracy():
     # same grid (the time error only; dt_max / 400 moves that reference by 1e-6), within
     # half the steps' share of the accuracy (1.25e-3): the kept errors this two-branch case
     # accumulates are held to half their allowance (KEPT_SHARE), and holding them to the
-    # whole of it is 2.2e-3 off on every draw (below). Measured over 21 draws of round-off (alpha (1 + j
-    # 3e-12) and (1 + j 7e-12)): 4.7e-5 to 1.0e-3 in 656-801 steps, against 5301 fixed
-    # steps. The errors fall in two groups, 5e-5 to 2e-4 and 5e-4 to 1e-3: near the pull-off
+    # whole of it is 2.2e-3 off on every draw (below). Measured over 21 draws of round-off
+    # (alpha (1 + j 3e-12) and (1 + j 7e-12)): 4.7e-5 to 1.0e-3 in 656-801 steps, against 5301
+    # fixed steps. The errors fall in two groups, 5e-5 to 2e-4 and 5e-4 to 1e-3: near the pull-off
     # the load jitters as nodes leave the contact one by one (2048 nodes), and the sampled
     # minimum does or does not catch a dip. With the kept history errors' signed sum held to
     # the whole allowance instead of half, 2.2e-3 in 241-270 steps on all 18 draws
@@ -158,8 +172,13 @@ def test_two_branch_adaptive_steps_reach_the_accuracy():
     # compared here, the time error).
     adaptive = retraction(case_text("nx = 2048\ntolerance = 1e-3", **TWO_BRANCHES))
     case = parse_case(case_text("nx = 2048", **TWO_BRANCHES))
-    fine = retraction(case_text(f'nx = 2048\ntolerance = 1e-3\nstep_control = "fixed"\n'
-                                f"dt = {case.numerics.dt_max / 100!r}", **TWO_BRANCHES))
+    fine = retraction(
+        case_text(
+            f'nx = 2048\ntolerance = 1e-3\nstep_control = "fixed"\n'
+            f"dt = {case.numerics.dt_max / 100!r}",
+            **TWO_BRANCHES,
+        )
+    )
     pull_off, reference = adaptive[:, 1].min(), fine[:, 1].min()
     assert abs(pull_off / reference - 1.0) <= STEP_SHARE * KEPT_SHARE * case.numerics.accuracy
     assert adaptive.shape[0] < fine.shape[0] / 4
@@ -175,8 +194,16 @@ def test_case_keys_and_groups():
     sls = parse_case(case_text())
     assert sls.identity() != case.identity() and not sls.relaxation_moduli
     # built from keywords: the text it writes is the same case
-    built = Case(maugis=3.5, velocity=1.0, depth=0.03, cell=2.0, adhesion=1e-4,
-                 modulus_ratio=None, relaxation_moduli=(3.0, 6.0), relaxation_times=(0.1, 1.45))
+    built = Case(
+        maugis=3.5,
+        velocity=1.0,
+        depth=0.03,
+        cell=2.0,
+        adhesion=1e-4,
+        modulus_ratio=None,
+        relaxation_moduli=(3.0, 6.0),
+        relaxation_times=(0.1, 1.45),
+    )
     assert parse_case(built.text).identity() == built.identity()
 
 
@@ -186,18 +213,30 @@ def test_a_consistent_modulus_ratio_may_stay():
     assert case.relaxation_moduli and case.modulus_ratio == 0.1
 
 
-@pytest.mark.parametrize("groups, message", [
-    (dict(relaxation_moduli=[3.0, 6.0], relaxation_times=[0.1, 10.0]),
-     "[case] relaxation_times = [0.1, 10.0]: expected times in units of the reference time"),
-    (dict(relaxation_moduli=[3.0, 6.0], relaxation_times=[1.0]),
-     "[case] relaxation_times = [1.0]: expected as many times as relaxation_moduli (2)"),
-    (dict(relaxation_moduli=[3.0, -6.0], relaxation_times=[1.0, 1.0]),
-     "[case] relaxation_moduli = [3.0, -6.0]: expected a non-empty list of finite numbers > 0"),
-    (dict(relaxation_moduli=[9.0]), "[case] relaxation_times is missing"),
-    (dict(modulus_ratio=0.2, relaxation_moduli=[9.0], relaxation_times=[1.0]),
-     "[case] modulus_ratio = 0.2: a Prony series sets k = 1 / (1 + sum of relaxation_moduli)"
-     " = 0.1; leave modulus_ratio out"),
-])
+@pytest.mark.parametrize(
+    "groups, message",
+    [
+        (
+            dict(relaxation_moduli=[3.0, 6.0], relaxation_times=[0.1, 10.0]),
+            "[case] relaxation_times = [0.1, 10.0]: expected times in units of the reference time",
+        ),
+        (
+            dict(relaxation_moduli=[3.0, 6.0], relaxation_times=[1.0]),
+            "[case] relaxation_times = [1.0]: expected as many times as relaxation_moduli (2)",
+        ),
+        (
+            dict(relaxation_moduli=[3.0, -6.0], relaxation_times=[1.0, 1.0]),
+            "[case] relaxation_moduli = [3.0, -6.0]: expected a non-empty list of finite"
+            " numbers > 0",
+        ),
+        (dict(relaxation_moduli=[9.0]), "[case] relaxation_times is missing"),
+        (
+            dict(modulus_ratio=0.2, relaxation_moduli=[9.0], relaxation_times=[1.0]),
+            "[case] modulus_ratio = 0.2: a Prony series sets k = 1 / (1 + sum of relaxation_moduli)"
+            " = 0.1; leave modulus_ratio out",
+        ),
+    ],
+)
 def test_bad_prony_keys_are_named(groups, message):
     with pytest.raises(CaseError) as err:
         parse_case(case_text(**{"modulus_ratio": None, **groups}))
@@ -205,8 +244,12 @@ def test_bad_prony_keys_are_named(groups, message):
 
 
 # The [physical] form with a two-term Prony series in place of the SLS's modulus and time
-PHYSICAL = physical_text(modulus_instantaneous=None, relaxation_time=None,
-                         relaxation_moduli="[3e6, 6e6]", relaxation_times="[0.01, 0.145]")
+PHYSICAL = physical_text(
+    modulus_instantaneous=None,
+    relaxation_time=None,
+    relaxation_moduli="[3e6, 6e6]",
+    relaxation_times="[0.01, 0.145]",
+)
 
 
 def test_physical_prony_series_forms_the_groups_with_its_reference_time():
@@ -216,7 +259,9 @@ def test_physical_prony_series_forms_the_groups_with_its_reference_time():
     np.testing.assert_allclose(case.relaxation_times, (0.1, 1.45), rtol=1e-14)
     assert case.modulus_ratio == pytest.approx(0.1, rel=1e-15)
     beta = (1e-3**2 * 0.05 / 1e6) ** (1.0 / 3.0)
-    assert case.velocity == pytest.approx(1e-6 * 0.1 * 1e-3 / beta**2, rel=1e-12)  # v_z tau_r R / beta^2
+    assert case.velocity == pytest.approx(
+        1e-6 * 0.1 * 1e-3 / beta**2, rel=1e-12
+    )  # v_z tau_r R / beta^2
     with pytest.raises(CaseError, match=r"^\[physical\] relaxation_time: a Prony series"):
         parse_case(PHYSICAL + "relaxation_time = 1.0\n")
 
@@ -229,37 +274,52 @@ def test_persson_brener_quadrature_of_a_prony_series():
     equal = GeneralizedMaxwell(1.0, (4.5, 4.5), (1.0, 1.0))
     for rhodot in (1e-4, 1e-2, 1.0):
         closed = theory.persson_brener(theory.peel_velocity(rhodot, 1.0, 0.1, lam, beta), 0.1)
-        assert theory.persson_brener_modulus(rhodot, c0, sls.complex_modulus) == \
-            pytest.approx(closed, rel=1e-10)
-        assert theory.persson_brener_modulus(rhodot, c0, equal.complex_modulus) == \
-            pytest.approx(closed, rel=1e-10)
+        assert theory.persson_brener_modulus(rhodot, c0, sls.complex_modulus) == pytest.approx(
+            closed, rel=1e-10
+        )
+        assert theory.persson_brener_modulus(rhodot, c0, equal.complex_modulus) == pytest.approx(
+            closed, rel=1e-10
+        )
     # the limits: relaxed (1) at rest, glassy (Einf / E0 = 10) fast
     assert theory.persson_brener_modulus(1e-9, c0, two.complex_modulus) == pytest.approx(
-        1.0, rel=1e-5)
+        1.0, rel=1e-5
+    )
     assert theory.persson_brener_modulus(1e5, c0, two.complex_modulus) == pytest.approx(
-        10.0, rel=1e-3)
+        10.0, rel=1e-3
+    )
     # the fast branch relaxes first: at any speed less dissipation than the SLS of tau_r
     for rhodot in (1e-3, 1e-2, 1e-1):
-        assert (theory.persson_brener_modulus(rhodot, c0, two.complex_modulus)
-                < theory.persson_brener_modulus(rhodot, c0, sls.complex_modulus))
+        assert theory.persson_brener_modulus(
+            rhodot, c0, two.complex_modulus
+        ) < theory.persson_brener_modulus(rhodot, c0, sls.complex_modulus)
 
 
 def test_a_sweep_over_prony_series():
     from hpcgfmd.runs.sweep import parse_sweep
 
-    base = case_text(modulus_ratio=None, relaxation_moduli=[3.0, 6.0],
-                     relaxation_times=[0.1, 1.45], prefix="base.")
-    sweep = parse_sweep(base + "[grid]\nrelaxation_times = [[0.1, 1.45], [1.0, 1.0],"
-                        " [0.1, 10.0]]\nvelocity = [0.5, 2.0]\n")
-    assert [c.name for c in sweep.cases[:2]] == ["relaxation_times_0.1_1.45-velocity_0.5",
-                                                 "relaxation_times_0.1_1.45-velocity_2.0"]
+    base = case_text(
+        modulus_ratio=None,
+        relaxation_moduli=[3.0, 6.0],
+        relaxation_times=[0.1, 1.45],
+        prefix="base.",
+    )
+    sweep = parse_sweep(
+        base + "[grid]\nrelaxation_times = [[0.1, 1.45], [1.0, 1.0],"
+        " [0.1, 10.0]]\nvelocity = [0.5, 2.0]\n"
+    )
+    assert [c.name for c in sweep.cases[:2]] == [
+        "relaxation_times_0.1_1.45-velocity_0.5",
+        "relaxation_times_0.1_1.45-velocity_2.0",
+    ]
     valid = [c for c in sweep.cases if c.case is not None]
-    assert len(valid) == 4 and all(c.case.relaxation_moduli and c.case.modulus_ratio == 0.1
-                                   for c in valid)
+    assert len(valid) == 4 and all(
+        c.case.relaxation_moduli and c.case.modulus_ratio == 0.1 for c in valid
+    )
     # the third series does not average 1: those two cases fail alone, with the key named
     failed = [c for c in sweep.cases if c.case is None]
-    assert len(failed) == 2 and all("[case] relaxation_times = [0.1, 10.0]" in c.error
-                                    for c in failed)
+    assert len(failed) == 2 and all(
+        "[case] relaxation_times = [0.1, 10.0]" in c.error for c in failed
+    )
 
 
 def test_the_paper_solver_steps_a_prony_series():
@@ -269,8 +329,9 @@ def test_the_paper_solver_steps_a_prony_series():
     # preloads and the CG's steps solved to 1e-3 (the default 2.5e-3 leaves the CG 1.6e-5 off)
     numerics = 'nx = 1024\ntolerance = 1e-3\nstep_control = "fixed"\ndt = 0.05\n'
     cg = retraction(case_text(numerics, **TWO_BRANCHES))
-    paper = retraction(case_text(numerics + 'solver = "paper"\nequilibration_steps = 1000',
-                                 **TWO_BRANCHES))
+    paper = retraction(
+        case_text(numerics + 'solver = "paper"\nequilibration_steps = 1000', **TWO_BRANCHES)
+    )
     assert abs(paper[:, 1].min() / cg[:, 1].min() - 1.0) < 1e-5
 
 
@@ -283,8 +344,9 @@ def test_step_control_of_branches_of_one_time_is_the_sls(dt, moved):
     # the Prony expression (sensitivity summed over the branches): one branch of
     # m = (1 - k) / k = 9, and three of one time
     assert _prony_tip_lag_error(dt, moved, (9.0,), (1.0,)) == pytest.approx(sls, rel=1e-12)
-    assert tip_lag_error(dt, moved * 0.02, 0.02, 0.1, ((4.5, 3.0, 1.5), (1.0, 1.0, 1.0))) == \
-        pytest.approx(sls, rel=1e-12)
+    assert tip_lag_error(
+        dt, moved * 0.02, 0.02, 0.1, ((4.5, 3.0, 1.5), (1.0, 1.0, 1.0))
+    ) == pytest.approx(sls, rel=1e-12)
     # the memory of the kept history error: the slowest retardation time, tau / k for the
     # SLS and for branches of one time
     sls_time = SLS.retardation_time
@@ -302,8 +364,9 @@ def test_the_tip_lag_bound_of_one_relaxation_time_and_of_several():
 
     sls = allowance(modulus_ratio=0.1)
     assert allowance(relaxation_moduli=[4.5, 4.5], relaxation_times=[1.0, 1.0]) == sls
-    assert allowance(relaxation_moduli=[3.0, 6.0], relaxation_times=[0.1, 1.45]) == \
-        pytest.approx(sls / 4, rel=1e-15)
+    assert allowance(relaxation_moduli=[3.0, 6.0], relaxation_times=[0.1, 1.45]) == pytest.approx(
+        sls / 4, rel=1e-15
+    )
 
 
 def test_retardation_times_are_the_creep_problem_s_eigenvalues():
@@ -312,8 +375,11 @@ def test_retardation_times_are_the_creep_problem_s_eigenvalues():
     # E0 eps' = -sum_j s_j', i.e. (I + e 1^T / E0) s' = -D s; the creep compliance decays
     # with the eigenvalues -1 / lambda_j of that system. The retardation times interlace the
     # relaxation times, the slowest within (tau_max, tau_max Einf / E0].
-    for moduli, times in (((3.0, 6.0), (0.1, 1.45)), ((1.0, 2.0, 3.0), (0.01, 0.3, 2.0)),
-                          ((9.0,), (1.0,))):
+    for moduli, times in (
+        ((3.0, 6.0), (0.1, 1.45)),
+        ((1.0, 2.0, 3.0), (0.01, 0.3, 2.0)),
+        ((9.0,), (1.0,)),
+    ):
         material = GeneralizedMaxwell(1.0, moduli, times)
         coupling = np.eye(len(moduli)) + np.outer(moduli, np.ones(len(moduli))) / material.e_relaxed
         system = -np.linalg.solve(coupling, np.diag(1.0 / np.asarray(times)))

@@ -14,6 +14,7 @@ Independent references:
   relaxed equilibrium at that depth (solved directly, as the preload) with exp(-t/tau);
 - Baney-Hui's minimum load, where load control lets go.
 """
+
 import math
 import subprocess
 import sys
@@ -23,9 +24,9 @@ import pytest
 from mpi4py import MPI
 
 from cases import PHYSICAL, case_text, whole_run
+from hpcgfmd.case import parse_case
 from hpcgfmd.errors import CaseError
 from hpcgfmd.model import theory
-from hpcgfmd.case import parse_case
 from hpcgfmd.runs.protocol import Retraction
 
 CYCLE = """
@@ -75,7 +76,11 @@ def test_the_paper_protocol_written_out_is_the_default():
     assert len(default) == len(written) > 100
     for a, b in zip(default, written):
         assert (a.time, a.indenter, a.load, a.contact_half_width) == (
-            b.time, b.indenter, b.load, b.contact_half_width)
+            b.time,
+            b.indenter,
+            b.load,
+            b.contact_half_width,
+        )
     assert sim.schedule.over
 
 
@@ -120,11 +125,15 @@ def test_a_dwell_relaxes_the_load_with_the_relaxation_function():
     # V_z = 1e4 takes 0.14 tau, nearly a step: held at constant depth, the stress relaxes
     # towards the relaxed state with exp(-t/tau) (measured within 2.3e-6 of the amplitude)
     groups = dict(modulus_ratio=0.5, adhesion=1e-7, maugis=0.3, velocity=1e4)
-    text = case_text("nx = 2048", **groups) + "\n[[protocol]]\napproach = 0.03\n[[protocol]]\ndwell = 6.0\n"
+    text = (
+        case_text("nx = 2048", **groups)
+        + "\n[[protocol]]\napproach = 0.03\n[[protocol]]\ndwell = 6.0\n"
+    )
     records, _, sim = records_of(text)
     time, load, segment = columns(records, "time", "load", "segment")
-    relaxed = Retraction(parse_case(case_text("nx = 2048", **groups)), MPI.COMM_SELF,
-                         planner_effort="FFTW_ESTIMATE")
+    relaxed = Retraction(
+        parse_case(case_text("nx = 2048", **groups)), MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE"
+    )
     try:
         relaxed_load = relaxed.preload().load  # the relaxed equilibrium at h0 = 0.03 R
     finally:
@@ -141,8 +150,10 @@ def test_a_dwell_relaxes_the_load_with_the_relaxation_function():
 def test_load_control_lets_go_at_the_baney_hui_minimum():
     # drive_stiffness = 0: from the preload the applied load falls at 1e-3 E0 R / tau until
     # the indenter flies off; elastic, nx = 4096 (w/dx = 6)
-    text = (case_text("nx = 4096", modulus_ratio=1.0, drive_stiffness=0)
-            + "\n[[protocol]]\nretract = -inf\nload_rate = 1e-3\n")
+    text = (
+        case_text("nx = 4096", modulus_ratio=1.0, drive_stiffness=0)
+        + "\n[[protocol]]\nretract = -inf\nload_rate = 1e-3\n"
+    )
     case = parse_case(text)
     records, _, sim = records_of(text)
     load, applied, a, z = columns(records, "load", "drive", "contact_half_width", "indenter")
@@ -172,9 +183,11 @@ def test_cycles_in_the_file_and_info(tmp_path):
     from hpcgfmd import open as open_result
     from hpcgfmd.runs.single_case import run_case
 
-    protocol = ("\n[[protocol]]\napproach = 0.03\n[[protocol]]\nretract = inf\n"
-                "[[protocol]]\ndwell = 0.5\n[[protocol]]\napproach = 0.03\n"
-                "[[protocol]]\nretract = inf\n")
+    protocol = (
+        "\n[[protocol]]\napproach = 0.03\n[[protocol]]\nretract = inf\n"
+        "[[protocol]]\ndwell = 0.5\n[[protocol]]\napproach = 0.03\n"
+        "[[protocol]]\nretract = inf\n"
+    )
     case = parse_case(case_text("nx = 1024", velocity=10.0) + protocol)
     path = str(tmp_path / "cycles.h5")
     run_case(case, path, MPI.COMM_SELF)
@@ -192,8 +205,9 @@ def test_cycles_in_the_file_and_info(tmp_path):
     # the dwell between the cycles: detached, the drive held
     dwell = s.segment == 2
     assert np.all(s.contact_half_width[dwell] == 0) and np.ptp(s.indenter[dwell]) == 0
-    out = subprocess.run([sys.executable, "-m", "hpcgfmd", "info", path], capture_output=True,
-                         text=True, check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-m", "hpcgfmd", "info", path], capture_output=True, text=True, check=True
+    ).stdout
     assert "protocol: approach, retract, dwell, approach, retract" in out
     lines = [line for line in out.splitlines() if line.startswith("cycle ")]
     assert len(lines) == 2 and f"{cycles[1].work:.6g}" in lines[1]
@@ -202,49 +216,70 @@ def test_cycles_in_the_file_and_info(tmp_path):
     assert cycles[1].pull_off < cycles[0].pull_off
 
 
-@pytest.mark.parametrize("protocol, message", [
-    ("[[protocol]]\nhold = 1.0\n", r"^\[\[protocol\]\] 1: no kind: expected exactly one of"),
-    ("[[protocol]]\ndwell = 1.0\nretract = inf\n", r"^\[\[protocol\]\] 1: dwell, retract:"),
-    ("[[protocol]]\ndwell = -1.0\n", r"^\[\[protocol\]\] 1 dwell = -1.0: expected a duration"),
-    ("[[protocol]]\ndwell = 1.0\n[[protocol]]\napproach = inf\n",
-     r"^\[\[protocol\]\] 2 approach = inf: expected a finite number$"),
-    ("[[protocol]]\nretract = -inf\n", r"retract = -inf: expected a finite number or inf"),
-    ("[[protocol]]\nretract = 0.1\nvelocity = 0\n", r"velocity = 0: expected a finite number"),
-    ("[[protocol]]\nretract = 0.1\nload_rate = 1\n", r"load_rate: not accepted with retract"
-                                                      r" \(load_rate needs drive_stiffness = 0"),
-    ("[[protocol]]\ndwell = 1\nvelocity = 1\n", r"velocity: not accepted with dwell"),
-    ("protocol = 3\n", r"^protocol = 3: expected \[\[protocol\]\] tables"),
-])
+@pytest.mark.parametrize(
+    "protocol, message",
+    [
+        ("[[protocol]]\nhold = 1.0\n", r"^\[\[protocol\]\] 1: no kind: expected exactly one of"),
+        ("[[protocol]]\ndwell = 1.0\nretract = inf\n", r"^\[\[protocol\]\] 1: dwell, retract:"),
+        ("[[protocol]]\ndwell = -1.0\n", r"^\[\[protocol\]\] 1 dwell = -1.0: expected a duration"),
+        (
+            "[[protocol]]\ndwell = 1.0\n[[protocol]]\napproach = inf\n",
+            r"^\[\[protocol\]\] 2 approach = inf: expected a finite number$",
+        ),
+        ("[[protocol]]\nretract = -inf\n", r"retract = -inf: expected a finite number or inf"),
+        ("[[protocol]]\nretract = 0.1\nvelocity = 0\n", r"velocity = 0: expected a finite number"),
+        (
+            "[[protocol]]\nretract = 0.1\nload_rate = 1\n",
+            r"load_rate: not accepted with retract"
+            r" \(load_rate needs drive_stiffness = 0",
+        ),
+        ("[[protocol]]\ndwell = 1\nvelocity = 1\n", r"velocity: not accepted with dwell"),
+        ("protocol = 3\n", r"^protocol = 3: expected \[\[protocol\]\] tables"),
+    ],
+)
 def test_bad_protocols_are_named(protocol, message):
     with pytest.raises(CaseError, match=message):
-        parse_case(protocol + case_text() if protocol.startswith("protocol") else
-                   case_text() + "\n" + protocol)
+        parse_case(
+            protocol + case_text()
+            if protocol.startswith("protocol")
+            else case_text() + "\n" + protocol
+        )
 
 
-@pytest.mark.parametrize("protocol, message", [
-    ("", r"^\[case\] drive_stiffness = 0: load control needs a \[\[protocol\]\]"),
-    ("[[protocol]]\nretract = -inf\n", r"load_rate is missing: under load control"),
-    ("[[protocol]]\nretract = -0.001\nvelocity = 1\nload_rate = 1e-3\n",
-     r"velocity: not accepted with retract \(load control moves the load"),
-    ("[[protocol]]\napproach = 0.01\nload_rate = 1e-3\n", r"approach: under load control"),
-    ("[[protocol]]\nretract = -inf\nload_rate = 1e-3\n[[protocol]]\ndwell = 1\n",
-     r"retract = -inf: under load control a retraction until detachment must be the last"),
-])
+@pytest.mark.parametrize(
+    "protocol, message",
+    [
+        ("", r"^\[case\] drive_stiffness = 0: load control needs a \[\[protocol\]\]"),
+        ("[[protocol]]\nretract = -inf\n", r"load_rate is missing: under load control"),
+        (
+            "[[protocol]]\nretract = -0.001\nvelocity = 1\nload_rate = 1e-3\n",
+            r"velocity: not accepted with retract \(load control moves the load",
+        ),
+        ("[[protocol]]\napproach = 0.01\nload_rate = 1e-3\n", r"approach: under load control"),
+        (
+            "[[protocol]]\nretract = -inf\nload_rate = 1e-3\n[[protocol]]\ndwell = 1\n",
+            r"retract = -inf: under load control a retraction until detachment must be the last",
+        ),
+    ],
+)
 def test_bad_load_control_protocols_are_named(protocol, message):
     with pytest.raises(CaseError, match=message):
         parse_case(case_text(drive_stiffness=0) + "\n" + protocol)
 
 
 def test_protocol_units_and_identity():
-    case = parse_case(case_text() + CYCLE.replace("dwell = 1.0", "dwell = 1.0\n")
-                      + "velocity = 2.0\n")
+    case = parse_case(
+        case_text() + CYCLE.replace("dwell = 1.0", "dwell = 1.0\n") + "velocity = 2.0\n"
+    )
     approach, dwell, retract = case.protocol
     assert approach.target == -0.03 and approach.rate == case.indenter_speed
     assert dwell.target == 1.0 and retract.rate == 2.0 * case.adhesion ** (2.0 / 3.0)
     assert case.identity() != parse_case(case_text()).identity()
     assert parse_case(case.text).identity() == case.identity()
-    physical = parse_case(PHYSICAL + "\n[[protocol]]\napproach = 1e-5\nvelocity = 1e-6\n"
-                          "[[protocol]]\ndwell = 2.0\n[[protocol]]\nretract = inf\n")
+    physical = parse_case(
+        PHYSICAL + "\n[[protocol]]\napproach = 1e-5\nvelocity = 1e-6\n"
+        "[[protocol]]\ndwell = 2.0\n[[protocol]]\nretract = inf\n"
+    )
     approach, dwell, _ = physical.protocol
     assert approach.target == pytest.approx(-1e-5 / 1e-3, rel=1e-15)  # in R = 1 mm
     assert approach.rate == pytest.approx(1e-6 * 1.0 / 1e-3, rel=1e-15)  # R / tau, tau = 1 s
@@ -254,12 +289,15 @@ def test_protocol_units_and_identity():
 def test_a_sweep_over_protocols():
     from hpcgfmd.runs.sweep import parse_sweep
 
-    sweep = parse_sweep(case_text(prefix="base.") + """
+    sweep = parse_sweep(
+        case_text(prefix="base.")
+        + """
 [[cases]]
 protocol = [{approach = 0.03}, {retract = inf}]
 [[cases]]
 protocol = [{approach = 0.03}, {dwell = 2.0}, {retract = inf}]
-""")
+"""
+    )
     assert [len(c.case.protocol) for c in sweep.cases] == [2, 3]
     assert sweep.cases[1].name == "protocol_approach_0.03_dwell_2.0_retract_inf"
     assert math.isinf(sweep.cases[0].case.protocol[-1].target)

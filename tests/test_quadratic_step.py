@@ -8,6 +8,7 @@ before, then p_{n+1} = K' u_{n+1} + H' with K' the step's stiffness. A quadratic
 followed to round-off (the step's polynomial is exact); a smooth one converges at third order
 (the interpolation error of a quadratic, dt^3 g''', kept over the memory: global third order).
 """
+
 import math
 
 import numpy as np
@@ -43,14 +44,21 @@ class Mode:
         return out
 
     def branch_memory(self, t, tau):
-        return quad(lambda s: math.exp(-(t - s) / tau) * self.dg(s), 0.0, t,
-                    epsabs=1e-15, epsrel=1e-13)[0] if t > 0 else 0.0
+        return (
+            quad(
+                lambda s: math.exp(-(t - s) / tau) * self.dg(s), 0.0, t, epsabs=1e-15, epsrel=1e-13
+            )[0]
+            if t > 0
+            else 0.0
+        )
 
     def exact(self, t):
         """Exact traction amplitude of the mode (stress)."""
         m = self.material
-        return self.half_q_mode * (E0 * self.g(t) + sum(
-            e * self.branch_memory(t, tau) for e, tau in zip(m.branch_moduli, m.branch_times)))
+        return self.half_q_mode * (
+            E0 * self.g(t)
+            + sum(e * self.branch_memory(t, tau) for e, tau in zip(m.branch_moduli, m.branch_times))
+        )
 
     def start(self, h):
         """The exact state at t = h (the linear first step from the relaxed t = 0 replaced
@@ -102,21 +110,25 @@ def test_a_smooth_history_converges_at_third_order(material):
 def test_branches_of_one_time_step_as_one_branch():
     """The stored branches (two of one time) and the implied one (one of their summed
     modulus) are two evaluations of one solid: their quadratic steps agree to round-off."""
-    one, two = (GeneralizedMaxwell(E0, (9.0,), (1.0,)),
-                GeneralizedMaxwell(E0, (4.5, 4.5), (1.0, 1.0)))
+    one, two = (
+        GeneralizedMaxwell(E0, (9.0,), (1.0,)),
+        GeneralizedMaxwell(E0, (4.5, 4.5), (1.0, 1.0)),
+    )
     g, dg = (lambda t: math.sin(t) ** 2), (lambda t: math.sin(2 * t))
     modes = (Mode(one, g, dg), Mode(two, g, dg))
     tractions = [mode.start(0.3) for mode in modes]
     history, elastic = aligned_empty(N), aligned_empty(N)
     for j, (dt, before) in enumerate([(0.2, 0.3), (0.5, 0.2), (0.5, 0.5), (0.1, 0.5)]):
-        t = 0.3 + sum((0.2, 0.5, 0.5, 0.1)[:j + 1])
+        t = 0.3 + sum((0.2, 0.5, 0.5, 0.1)[: j + 1])
         for mode in modes:
             mode.substrate.history(dt, history, before)
-            mode.fft.apply_diagonal(mode.u(t), mode.substrate.operators(dt, before).stiffness,
-                                    elastic)
+            mode.fft.apply_diagonal(
+                mode.u(t), mode.substrate.operators(dt, before).stiffness, elastic
+            )
             mode.substrate.update(elastic, history, dt, before)
-        np.testing.assert_allclose(tractions[1], tractions[0], rtol=0,
-                                   atol=1e-13 * np.abs(tractions[0]).max())
+        np.testing.assert_allclose(
+            tractions[1], tractions[0], rtol=0, atol=1e-13 * np.abs(tractions[0]).max()
+        )
 
 
 def test_a_step_solved_again_updates_from_its_start():
@@ -129,11 +141,11 @@ def test_a_step_solved_again_updates_from_its_start():
         mode.start(0.3)
         mode.substrate.history(0.2, history, 0.3)
         if mode is again:  # a first attempt at another displacement
-            mode.fft.apply_diagonal(mode.u(0.9), mode.substrate.operators(0.2, 0.3).stiffness,
-                                    elastic)
+            mode.fft.apply_diagonal(
+                mode.u(0.9), mode.substrate.operators(0.2, 0.3).stiffness, elastic
+            )
             mode.substrate.update(elastic, history, 0.2, 0.3)
-        mode.fft.apply_diagonal(mode.u(0.5), mode.substrate.operators(0.2, 0.3).stiffness,
-                                elastic)
+        mode.fft.apply_diagonal(mode.u(0.5), mode.substrate.operators(0.2, 0.3).stiffness, elastic)
         mode.substrate.update(elastic, history, 0.2, 0.3)
     for name, array in once.substrate.state().arrays.items():
         np.testing.assert_array_equal(again.substrate.state().arrays[name], array, name)

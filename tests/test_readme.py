@@ -1,4 +1,5 @@
 """The README's "From Python" block runs as a reader pastes it: into an empty directory."""
+
 import os
 import re
 import subprocess
@@ -18,10 +19,21 @@ def test_the_python_block_runs_in_an_empty_directory_and_prints_its_comment(tmp_
     block = python_block()
     stated = re.findall(r"^print\(.*\)\s+# (\S+)$", block, re.MULTILINE)
     assert len(stated) == 1, block
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
-        [str(REPO)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
-    done = subprocess.run([sys.executable, "-c", block], cwd=tmp_path, capture_output=True,
-                          text=True, timeout=300, env=env, check=False)
+    env = dict(
+        os.environ,
+        PYTHONPATH=os.pathsep.join(
+            [str(REPO)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+        ),
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", block],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=env,
+        check=False,
+    )
     assert done.returncode == 0, done.stderr
     printed = done.stdout.split()
     assert len(printed) == 1, done.stdout

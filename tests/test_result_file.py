@@ -1,5 +1,6 @@
 """The result file (hpcgfmd.storage.result_file, the HDF5 output of a run) on one rank
 (COMM_SELF), and the parallel check tests/mpi/check_result_file.py under mpirun."""
+
 import os
 import shutil
 import subprocess
@@ -11,19 +12,19 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from hpcgfmd.storage.reader import read_series
+from cases import case_text, physical_text
 from hpcgfmd.case import parse_case
 from hpcgfmd.parallel.domain import Domain
+from hpcgfmd.storage.reader import read_series
 from hpcgfmd.storage.result_file import SERIES, SERIES_UNITS, ResultFile
-
-from cases import case_text, physical_text
 
 COMM = MPI.COMM_SELF
 CASE_TEXT = case_text("nx = 64", maugis=1.0, modulus_ratio=1.0)
 
 
-PHYSICAL_TEXT = physical_text("nx = 1024", relaxation_time="2.0", interaction_range="1e-6",
-                              depth="3e-5", cell_length="2e-3")
+PHYSICAL_TEXT = physical_text(
+    "nx = 1024", relaxation_time="2.0", interaction_range="1e-6", depth="3e-5", cell_length="2e-3"
+)
 
 
 @pytest.fixture
@@ -76,8 +77,9 @@ def test_result_file_round_trip(tmp_path, text):
         snaps = f["snapshots"]
         assert snaps.attrs["complete"] == 1 and np.array_equal(snaps["x"][()], x * u.length)
         assert np.array_equal(snaps["time"][()], [0.5 * u.time])
-        for name, want, unit in zip(("surface", "pressure", "gap"), fields(x, 1),
-                                    (u.length, u.stress, u.length)):
+        for name, want, unit in zip(
+            ("surface", "pressure", "gap"), fields(x, 1), (u.length, u.stress, u.length)
+        ):
             assert np.array_equal(snaps[name][()], [want * unit])
     with pytest.raises(FileExistsError):
         ResultFile(path, case, domain(case), COMM)
@@ -121,9 +123,15 @@ def test_parallel_result_file(tmp_path, args):
         pytest.skip("no mpirun")
     # Should pytest itself run under an MPI launcher, keep its variables out of the new job.
     env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "PRTE_"))}
-    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OPENBLAS_NUM_THREADS="1")
+    env.update(
+        OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OPENBLAS_NUM_THREADS="1"
+    )
     script = Path(__file__).parent / "mpi" / "check_result_file.py"
-    run = subprocess.run([mpirun, *args, sys.executable, str(script), str(tmp_path)], env=env,
-                         capture_output=True, text=True, timeout=60)
+    run = subprocess.run(
+        [mpirun, *args, sys.executable, str(script), str(tmp_path)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert run.returncode == 0, run.stdout + run.stderr

@@ -10,21 +10,25 @@ The periodic cell's image curvature is corrected with theory.periodic_load_facto
 here). Errors are measured relative to max(|Lbar|, |Lbar at pull-off|): near zero load a
 relative error in Lbar alone means nothing.
 """
+
 import numpy as np
 import pytest
 from mpi4py import MPI
 
-from hpcgfmd.model import theory
-from hpcgfmd.storage.reader import read_series
-from hpcgfmd.case import parse_case
-from hpcgfmd.runs.single_case import run_case
-
 from cases import case_text
+from hpcgfmd.case import parse_case
+from hpcgfmd.model import theory
+from hpcgfmd.runs.single_case import run_case
+from hpcgfmd.storage.reader import read_series
 
 
 def retraction(tmp_path, lam, k, velocity, nx, dt=None, name="case"):
-    text = case_text(f"nx = {nx}\naccuracy = 1e-3" + (f"\ndt = {dt}" if dt else ""), maugis=lam,
-                     modulus_ratio=k, velocity=velocity)
+    text = case_text(
+        f"nx = {nx}\naccuracy = 1e-3" + (f"\ndt = {dt}" if dt else ""),
+        maugis=lam,
+        modulus_ratio=k,
+        velocity=velocity,
+    )
     path = tmp_path / f"{name}.h5"
     run_case(parse_case(text), path, MPI.COMM_SELF)
     return read_series(path)

@@ -14,6 +14,7 @@ test_distributed.py); the bounds here (1e-10, contact half-width 1e-9) leave roo
 at the tolerance 1e-12 used here (at nx = 8192, 1e-13 is the round-off floor: a clean-clone
 CI run once stalled at a residual of 1.09e-13 after 5000 iterations).
 """
+
 import csv
 import os
 import re
@@ -25,9 +26,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-
 import slurm_cluster
 from slurm_cluster import ClusterError
+
 from cases import FIXED_STEPS, case_text
 
 # each job starts real daemons and MPI steps: seconds each; mpirun inside srun too
@@ -71,8 +72,14 @@ def job_environment(slurm, python=True):
 
 
 def submit(slurm, cwd, script, *args, options=(), env=None):
-    return slurm.sbatch(f"--chdir={cwd}", f"--time={TIME_LIMIT}", *options, str(JOBS / script),
-                        *map(str, args), env=env or job_environment(slurm))
+    return slurm.sbatch(
+        f"--chdir={cwd}",
+        f"--time={TIME_LIMIT}",
+        *options,
+        str(JOBS / script),
+        *map(str, args),
+        env=env or job_environment(slurm),
+    )
 
 
 def finish(slurm, job_id, timeout=180):
@@ -99,8 +106,11 @@ def assert_same_series(reference, path, context):
     for name in SERIES:
         assert series[name].shape == reference[name].shape, (name, context)
         limit = 1e-9 if name == "contact_half_width" else 1e-10
-        assert relative(reference[name], series[name]) <= limit, \
-            (name, relative(reference[name], series[name]), context)
+        assert relative(reference[name], series[name]) <= limit, (
+            name,
+            relative(reference[name], series[name]),
+            context,
+        )
 
 
 def assert_sane(path, context):
@@ -108,9 +118,9 @@ def assert_sane(path, context):
     finished, s = read_series(path)
     assert finished, f"{path} not finished\n{context}"
     assert s["load"].size > 10 and all(np.all(np.isfinite(v)) for v in s.values()), context
-    assert s["load"].min() < 0 < s["load"][0], context         # compressive, then pull-off
-    assert s["contact_half_width"][-1] == 0.0, context          # detached
-    assert np.all(np.diff(s["indenter"]) > 0), context          # retracting
+    assert s["load"].min() < 0 < s["load"][0], context  # compressive, then pull-off
+    assert s["contact_half_width"][-1] == 0.0, context  # detached
+    assert np.all(np.diff(s["indenter"]) > 0), context  # retracting
 
 
 @pytest.fixture(scope="module")
@@ -118,9 +128,14 @@ def reference(tmp_path_factory):
     """The case run directly, serially, without SLURM."""
     cwd = tmp_path_factory.mktemp("reference")
     (cwd / "case.toml").write_text(CASE)
-    done = subprocess.run([sys.executable, "-m", "hpcgfmd", "run", "case.toml", "-o", "ref.h5"],
-                          cwd=cwd, capture_output=True, text=True, timeout=300,
-                          env=dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1"))
+    done = subprocess.run(
+        [sys.executable, "-m", "hpcgfmd", "run", "case.toml", "-o", "ref.h5"],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1"),
+    )
     assert done.returncode == 0, done.stdout + done.stderr
     finished, series = read_series(cwd / "ref.h5")
     assert finished
@@ -129,10 +144,19 @@ def reference(tmp_path_factory):
 
 def test_cluster_runs_an_mpi_step_with_pmix(slurm):
     # the premise of every script: srun --mpi=pmix starts Debian's OpenMPI ranks
-    done = slurm.run("srun", "--mpi=pmix", "-n", "2", sys.executable, "-c",
-                     "from mpi4py import MPI; c = MPI.COMM_WORLD;"
-                     " print(c.Get_rank(), c.Get_size(), c.allreduce(1))",
-                     check=False, timeout=120, env=job_environment(slurm))
+    done = slurm.run(
+        "srun",
+        "--mpi=pmix",
+        "-n",
+        "2",
+        sys.executable,
+        "-c",
+        "from mpi4py import MPI; c = MPI.COMM_WORLD;"
+        " print(c.Get_rank(), c.Get_size(), c.allreduce(1))",
+        check=False,
+        timeout=120,
+        env=job_environment(slurm),
+    )
     assert done.returncode == 0, done.stderr + "\n" + slurm.diagnostics()
     assert sorted(done.stdout.split("\n")[:2]) == ["0 2 2", "1 2 2"], done.stdout
 
@@ -142,9 +166,16 @@ def test_case_job_on_two_ranks_matches_the_direct_run(slurm, reference, tmp_path
     # Without HPCGFMD_PYTHON the script takes the .venv of the repository it was submitted
     # from (via scontrol's Command=); check that when the tests run from that .venv.
     own_venv = Path(sys.executable).parent == REPO / ".venv" / "bin"
-    job = submit(slurm, tmp_path, "case.sbatch", "case.toml", "out.h5", options=["--ntasks=2"],
-                 env=job_environment(slurm, python=not own_venv))
-    record, = finish(slurm, job)
+    job = submit(
+        slurm,
+        tmp_path,
+        "case.sbatch",
+        "case.toml",
+        "out.h5",
+        options=["--ntasks=2"],
+        env=job_environment(slurm, python=not own_venv),
+    )
+    (record,) = finish(slurm, job)
     context = slurm.diagnostics(job)
     assert record["JobState"] == "COMPLETED" and record["ExitCode"] == "0:0", context
     log = Path(record["StdOut"]).read_text()
@@ -157,7 +188,7 @@ def test_case_job_on_two_ranks_matches_the_direct_run(slurm, reference, tmp_path
 
 def test_case_job_passes_on_the_bad_input_status(slurm, tmp_path):
     job = submit(slurm, tmp_path, "case.sbatch", "missing.toml", "out.h5")
-    record, = finish(slurm, job)
+    (record,) = finish(slurm, job)
     context = slurm.diagnostics(job)
     assert record["JobState"] == "FAILED" and record["ExitCode"] == "2:0", context
     assert "bad input" in Path(record["StdOut"]).read_text(), context
@@ -169,10 +200,14 @@ def wait_for_checkpoint(slurm, job, tmp_path, timeout=120):
     checkpoint = tmp_path / "out.checkpoint.h5"
     deadline = time.monotonic() + timeout
     while not checkpoint.exists():
-        if time.monotonic() > deadline or slurm.job(job).get("JobState") in \
-                slurm_cluster.FINAL_STATES:
-            pytest.fail(f"job {job} ended or wrote no checkpoint in {timeout} s\n"
-                        + slurm.diagnostics(job), pytrace=False)
+        if (
+            time.monotonic() > deadline
+            or slurm.job(job).get("JobState") in slurm_cluster.FINAL_STATES
+        ):
+            pytest.fail(
+                f"job {job} ended or wrote no checkpoint in {timeout} s\n" + slurm.diagnostics(job),
+                pytrace=False,
+            )
         time.sleep(0.02)
     state = slurm.job(job).get("JobState")
     assert state == "RUNNING", f"{state}\n{slurm.diagnostics(job)}"
@@ -181,12 +216,13 @@ def wait_for_checkpoint(slurm, job, tmp_path, timeout=120):
 def test_chain_continues_in_a_new_job_after_the_signal(slurm, reference, tmp_path):
     (tmp_path / "case.toml").write_text(CASE)
     # options after the files go to every part, but --overwrite to the first only
-    first = submit(slurm, tmp_path, "chain.sbatch", "case.toml", "out.h5", "--overwrite",
-                   "--log", "run.log")
+    first = submit(
+        slurm, tmp_path, "chain.sbatch", "case.toml", "out.h5", "--overwrite", "--log", "run.log"
+    )
     wait_for_checkpoint(slurm, first, tmp_path)
     # what SLURM does at --signal=B:USR1@margin before the time limit: USR1 to the batch shell
     slurm.run("scancel", "--signal=USR1", "--batch", first)
-    record, = finish(slurm, first)
+    (record,) = finish(slurm, first)
     context = slurm.diagnostics(first)
     assert record["JobState"] == "COMPLETED", context  # part 1 ends well: it handed over
     log_path = Path(record["StdOut"])
@@ -199,7 +235,7 @@ def test_chain_continues_in_a_new_job_after_the_signal(slurm, reference, tmp_pat
     assert found, context
     second = int(found.group(1))
     assert second != first
-    record, = finish(slurm, second)
+    (record,) = finish(slurm, second)
     context = slurm.diagnostics(first, second)
     assert record["JobState"] == "COMPLETED" and record["ExitCode"] == "0:0", context
     # the next part carried the options and the arguments
@@ -219,17 +255,21 @@ def test_chain_continues_in_a_new_job_after_the_signal(slurm, reference, tmp_pat
     assert_same_series(reference, tmp_path / "out.h5", context)
 
 
-@pytest.mark.parametrize("script, variables, name", [
-    ("case.sbatch", {"HPCGFMD_CASE": "case.toml", "HPCGFMD_OUTPUT": "out.h5"}, "out.h5"),
-    ("farm.sbatch", {"HPCGFMD_SWEEP": "sweep.toml", "HPCGFMD_OUTDIR": "study"}, "study"),
-])
-def test_files_from_variables_and_options_from_the_command_line(slurm, tmp_path, script,
-                                                                   variables, name):
+@pytest.mark.parametrize(
+    "script, variables, name",
+    [
+        ("case.sbatch", {"HPCGFMD_CASE": "case.toml", "HPCGFMD_OUTPUT": "out.h5"}, "out.h5"),
+        ("farm.sbatch", {"HPCGFMD_SWEEP": "sweep.toml", "HPCGFMD_OUTDIR": "study"}, "study"),
+    ],
+)
+def test_files_from_variables_and_options_from_the_command_line(
+    slurm, tmp_path, script, variables, name
+):
     (tmp_path / "case.toml").write_text(CASE)
     (tmp_path / "sweep.toml").write_text(SWEEP)
     env = dict(job_environment(slurm), **variables)
     job = submit(slurm, tmp_path, script, "--dry-run", options=["--ntasks=1"], env=env)
-    record, = finish(slurm, job)
+    (record,) = finish(slurm, job)
     context = slurm.diagnostics(job)
     assert record["JobState"] == "COMPLETED" and record["ExitCode"] == "0:0", context
     assert "chi_ve" in Path(record["StdOut"]).read_text(), context  # the dry run's groups
@@ -242,7 +282,7 @@ def test_cancelled_chain_is_not_continued(slurm, tmp_path):
     wait_for_checkpoint(slurm, job, tmp_path)
     before = {r["JobId"] for r in slurm.all_jobs()}
     slurm.run("scancel", job)
-    record, = finish(slurm, job)
+    (record,) = finish(slurm, job)
     time.sleep(1.0)  # a resubmission would be in the queue by now
     context = slurm.diagnostics(job)
     assert record["JobState"] == "CANCELLED", context
@@ -256,7 +296,7 @@ def test_chain_stops_at_its_maximum_length(slurm, tmp_path):
     (tmp_path / "case.toml").write_text(CASE)
     env = dict(job_environment(slurm), HPCGFMD_CHAIN_PART="4", HPCGFMD_CHAIN_MAX="3")
     job = submit(slurm, tmp_path, "chain.sbatch", "case.toml", "out.h5", env=env)
-    record, = finish(slurm, job)
+    (record,) = finish(slurm, job)
     context = slurm.diagnostics(job)
     assert record["JobState"] == "FAILED" and record["ExitCode"] == "75:0", context
     assert "HPCGFMD_CHAIN_MAX=3; not running" in Path(record["StdOut"]).read_text(), context
@@ -271,7 +311,7 @@ def read_summary(path):
 def test_farm_job_runs_every_case(slurm, tmp_path):
     (tmp_path / "sweep.toml").write_text(SWEEP)
     job = submit(slurm, tmp_path, "farm.sbatch", "sweep.toml", "study", options=["--ntasks=2"])
-    record, = finish(slurm, job)
+    (record,) = finish(slurm, job)
     context = slurm.diagnostics(job)
     assert record["JobState"] == "COMPLETED" and record["ExitCode"] == "0:0", context
     rows = read_summary(tmp_path / "study" / "summary.csv")
@@ -289,9 +329,13 @@ def test_array_job_runs_one_case_per_element(slurm, tmp_path):
     assert sorted(r.get("ArrayTaskId") for r in records) == ["0", "1"], context
     assert all(r["JobState"] == "COMPLETED" and r["ExitCode"] == "0:0" for r in records), context
     # the result files are those of the farm (names from the swept values)
-    listing = subprocess.run([sys.executable, "-m", "hpcgfmd", "farm", "sweep.toml", "-o",
-                              "study", "--dry-run"], cwd=tmp_path, capture_output=True,
-                             text=True, timeout=60)
+    listing = subprocess.run(
+        [sys.executable, "-m", "hpcgfmd", "farm", "sweep.toml", "-o", "study", "--dry-run"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     files = sorted((tmp_path / "study").glob("*.h5"))
     names = sorted(p.name for p in files if p.name != "summary.h5")
     assert names == ["velocity_1.0.h5", "velocity_2.0.h5"], (names, listing.stdout, context)

@@ -3,19 +3,19 @@
 limits, and on a real retraction its error against a converged run, its convergence with the
 edge allowance, and that a coarse step does not make the pull-off early (the paper's
 Appendix B warning)."""
+
 import math
 
 import numpy as np
 import pytest
 from mpi4py import MPI
 
+from cases import case_text, pull_off_run
 from hpcgfmd.case import parse_case
 from hpcgfmd.model.material import GeneralizedMaxwell
 from hpcgfmd.runs.protocol import Retraction
 from hpcgfmd.solvers.stepping import KEPT_SHARE, AdaptiveSteps, StepOutcome
 from hpcgfmd.solvers.tip_lag import tip_lag_error
-
-from cases import case_text, pull_off_run
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -30,17 +30,18 @@ def own_plans():
 
 
 def controller(**kw):
-    args = dict(first_dt=1.0, dt_min=1.0 / 64, dt_max=16.0, edge_allowance=1.0,
-                load_allowance=1.0)
+    args = dict(first_dt=1.0, dt_min=1.0 / 64, dt_max=16.0, edge_allowance=1.0, load_allowance=1.0)
     args.update(kw)
     return AdaptiveSteps(**args)
 
 
-def judge(c, dt, time, load, edge_motion, history_error=0.0, zone_width=math.nan,
-          history_kept=None):
+def judge(
+    c, dt, time, load, edge_motion, history_error=0.0, zone_width=math.nan, history_kept=None
+):
     """The controller's verdict on a step of these outcomes."""
-    return c.judge(StepOutcome(dt, time, load, edge_motion, history_error, history_kept,
-                               zone_width))
+    return c.judge(
+        StepOutcome(dt, time, load, edge_motion, history_error, history_kept, zone_width)
+    )
 
 
 def grid(dt):
@@ -164,8 +165,14 @@ def ramp_sensitivity(theta, k, h=1e-3):
     material = GeneralizedMaxwell.standard_linear(k, 1.0, 1.0)
 
     def modulus_integral(start, end):
-        return quad(lambda s: float(material.relaxation_modulus(s)), start, end, epsabs=0.0,
-                    epsrel=1e-13, limit=200)[0]
+        return quad(
+            lambda s: float(material.relaxation_modulus(s)),
+            start,
+            end,
+            epsabs=0.0,
+            epsrel=1e-13,
+            limit=200,
+        )[0]
 
     def log_sigma(t):  # at unit strain the rate is t; the memory's decay apart from the rest
         passage = 1.0 / t
@@ -185,7 +192,8 @@ def test_a_wholly_lagged_rate_errs_by_the_ramp_sensitivity(theta, k):
     for dt in (10.0 / theta + 10.0, 100.0 / theta + 100.0):
         moved = theta * dt
         assert tip_lag_error(dt, moved * zone, zone, k) == pytest.approx(
-            ramp_sensitivity(theta, k), rel=1e-6)
+            ramp_sensitivity(theta, k), rel=1e-6
+        )
 
 
 @pytest.mark.parametrize("k", [0.01, 0.1, 0.5])
@@ -227,13 +235,25 @@ def test_tip_lag_error_orders_and_vanishing_limits():
 def test_tip_lag_sets_the_step_first_order_and_rejects_at_four():
     zone, k = 0.01, 0.1
     error = tip_lag_error(20.0, 0.5 * zone, zone, k)
-    c = controller(first_dt=20.0, dt_max=64.0, edge_allowance=10 * zone, lag_allowance=2 * error,
-                   zone_width=zone, modulus_ratio=k)
+    c = controller(
+        first_dt=20.0,
+        dt_max=64.0,
+        edge_allowance=10 * zone,
+        lag_allowance=2 * error,
+        zone_width=zone,
+        modulus_ratio=k,
+    )
     d = judge(c, 20.0, 20.0, 0.0, 0.5 * zone)
     assert d.accepted and d.lag_error == pytest.approx(0.5)
     assert d.next_dt == grid(20.0 * 0.9 / 0.5)
-    c = controller(first_dt=20.0, dt_max=64.0, edge_allowance=10 * zone, lag_allowance=error / 5,
-                   zone_width=zone, modulus_ratio=k)
+    c = controller(
+        first_dt=20.0,
+        dt_max=64.0,
+        edge_allowance=10 * zone,
+        lag_allowance=error / 5,
+        zone_width=zone,
+        modulus_ratio=k,
+    )
     d = judge(c, 20.0, 20.0, 0.0, 0.5 * zone)  # five allowances: rejected, shortest retry
     assert not d.accepted and d.next_dt == grid(5.0)
 
@@ -242,8 +262,14 @@ def test_tip_lag_uses_the_solved_zone_width_when_given():
     # a glassy tip's zone is wider than the relaxed w: the same edge motion is a smaller
     # share of it, and the passage slower (theta smaller)
     zone, k = 0.01, 0.1
-    c = controller(first_dt=20.0, dt_max=64.0, edge_allowance=10 * zone, lag_allowance=1.0,
-                   zone_width=zone, modulus_ratio=k)
+    c = controller(
+        first_dt=20.0,
+        dt_max=64.0,
+        edge_allowance=10 * zone,
+        lag_allowance=1.0,
+        zone_width=zone,
+        modulus_ratio=k,
+    )
     wide = judge(c, 20.0, 20.0, 0.0, 0.5 * zone, zone_width=3 * zone).lag_error
     assert wide == pytest.approx(tip_lag_error(20.0, 0.5 * zone, 3 * zone, k), rel=1e-12)
     for unknown in (math.nan, 0.0, math.inf):  # the relaxed w stands in
@@ -272,8 +298,10 @@ def converged():
     """Edge allowance w/32, history error 2.5e-4 load scales: converged to ~2e-5 (measured:
     w/16 -> w/32 changes it by 2.1e-5, a history error of 1e-3 -> 2.5e-4 by 2.2e-5; the
     errors of test_error_falls_with_the_edge_allowance reach 8e-5)."""
-    return pull_off("nx = 2048\nedge_fraction = 0.03125\ntolerance = 1e-8\n"
-                    "time_tolerance = 2.5e-4\nload_tolerance = 1e-3")
+    return pull_off(
+        "nx = 2048\nedge_fraction = 0.03125\ntolerance = 1e-8\n"
+        "time_tolerance = 2.5e-4\nload_tolerance = 1e-3"
+    )
 
 
 def test_default_adaptive_pull_off_and_cost(converged):
@@ -297,9 +325,15 @@ def test_default_adaptive_pull_off_and_cost(converged):
 def test_error_falls_with_the_edge_allowance(converged):
     reference, _ = converged
     # the history and load criteria held loose, so that the edge criterion binds
-    errors = [abs(pull_off(f"nx = 2048\nedge_fraction = {f}\ntime_tolerance = 1\n"
-                           "load_tolerance = 0.01")[0] - reference)
-              for f in (1.0, 0.5, 0.25)]
+    errors = [
+        abs(
+            pull_off(f"nx = 2048\nedge_fraction = {f}\ntime_tolerance = 1\nload_tolerance = 0.01")[
+                0
+            ]
+            - reference
+        )
+        for f in (1.0, 0.5, 0.25)
+    ]
     # quartering the allowance cuts the error by far more than 2.5 (about 16 for an error
     # second order in the allowance; relative errors measured 8.2e-4 to 9.4e-4 at w and 5e-6
     # to 3.5e-5 at w/4 over draws of round-off, FFT plans and solver tolerances). At w/2 the

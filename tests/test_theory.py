@@ -1,4 +1,5 @@
 """Analytic references: closed forms against independent evaluations."""
+
 import numpy as np
 import pytest
 
@@ -30,8 +31,10 @@ def test_maugis_dugdale_closure_and_jkr_limit():
     assert np.all(np.abs(theory._md_closure(m, abar, 3.5)) < 1e-10)
     assert np.all(m > 1)
     # lambda -> infinity recovers JKR; the difference is O(m - 1) = O(w/a) = O(1/lambda^2).
-    err = [np.max(np.abs(theory.maugis_dugdale(abar, lam)[0] - theory.jkr_load(abar)))
-           for lam in (50.0, 100.0, 200.0)]
+    err = [
+        np.max(np.abs(theory.maugis_dugdale(abar, lam)[0] - theory.jkr_load(abar)))
+        for lam in (50.0, 100.0, 200.0)
+    ]
     assert err[0] > err[1] > err[2]
     assert err[1] / err[2] == pytest.approx(4.0, rel=0.05)
 
@@ -78,7 +81,6 @@ def test_groups_of_a_physical_case_are_their_definitions_in_si_units():
     # values of a [physical] case, against the groups the case forms (through chi_ve =
     # V_z lambda0^2 and w = beta pi / (4 lambda0^2))
     from cases import PHYSICAL, PHYSICAL_VALUES
-
     from hpcgfmd.case import parse_case
 
     si = {key: float(value) for key, value in PHYSICAL_VALUES.items()}
@@ -92,8 +94,7 @@ def test_groups_of_a_physical_case_are_their_definitions_in_si_units():
     assert case.velocity == pytest.approx(speed * tau * radius / beta**2, rel=1e-12)
     assert case.chi_ve == pytest.approx(speed * tau * maugis / dmax, rel=1e-12)
     sigma_a = work / dmax
-    assert case.zone_width * radius == pytest.approx(np.pi * e0 * dmax / (4 * sigma_a),
-                                                     rel=1e-12)
+    assert case.zone_width * radius == pytest.approx(np.pi * e0 * dmax / (4 * sigma_a), rel=1e-12)
 
 
 @pytest.mark.parametrize("rhodot", [1e-5, 3e-4, 1e-2])
@@ -114,8 +115,13 @@ def test_peel_velocity_convention_against_eq6_in_physical_units(rhodot):
     cbar = 1.0
     for _ in range(300):
         omega_c = 2 * np.pi * rhodot / (cbar * c0)
-        val = integrate.quad(lambda w: np.sqrt(1 - w * w) / w * im_inverse_modulus(omega_c * w),
-                             0.0, 1.0, limit=200, epsabs=1e-13)[0]
+        val = integrate.quad(
+            lambda w, omega_c=omega_c: np.sqrt(1 - w * w) / w * im_inverse_modulus(omega_c * w),
+            0.0,
+            1.0,
+            limit=200,
+            epsabs=1e-13,
+        )[0]
         cbar = 1.0 / (1.0 + 2.0 / np.pi * val)
     vbar = theory.peel_velocity(rhodot, tau, k, lam, beta)
     assert theory.persson_brener(float(vbar), k) == pytest.approx(cbar, rel=1e-7)

@@ -6,6 +6,7 @@ analysis of the module docstring (roots of z^2 - a1 z + a0) for the pseudo step,
 stability limit and the convergence rate; the exact per-mode solution of a linear problem.
 The split transforms it uses (forward, inverse) are checked in test_fft.py.
 """
+
 import math
 import os
 import shutil
@@ -18,16 +19,24 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from hpcgfmd.solvers.verlet import DampedVerletGFMD, contraction, pseudo_step
-from hpcgfmd.model.interface import DugdaleMaugis
 from hpcgfmd.model.halfspace import StepOperators
+from hpcgfmd.model.interface import DugdaleMaugis
 from hpcgfmd.solvers.base import SolveResult
+from hpcgfmd.solvers.verlet import DampedVerletGFMD, contraction, pseudo_step
 
 
 # --- helpers ------------------------------------------------------------------------------
 def verlet(grid, steps, sigma_a=0.0, dmax=1.0, scale=1.0, fraction=1.0):
-    return DampedVerletGFMD(grid.domain, grid.fft, DugdaleMaugis(sigma_a, dmax), grid.half_q,
-                            1.0, steps, scale, time_step_fraction=fraction)
+    return DampedVerletGFMD(
+        grid.domain,
+        grid.fft,
+        DugdaleMaugis(sigma_a, dmax),
+        grid.half_q,
+        1.0,
+        steps,
+        scale,
+        time_step_fraction=fraction,
+    )
 
 
 def slowest_rate(solver):
@@ -90,13 +99,16 @@ def test_the_measure_of_a_state_is_the_cg_solvers(grid_factory):
     cg = grid.solver(sigma_a=0.1, dmax=0.01, scale=0.1)
     cg.solve(u.copy(), wall, ops, history)  # sets cg's K u at (almost) the same u
     p, p_cg = np.empty(n), np.empty(n)
-    solver.problem.interface_traction(u, solver.elastic_traction(), wall, history,
-                                      result.mean_traction, p)
-    cg.problem.interface_traction(u, cg.elastic_traction(), wall, history,
-                                  result.mean_traction, p_cg)
+    solver.problem.interface_traction(
+        u, solver.elastic_traction(), wall, history, result.mean_traction, p
+    )
+    cg.problem.interface_traction(
+        u, cg.elastic_traction(), wall, history, result.mean_traction, p_cg
+    )
     np.testing.assert_allclose(p, p_cg, rtol=0, atol=1e-10)
     assert solver.problem.energy(u, wall, ops, history) == pytest.approx(
-        cg.problem.energy(u, wall, ops, history), rel=1e-12)
+        cg.problem.energy(u, wall, ops, history), rel=1e-12
+    )
 
 
 @pytest.mark.parametrize("sigma_a", [0.0, 0.1])
@@ -163,8 +175,10 @@ def test_adhesive_equilibrium_is_an_attracting_fixed_point(grid_factory, modulus
     # cohesive-edge nodes hop for a while first (the residual is not monotone, measured
     # ~1e-13 from 1000 steps on).
     solver = verlet(grid, 2500, sigma_a, dmax, scale=sigma_a)
-    u = u_cg + depth * (2e-3 * np.cos(2 * np.pi * grid.x / grid.cell)
-                        + 1e-3 * np.sin(6 * np.pi * grid.x / grid.cell))
+    u = u_cg + depth * (
+        2e-3 * np.cos(2 * np.pi * grid.x / grid.cell)
+        + 1e-3 * np.sin(6 * np.pi * grid.x / grid.cell)
+    )
     result = solver.solve(u, wall, ops, history)
     assert 2500 * slowest_rate(solver) ** 2500 < 1e-16
     assert result.residual < 1e-11
@@ -189,8 +203,10 @@ def test_unsettled_relaxation_keeps_its_contact_on_the_wall(grid_factory, steps)
     cg = grid.solver(sigma_a=sigma_a, dmax=dmax, tolerance=1e-12, scale=sigma_a)
     u_cg = np.zeros(n)
     assert cg.solve(u_cg, wall, ops, history).converged
-    start = u_cg + depth * (2e-3 * np.cos(2 * np.pi * grid.x / grid.cell)
-                            + 1e-3 * np.sin(6 * np.pi * grid.x / grid.cell))
+    start = u_cg + depth * (
+        2e-3 * np.cos(2 * np.pi * grid.x / grid.cell)
+        + 1e-3 * np.sin(6 * np.pi * grid.x / grid.cell)
+    )
     relaxed = start.copy()  # the pseudo steps alone (deterministic: same bits as in solve)
     verlet(grid, steps, sigma_a, dmax, scale=sigma_a).relax(relaxed, wall, ops, history, steps)
     assert abs(relaxed.sum()) <= 1e-15 * np.abs(wall).max() * n  # project_feasible's zero
@@ -213,15 +229,16 @@ def test_retraction_with_few_pseudo_steps_lags_cg_only_slightly():
     from hpcgfmd.runs.protocol import Retraction
 
     def run(numerics):
-        case = parse_case(case_text(numerics="nx = 2048\nstep_control = \"fixed\"\n"
-                                    "dt = 0.02\n" + numerics))
+        case = parse_case(
+            case_text(numerics='nx = 2048\nstep_control = "fixed"\ndt = 0.02\n' + numerics)
+        )
         sim = Retraction(case, MPI.COMM_SELF, "FFTW_ESTIMATE")
         records = [sim.preload()] + [sim.step() for _ in range(4)]
         return np.array([r.load for r in records]) / case.load_scale, records
 
     reference, _ = run("tolerance = 1e-12")
     # (its preload is CG's, to the tolerance the default accuracy gave when this was measured)
-    loads, records = run("solver = \"paper\"\nequilibration_steps = 500\ntolerance = 1e-4")
+    loads, records = run('solver = "paper"\nequilibration_steps = 500\ntolerance = 1e-4')
     assert np.all(reference > 10.0)
     np.testing.assert_allclose(loads, reference, rtol=1e-6)
     assert max(r.residual for r in records[1:]) < 1e-6
@@ -239,17 +256,20 @@ def test_whole_retraction_same_branch_as_cg():
     from hpcgfmd.runs.protocol import Retraction
 
     def run(numerics):
-        case = parse_case(case_text(numerics="nx = 1024\nstep_control = \"fixed\"\n"
-                                    "dt = 0.05\n" + numerics))
+        case = parse_case(
+            case_text(numerics='nx = 1024\nstep_control = "fixed"\ndt = 0.05\n' + numerics)
+        )
         sim = Retraction(case, MPI.COMM_SELF, "FFTW_ESTIMATE")
         records = [sim.preload()]
         while not sim.detached():
             records.append(sim.step())
-        return (np.array([r.load for r in records]) / case.load_scale,
-                np.array([r.contact_half_width for r in records]))
+        return (
+            np.array([r.load for r in records]) / case.load_scale,
+            np.array([r.contact_half_width for r in records]),
+        )
 
     loads_cg, widths_cg = run("tolerance = 1e-10")
-    loads, widths = run("solver = \"paper\"\nequilibration_steps = 300")
+    loads, widths = run('solver = "paper"\nequilibration_steps = 300')
     assert len(loads) == len(loads_cg)  # detached at the same step
     assert loads.min() == pytest.approx(loads_cg.min(), rel=1e-4)  # pull-off
     assert np.argmin(loads) == np.argmin(loads_cg)
@@ -305,8 +325,15 @@ def test_pseudo_step_is_stable_and_the_limit_is_sharp(grid_factory, modulus):
     solver = verlet(grid, 0)
     u = np.zeros(n)
     largest = []
-    solver.relax(u, wall, ops, history, 20000, applied,
-                 monitor=lambda k, v: largest.append(np.abs(v).max()) if k % 100 == 0 else None)
+    solver.relax(
+        u,
+        wall,
+        ops,
+        history,
+        20000,
+        applied,
+        monitor=lambda k, v: largest.append(np.abs(v).max()) if k % 100 == 0 else None,
+    )
     assert np.abs(u - exact).max() < 1e-13 and max(largest) < 2 * np.abs(exact).max()
     ratio = solver.step_limit / solver.step_optimal  # fraction that gives the limit itself
     # 0.99 of the limit: stable (the Nyquist mode contracts by 0.98 or 0.92 per step).
@@ -365,8 +392,13 @@ def test_distributed_relaxation_is_the_serial_one_under_mpirun(ranks):
     # tests/mpi/check_verlet.py: an adhesive indentation relaxed on the blocks of every rank
     # (the four-step transform, and the halved one on 2 ranks) against the one-rank solve
     script = Path(__file__).parent / "mpi" / "check_verlet.py"
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    env = dict(
+        os.environ,
+        OMPI_ALLOW_RUN_AS_ROOT="1",
+        OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+        OPENBLAS_NUM_THREADS="1",
+        OMP_NUM_THREADS="1",
+    )
     command = ["mpirun", "--oversubscribe", "-n", str(ranks), sys.executable, str(script)]
     result = subprocess.run(command, env=env, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout + result.stderr

@@ -1,6 +1,7 @@
 """The FFTW wisdom cache (hpcgfmd.parallel.wisdom): written by a measured plan, used by the next
 process (a plan with FFTW_WISDOM_ONLY, which FFTW refuses without wisdom, then succeeds),
 merged over ranks, replaced when corrupt, and off on request."""
+
 import json
 import os
 import platform
@@ -36,10 +37,21 @@ except RuntimeError:
 
 
 def python(code, *args, path, launcher=(), **env_vars):
-    env = dict(os.environ, HPCGFMD_WISDOM=str(path), OMP_NUM_THREADS="1",
-               OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", **env_vars)
-    return subprocess.run([*launcher, sys.executable, "-c", code, *map(str, args)],
-                          capture_output=True, text=True, timeout=300, env=env)
+    env = dict(
+        os.environ,
+        HPCGFMD_WISDOM=str(path),
+        OMP_NUM_THREADS="1",
+        OMPI_ALLOW_RUN_AS_ROOT="1",
+        OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+        **env_vars,
+    )
+    return subprocess.run(
+        [*launcher, sys.executable, "-c", code, *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=env,
+    )
 
 
 def test_measured_plan_is_cached_for_the_next_process(tmp_path):
@@ -68,12 +80,15 @@ def test_corrupt_cache_is_replaced_with_a_warning(tmp_path):
 def test_default_cache_is_per_host_under_the_xdg_cache(tmp_path):
     env = {k: v for k, v in os.environ.items() if k != "HPCGFMD_WISDOM"}
     code = "from hpcgfmd.parallel import wisdom; print(wisdom.cache_path())"
-    for extra, base in (({"XDG_CACHE_HOME": str(tmp_path)}, tmp_path),
-                        ({"HOME": str(tmp_path)}, tmp_path / ".cache")):
+    for extra, base in (
+        ({"XDG_CACHE_HOME": str(tmp_path)}, tmp_path),
+        ({"HOME": str(tmp_path)}, tmp_path / ".cache"),
+    ):
         run_env = {k: v for k, v in env.items() if k != "XDG_CACHE_HOME"}
         run_env.update(extra)
-        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                             env=run_env, check=True).stdout.strip()
+        out = subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, env=run_env, check=True
+        ).stdout.strip()
         host = platform.node()
         assert out == str(base / "hpcgfmd" / f"fftw-wisdom-{host}.json")
 
@@ -86,7 +101,7 @@ def test_cache_off_writes_nothing(tmp_path):
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("n", [1 << 14, 2 * 3 ** 8])
+@pytest.mark.parametrize("n", [1 << 14, 2 * 3**8])
 def test_plans_of_two_ranks_are_merged(tmp_path, n):
     # each rank plans transforms of its own: the halved transform (4 divides 2^14) an rfft of
     # n/2 on rank 0 and a complex FFT of n/4 on rank 1, the four-step one (2 * 3^8) its

@@ -7,6 +7,7 @@ alpha = 1e-4, on 2048 nodes. The run is kept in memory (no file is left behind);
 shows (pi/4) abar^(3/2) against Lbar/sqrt(abar) (paper Fig. 5a) with the relaxed and the
 instantaneous JKR lines, and the load against the indenter position.
 """
+
 import sys
 
 import matplotlib
@@ -17,12 +18,21 @@ import numpy as np  # noqa: E402
 
 import hpcgfmd  # noqa: E402
 
-case = hpcgfmd.Case(maugis=3.5, modulus_ratio=0.1, velocity=1.0, depth=0.03, cell=2.0,
-                    adhesion=1e-4, numerics={"nx": 2048})
+case = hpcgfmd.Case(
+    maugis=3.5,
+    modulus_ratio=0.1,
+    velocity=1.0,
+    depth=0.03,
+    cell=2.0,
+    adhesion=1e-4,
+    numerics={"nx": 2048},
+)
 result = hpcgfmd.run(case, planner_effort="FFTW_ESTIMATE")  # small grid: no planning
 pull_off = result.pull_off()
-print(f"chi_ve = {case.chi_ve:.3g}; pull-off Lbar = {pull_off.lbar:.4f} at abar ="
-      f" {pull_off.abar:.3f}; {result.attrs['steps']} steps")
+print(
+    f"chi_ve = {case.chi_ve:.3g}; pull-off Lbar = {pull_off.lbar:.4f} at abar ="
+    f" {pull_off.abar:.3f}; {result.attrs['steps']} steps"
+)
 
 series = result.series
 x, y = series.scaled_curve()

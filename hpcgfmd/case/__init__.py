@@ -3,6 +3,7 @@
 Imports :mod:`hpcgfmd.model` and :mod:`hpcgfmd.solvers` (the solvers declare their own
 ``[numerics]`` keys) only.
 """
+
 from .case import Case, load_case, parse_case
 from .text import case_file_text
 from .units import Units

@@ -13,6 +13,7 @@ adhesion=5e-5, numerics={"nx": 4096})`` validates exactly as the case file would
 are :mod:`.groups`, :mod:`.numerics`, :mod:`.output` and :mod:`.protocol`); every problem is
 a :class:`~hpcgfmd.errors.CaseError` naming the key, the value and what is accepted.
 """
+
 from __future__ import annotations
 
 import math
@@ -74,34 +75,61 @@ class Case(Groups):
     protocol: tuple
     text: str
 
-    def __init__(self, maugis: float, modulus_ratio: float | None, velocity: float,
-                 depth: float, cell: float, adhesion: float,
-                 numerics: Numerics | Mapping | None = None,
-                 output: Output | Mapping | None = None, units: Units | None = None,
-                 text: str = "", form: str = "case", relaxation_moduli: Sequence[float] = (),
-                 relaxation_times: Sequence[float] = (), drive_stiffness: float = math.inf,
-                 protocol: Sequence = ()) -> None:
-        raw = python_numbers({"maugis": maugis, "modulus_ratio": modulus_ratio,
-                              "velocity": velocity, "depth": depth, "cell": cell,
-                              "adhesion": adhesion, "relaxation_moduli": relaxation_moduli,
-                              "relaxation_times": relaxation_times,
-                              "drive_stiffness": drive_stiffness})
+    def __init__(
+        self,
+        maugis: float,
+        modulus_ratio: float | None,
+        velocity: float,
+        depth: float,
+        cell: float,
+        adhesion: float,
+        numerics: Numerics | Mapping | None = None,
+        output: Output | Mapping | None = None,
+        units: Units | None = None,
+        text: str = "",
+        form: str = "case",
+        relaxation_moduli: Sequence[float] = (),
+        relaxation_times: Sequence[float] = (),
+        drive_stiffness: float = math.inf,
+        protocol: Sequence = (),
+    ) -> None:
+        raw = python_numbers(
+            {
+                "maugis": maugis,
+                "modulus_ratio": modulus_ratio,
+                "velocity": velocity,
+                "depth": depth,
+                "cell": cell,
+                "adhesion": adhesion,
+                "relaxation_moduli": relaxation_moduli,
+                "relaxation_times": relaxation_times,
+                "drive_stiffness": drive_stiffness,
+            }
+        )
         numerics, output, protocol = (python_numbers(v) for v in (numerics, output, protocol))
-        for name, value, resolved in (("numerics", numerics, Numerics),
-                                      ("output", output, Output)):
+        for name, value, resolved in (("numerics", numerics, Numerics), ("output", output, Output)):
             if not (value is None or isinstance(value, (Mapping, resolved))):
-                raise CaseError(f"{name} = {shown(value)}: expected a dict of the [{name}]"
-                                " keys (or None for the defaults)")
+                raise CaseError(
+                    f"{name} = {shown(value)}: expected a dict of the [{name}]"
+                    " keys (or None for the defaults)"
+                )
         units = Units() if units is None else units
         groups = checked_groups(raw, units, form)
         resolved = {
             **{key: getattr(groups, key) for key in Groups.__dataclass_fields__},
             "protocol": _segments(groups, protocol),
-            "numerics": (numerics if isinstance(numerics, Numerics)
-                         else resolve_numerics(groups, numerics or {})),
-            "output": (output if isinstance(output, Output)
-                       else resolve_output(output or {}, units.time, units.length)),
-            "text": text or _keyword_text(groups, numerics, output, protocol)}
+            "numerics": (
+                numerics
+                if isinstance(numerics, Numerics)
+                else resolve_numerics(groups, numerics or {})
+            ),
+            "output": (
+                output
+                if isinstance(output, Output)
+                else resolve_output(output or {}, units.time, units.length)
+            ),
+            "text": text or _keyword_text(groups, numerics, output, protocol),
+        }
         for name, value in resolved.items():  # the frozen dataclass's construction
             object.__setattr__(self, name, value)
 
@@ -118,8 +146,10 @@ class Case(Groups):
             except CaseError as err:
                 raise CaseError(f"{os.fspath(source)}: {err}") from None
         if not isinstance(source, str):
-            raise CaseError(f"case = {shown(source)}: expected a Case, a case file's path"
-                            " (str or os.PathLike) or its TOML text")
+            raise CaseError(
+                f"case = {shown(source)}: expected a Case, a case file's path"
+                " (str or os.PathLike) or its TOML text"
+            )
         return parse_case(source)
 
     @property
@@ -145,13 +175,22 @@ class Case(Groups):
     def groups(self) -> dict:
         """Every derived dimensionless group under the paper's symbols, as printed at start
         and stored in the output file."""
-        groups = {"lambda0": self.maugis, "lambda_inf": self.lambda_inf,
-                  "k": self.modulus_ratio, "Vz": self.velocity, "chi_ve": self.chi_ve,
-                  "alpha": self.adhesion, "depth": self.depth, "cell": self.cell,
-                  "zone_points": self.zone_width / self.dx}
+        groups = {
+            "lambda0": self.maugis,
+            "lambda_inf": self.lambda_inf,
+            "k": self.modulus_ratio,
+            "Vz": self.velocity,
+            "chi_ve": self.chi_ve,
+            "alpha": self.adhesion,
+            "depth": self.depth,
+            "cell": self.cell,
+            "zone_points": self.zone_width / self.dx,
+        }
         if self.relaxation_moduli:  # E_i / E0 and tau_i / tau_r; V_z, chi_ve with tau_r
-            groups.update(relaxation_moduli=list(self.relaxation_moduli),
-                          relaxation_times=list(self.relaxation_times))
+            groups.update(
+                relaxation_moduli=list(self.relaxation_moduli),
+                relaxation_times=list(self.relaxation_times),
+            )
         if self.compliant:  # k_s / E0
             groups.update(drive_stiffness=self.drive_stiffness)
         return groups
@@ -160,28 +199,44 @@ class Case(Groups):
 def _segments(groups: Groups, protocol) -> tuple:
     """``[[protocol]]`` tables (case units) -> segments (internal units), checked."""
     if groups.load_control and not protocol:
-        raise CaseError(f"[{groups.form}] drive_stiffness = 0: load control needs a"
-                        " [[protocol]] whose segments give a load_rate")
+        raise CaseError(
+            f"[{groups.form}] drive_stiffness = 0: load control needs a"
+            " [[protocol]] whose segments give a load_rate"
+        )
     if not protocol or all(isinstance(s, Segment) for s in protocol):
         return tuple(protocol or ())
     units = groups.units
-    scale = (groups.adhesion ** (2.0 / 3.0) if groups.form == "case"  # V_z units: beta^2
-             else units.time / units.length)  # m/s
-    return parse_protocol(list(protocol), length=units.length, time=units.time,
-                          load=units.load, speed=groups.indenter_speed, speed_scale=scale,
-                          load_control=groups.load_control)
+    scale = (
+        groups.adhesion ** (2.0 / 3.0)
+        if groups.form == "case"  # V_z units: beta^2
+        else units.time / units.length
+    )  # m/s
+    return parse_protocol(
+        list(protocol),
+        length=units.length,
+        time=units.time,
+        load=units.load,
+        speed=groups.indenter_speed,
+        speed_scale=scale,
+        load_control=groups.load_control,
+    )
 
 
 def _keyword_text(groups: Groups, numerics, output, protocol) -> str:
     """The case file that gives a case built from keywords."""
-    keys = (GROUP_KEYS if not groups.relaxation_moduli
-            else tuple(key for key in GROUP_KEYS if key != "modulus_ratio") + PRONY_KEYS)
+    keys = (
+        GROUP_KEYS
+        if not groups.relaxation_moduli
+        else tuple(key for key in GROUP_KEYS if key != "modulus_ratio") + PRONY_KEYS
+    )
     if groups.compliant:
         keys += DRIVE_KEYS
-    return case_file_text({key: getattr(groups, key) for key in keys},
-                          numerics if isinstance(numerics, Mapping) else None,
-                          protocol if isinstance(protocol, list) else None,
-                          output if isinstance(output, Mapping) else None)
+    return case_file_text(
+        {key: getattr(groups, key) for key in keys},
+        numerics if isinstance(numerics, Mapping) else None,
+        protocol if isinstance(protocol, list) else None,
+        output if isinstance(output, Mapping) else None,
+    )
 
 
 def parse_case(text: str) -> Case:

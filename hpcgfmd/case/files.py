@@ -1,5 +1,6 @@
 """Case files (TOML, docs/case-file.md): read and checked section by section into the keyword
 arguments of a :class:`~.case.Case` (which checks the values)."""
+
 from __future__ import annotations
 
 import tomllib
@@ -14,9 +15,12 @@ from .units import PHYSICAL_KEYS, Units, groups_from_physical
 
 def sections() -> dict:
     """The sections of a case file and their keys (``[[protocol]]`` apart)."""
-    return {"case": GROUP_KEYS + PRONY_KEYS + DRIVE_KEYS,
-            "physical": PHYSICAL_KEYS + PRONY_KEYS + DRIVE_KEYS,
-            "numerics": numerics_keys(), "output": OUTPUT_KEYS}
+    return {
+        "case": GROUP_KEYS + PRONY_KEYS + DRIVE_KEYS,
+        "physical": PHYSICAL_KEYS + PRONY_KEYS + DRIVE_KEYS,
+        "numerics": numerics_keys(),
+        "output": OUTPUT_KEYS,
+    }
 
 
 def read_case_file(path) -> str:
@@ -46,13 +50,16 @@ def case_arguments(text: str) -> dict:
         if name == "protocol":  # [[protocol]]: checked with the case (case/protocol.py)
             continue
         if name not in known:
-            raise CaseError(f"[{quoted_key(name)}]: unknown section; accepted: [case] or"
-                            " [physical], [numerics], [output], [[protocol]]")
+            raise CaseError(
+                f"[{quoted_key(name)}]: unknown section; accepted: [case] or"
+                " [physical], [numerics], [output], [[protocol]]"
+            )
         if not isinstance(value, dict):
             raise CaseError(f"{name} = {shown(value)}: expected a section [{name}]")
     if ("case" in doc) == ("physical" in doc):
-        raise CaseError("exactly one of [case] (dimensionless groups) or [physical] (SI values)"
-                        " is required")
+        raise CaseError(
+            "exactly one of [case] (dimensionless groups) or [physical] (SI values) is required"
+        )
     form = "case" if "case" in doc else "physical"
     unknown_keys(doc[form], form, known[form])
     if form == "case":
@@ -61,22 +68,36 @@ def case_arguments(text: str) -> dict:
         groups, units = groups_from_physical(doc["physical"])
     protocol = doc.get("protocol", ())
     if "protocol" in doc and (not isinstance(protocol, list) or not protocol):
-        raise CaseError(f"protocol = {shown(protocol)}: expected [[protocol]] tables"
-                        " (approach, dwell or retract)")
-    return dict(groups, numerics=doc.get("numerics", {}), output=doc.get("output", {}),
-                units=units, text=text, form=form, protocol=protocol)
+        raise CaseError(
+            f"protocol = {shown(protocol)}: expected [[protocol]] tables"
+            " (approach, dwell or retract)"
+        )
+    return dict(
+        groups,
+        numerics=doc.get("numerics", {}),
+        output=doc.get("output", {}),
+        units=units,
+        text=text,
+        form=form,
+        protocol=protocol,
+    )
 
 
 def _case_groups(table) -> dict:
     """The ``[case]`` table's groups, each present and a number (a Prony series in place of
     modulus_ratio)."""
     prony = any(key in table for key in PRONY_KEYS)
-    groups = {key: number(table, "case", key) for key in GROUP_KEYS
-              if not (prony and key == "modulus_ratio")}
+    groups = {
+        key: number(table, "case", key)
+        for key in GROUP_KEYS
+        if not (prony and key == "modulus_ratio")
+    }
     if prony:
-        groups.update(modulus_ratio=table.get("modulus_ratio"),
-                      relaxation_moduli=table.get("relaxation_moduli"),
-                      relaxation_times=table.get("relaxation_times"))
+        groups.update(
+            modulus_ratio=table.get("modulus_ratio"),
+            relaxation_moduli=table.get("relaxation_moduli"),
+            relaxation_times=table.get("relaxation_times"),
+        )
     if "drive_stiffness" in table:
         groups["drive_stiffness"] = stiffness(table, "case")
     return groups

@@ -6,6 +6,7 @@ Prony series). The groups keep their case-file names: ``maugis`` is lambda0, ``m
 k = E0/Einf, ``velocity`` V_z, ``depth`` h0/R, ``cell`` L/R and ``adhesion``
 alpha = dgamma0/(E0 R); everything else is derived from them.
 """
+
 from __future__ import annotations
 
 import math
@@ -146,8 +147,9 @@ def checked_groups(raw: Mapping, units: Units, form: str) -> Groups:
     moduli, times = raw.get("relaxation_moduli"), raw.get("relaxation_times")
     if _given(moduli) or _given(times):
         moduli, times = prony_series(moduli, times, section)
-        values["modulus_ratio"] = _prony_modulus_ratio(moduli, times,
-                                                       values.get("modulus_ratio"), form, section)
+        values["modulus_ratio"] = _prony_modulus_ratio(
+            moduli, times, values.get("modulus_ratio"), form, section
+        )
     else:
         moduli, times = (), ()
     drive = raw.get("drive_stiffness", math.inf)
@@ -156,16 +158,26 @@ def checked_groups(raw: Mapping, units: Units, form: str) -> Groups:
     if form == "case":
         values = {key: number(values, "case", key) for key in GROUP_KEYS}
         if values["modulus_ratio"] > 1.0:
-            raise CaseError(f"[case] modulus_ratio = {values['modulus_ratio']}: expected"
-                            " k = E0/Einf in (0, 1] (1 is the elastic solid)")
-    groups = Groups(**values, relaxation_moduli=tuple(moduli), relaxation_times=tuple(times),
-                    drive_stiffness=float(drive), units=units, form=form)
+            raise CaseError(
+                f"[case] modulus_ratio = {values['modulus_ratio']}: expected"
+                " k = E0/Einf in (0, 1] (1 is the elastic solid)"
+            )
+    groups = Groups(
+        **values,
+        relaxation_moduli=tuple(moduli),
+        relaxation_times=tuple(times),
+        drive_stiffness=float(drive),
+        units=units,
+        form=form,
+    )
     _check_scales(groups)
     min_cell = MIN_CELL_PER_CONTACT * math.sqrt(2.0 * groups.depth)
     if groups.cell < min_cell:
-        raise CaseError(f"{groups.cell_key()} = {groups.cell * units.length:.6g}: too small"
-                        f" for the contact; need L >= {MIN_CELL_PER_CONTACT:g} sqrt(2 R h0) ="
-                        f" {min_cell * units.length:.4g}")
+        raise CaseError(
+            f"{groups.cell_key()} = {groups.cell * units.length:.6g}: too small"
+            f" for the contact; need L >= {MIN_CELL_PER_CONTACT:g} sqrt(2 R h0) ="
+            f" {min_cell * units.length:.4g}"
+        )
     return groups
 
 
@@ -184,27 +196,41 @@ def _prony_modulus_ratio(moduli, times, given, form, section):
             f"[case] relaxation_times = {shown(list(times))}: expected times in units of the"
             " reference time sum E_i tau_i / sum E_i, whose mean weighted by"
             f" relaxation_moduli is 1; these average {mean:.10g}: the same solid is"
-            f" relaxation_times = [{scaled}] with velocity times {mean:.10g}")
+            f" relaxation_times = [{scaled}] with velocity times {mean:.10g}"
+        )
     k = 1.0 / (1.0 + math.fsum(moduli))
-    if given is not None and (isinstance(given, bool) or not isinstance(given, (int, float))
-                              or not abs(given - k) <= 1e-12 * k):
-        raise CaseError(f"[{section}] modulus_ratio = {shown(given)}: a Prony series sets"
-                        f" k = 1 / (1 + sum of relaxation_moduli) = {k:.12g}; leave"
-                        " modulus_ratio out")
+    if given is not None and (
+        isinstance(given, bool)
+        or not isinstance(given, (int, float))
+        or not abs(given - k) <= 1e-12 * k
+    ):
+        raise CaseError(
+            f"[{section}] modulus_ratio = {shown(given)}: a Prony series sets"
+            f" k = 1 / (1 + sum of relaxation_moduli) = {k:.12g}; leave"
+            " modulus_ratio out"
+        )
     return k
 
 
 def _check_scales(groups: Groups):
     """The derived scales the numerics divide by, finite and > 0."""
-    where = (f"[case] {', '.join(f'{key} = {getattr(groups, key):g}' for key in GROUP_KEYS)}"
-             if groups.form == "case" else "[physical] values")
-    finite_scales(where, {"lambda_inf = lambda0 k^(2/3)": lambda: groups.lambda_inf,
-                          "beta = alpha^(1/3)": lambda: groups.beta,
-                          "sigma_a = lambda0 beta": lambda: groups.sigma_a,
-                          "dmax = alpha / sigma_a": lambda: groups.dmax,
-                          "chi_ve = V_z lambda0^2": lambda: groups.chi_ve,
-                          "v_z = V_z beta^2": lambda: groups.indenter_speed,
-                          "w = pi beta / (4 lambda0^2)": lambda: groups.zone_width})
+    where = (
+        f"[case] {', '.join(f'{key} = {getattr(groups, key):g}' for key in GROUP_KEYS)}"
+        if groups.form == "case"
+        else "[physical] values"
+    )
+    finite_scales(
+        where,
+        {
+            "lambda_inf = lambda0 k^(2/3)": lambda: groups.lambda_inf,
+            "beta = alpha^(1/3)": lambda: groups.beta,
+            "sigma_a = lambda0 beta": lambda: groups.sigma_a,
+            "dmax = alpha / sigma_a": lambda: groups.dmax,
+            "chi_ve = V_z lambda0^2": lambda: groups.chi_ve,
+            "v_z = V_z beta^2": lambda: groups.indenter_speed,
+            "w = pi beta / (4 lambda0^2)": lambda: groups.zone_width,
+        },
+    )
 
 
 def python_numbers(value):

@@ -2,6 +2,7 @@
 grid, the steps and the tolerances that ``accuracy`` implies where a key is left out
 (docs/case-file.md, "[numerics]"; docs/numerics.md).
 """
+
 from __future__ import annotations
 
 import math
@@ -17,24 +18,35 @@ from .keys import choice, integer, number, shown, unknown_keys
 
 # Cohesive-zone resolution w/dx (w: relaxed zone width pi E0 dmax / (4 sigma_a)); the
 # accuracy it buys is measured in docs/results.md ("Grid and time-step convergence").
-MIN_ZONE_POINTS = 1.0      # below this (across w times the fast widening) nx is rejected
+MIN_ZONE_POINTS = 1.0  # below this (across w times the fast widening) nx is rejected
 DEFAULT_STEP_PER_RANGE = 0.25  # fixed steps: the indenter moves this fraction of dmax per step
 # The iteration cap of a solve: this many, plus the nodes across the geometric contact width
 # 2 sqrt(2 R h0) (contact_nodes): an active-set solve lets about one node per contact edge
 # off the wall per iteration, so the snap-off's last solve, which lets the whole remaining
 # contact go at dt_min, needs about as many iterations as the contact has nodes.
 DEFAULT_MAX_ITERATIONS = 5000
-DT_MIN_PER_DEFAULT = 1.0 / 64.0     # dt_min: this fraction of the first step (<= fixed one)
+DT_MIN_PER_DEFAULT = 1.0 / 64.0  # dt_min: this fraction of the first step (<= fixed one)
 FIRST_STEP_PER_DEFAULT = 1.0 / 16.0  # adaptive: the first step, doubling while errors allow
-DT_MAX_DEPTH_FRACTION = 0.02        # dt_max: the indenter rises by this fraction of h0
+DT_MAX_DEPTH_FRACTION = 0.02  # dt_max: the indenter rises by this fraction of h0
 STEP_CONTROLS = ("adaptive", "fixed")
-MIN_TOLERANCE = 1e-13      # the residual's round-off floor (max norm relative to sigma_a)
-BYTES_PER_POINT = 320      # about 40 float64 work arrays per grid point
-BYTES_PER_BRANCH = 24      # a Prony branch's traction, its step start and its undo copy
+MIN_TOLERANCE = 1e-13  # the residual's round-off floor (max norm relative to sigma_a)
+BYTES_PER_POINT = 320  # about 40 float64 work arrays per grid point
+BYTES_PER_BRANCH = 24  # a Prony branch's traction, its step start and its undo copy
 # the keys every case has; each solver adds its own (SolverKey, hpcgfmd.solvers.base)
-COMMON_KEYS = ("accuracy", "nx", "dt", "tolerance", "max_iterations", "solver",
-               "step_control", "dt_min", "dt_max", "edge_fraction", "load_tolerance",
-               "time_tolerance")
+COMMON_KEYS = (
+    "accuracy",
+    "nx",
+    "dt",
+    "tolerance",
+    "max_iterations",
+    "solver",
+    "step_control",
+    "dt_min",
+    "dt_max",
+    "edge_fraction",
+    "load_tolerance",
+    "time_tolerance",
+)
 
 
 @dataclass(frozen=True)
@@ -99,33 +111,54 @@ def resolve_numerics(groups, table: dict) -> Numerics:
 
     ``groups``: the case's checked :class:`~.groups.Groups`."""
     unknown_keys(table, "numerics", numerics_keys())
-    accuracy = (number(table, "numerics", "accuracy") if "accuracy" in table
-                else knob.DEFAULT_ACCURACY)
+    accuracy = (
+        number(table, "numerics", "accuracy") if "accuracy" in table else knob.DEFAULT_ACCURACY
+    )
     if not accuracy < 0.1:
-        raise CaseError(f"[numerics] accuracy = {accuracy}: expected a relative error in"
-                        " (0, 0.1)")
+        raise CaseError(f"[numerics] accuracy = {accuracy}: expected a relative error in (0, 0.1)")
     nx, automatic = _grid(groups, table, accuracy)
     solver = choice(table, "numerics", "solver", registered())
     step_control = choice(table, "numerics", "step_control", STEP_CONTROLS)
     steps = _steps(groups, table, step_control)
-    tolerance = (number(table, "numerics", "tolerance") if "tolerance" in table
-                 else knob.solver_tolerance(accuracy, groups.compliant))
+    tolerance = (
+        number(table, "numerics", "tolerance")
+        if "tolerance" in table
+        else knob.solver_tolerance(accuracy, groups.compliant)
+    )
     if not MIN_TOLERANCE <= tolerance < 1e-2:
-        raise CaseError(f"[numerics] tolerance = {tolerance}: expected a number in"
-                        f" [{MIN_TOLERANCE:g}, 0.01)")
+        raise CaseError(
+            f"[numerics] tolerance = {tolerance}: expected a number in [{MIN_TOLERANCE:g}, 0.01)"
+        )
     return Numerics(
-        nx=nx, nx_automatic=automatic, **steps, tolerance=tolerance, accuracy=accuracy,
-        max_iterations=(integer(table, "numerics", "max_iterations", 1)
-                        if "max_iterations" in table
-                        else DEFAULT_MAX_ITERATIONS + contact_nodes(groups, nx)),
-        solver=solver, step_control=step_control,
-        edge_fraction=(number(table, "numerics", "edge_fraction") if "edge_fraction" in table
-                       else knob.edge_fraction(accuracy)),
-        load_tolerance=(number(table, "numerics", "load_tolerance")
-                        if "load_tolerance" in table else knob.load_tolerance(accuracy)),
-        time_tolerance=(number(table, "numerics", "time_tolerance")
-                        if "time_tolerance" in table else knob.time_tolerance(accuracy)),
-        solver_settings=_solver_settings(table, solver, nx))
+        nx=nx,
+        nx_automatic=automatic,
+        **steps,
+        tolerance=tolerance,
+        accuracy=accuracy,
+        max_iterations=(
+            integer(table, "numerics", "max_iterations", 1)
+            if "max_iterations" in table
+            else DEFAULT_MAX_ITERATIONS + contact_nodes(groups, nx)
+        ),
+        solver=solver,
+        step_control=step_control,
+        edge_fraction=(
+            number(table, "numerics", "edge_fraction")
+            if "edge_fraction" in table
+            else knob.edge_fraction(accuracy)
+        ),
+        load_tolerance=(
+            number(table, "numerics", "load_tolerance")
+            if "load_tolerance" in table
+            else knob.load_tolerance(accuracy)
+        ),
+        time_tolerance=(
+            number(table, "numerics", "time_tolerance")
+            if "time_tolerance" in table
+            else knob.time_tolerance(accuracy)
+        ),
+        solver_settings=_solver_settings(table, solver, nx),
+    )
 
 
 def _steps(groups, table, step_control) -> dict:
@@ -136,23 +169,36 @@ def _steps(groups, table, step_control) -> dict:
     dmax = groups.adhesion ** (2.0 / 3.0) / groups.maugis
     fixed_default = DEFAULT_STEP_PER_RANGE * dmax / speed
     # adaptive steps start short: the retraction starts with the steepest load change
-    dt = (number(table, "numerics", "dt") / time_unit if "dt" in table
-          else fixed_default * (1.0 if step_control == "fixed" else FIRST_STEP_PER_DEFAULT))
-    dt_min = (number(table, "numerics", "dt_min") / time_unit if "dt_min" in table
-              else DT_MIN_PER_DEFAULT * min(dt, fixed_default))
-    dt_max = (number(table, "numerics", "dt_max") / time_unit if "dt_max" in table
-              else max(DT_MAX_DEPTH_FRACTION * groups.depth / speed, dt))
+    dt = (
+        number(table, "numerics", "dt") / time_unit
+        if "dt" in table
+        else fixed_default * (1.0 if step_control == "fixed" else FIRST_STEP_PER_DEFAULT)
+    )
+    dt_min = (
+        number(table, "numerics", "dt_min") / time_unit
+        if "dt_min" in table
+        else DT_MIN_PER_DEFAULT * min(dt, fixed_default)
+    )
+    dt_max = (
+        number(table, "numerics", "dt_max") / time_unit
+        if "dt_max" in table
+        else max(DT_MAX_DEPTH_FRACTION * groups.depth / speed, dt)
+    )
     # over- or underflowed; the quadratic step divides by the square of a step: normal floats
     shortest = math.sqrt(sys.float_info.min)
     for key, value in (("dt", dt), ("dt_min", dt_min)):
         if not shortest <= value < math.inf:
             given = f" = {shown(table[key])}" if key in table else " (default)"
-            raise CaseError(f"[numerics] {key}{given}: {value:g} relaxation times, out of"
-                            " the floating-point range; expected a finite step of at least"
-                            f" {shortest:.3g} (the SLS step divides by its square)")
+            raise CaseError(
+                f"[numerics] {key}{given}: {value:g} relaxation times, out of"
+                " the floating-point range; expected a finite step of at least"
+                f" {shortest:.3g} (the SLS step divides by its square)"
+            )
     if dt_min > dt_max:
-        raise CaseError(f"[numerics] dt_min = {dt_min * time_unit:g}: must not exceed"
-                        f" dt_max = {dt_max * time_unit:g}")
+        raise CaseError(
+            f"[numerics] dt_min = {dt_min * time_unit:g}: must not exceed"
+            f" dt_max = {dt_max * time_unit:g}"
+        )
     return {"dt": dt, "dt_min": dt_min, "dt_max": dt_max}
 
 
@@ -163,8 +209,10 @@ def _solver_settings(table, solver, nx) -> tuple:
         for key in solver_class(name).KEYS:
             if key.name in table:
                 integer(table, "numerics", key.name, key.smallest)
-    return tuple((key.name, table[key.name] if key.name in table else key.default(nx))
-                 for key in solver_class(solver).KEYS)
+    return tuple(
+        (key.name, table[key.name] if key.name in table else key.default(nx))
+        for key in solver_class(solver).KEYS
+    )
 
 
 def automatic_nx(case, accuracy, widen=True):
@@ -200,12 +248,17 @@ def automatic_nx(case, accuracy, widen=True):
     except ZeroDivisionError:  # a subnormal accuracy underflows to 0
         points = across_contact = math.inf
     if not (math.isfinite(points) and math.isfinite(across_contact)):
-        raise CaseError(f"[numerics] accuracy = {accuracy:g}: the grid it needs is out of"
-                        " the floating-point range; expected a relative error in (0, 0.1)"
-                        " of a size a grid can reach")
-    return smallest_grid(max(_log2_ratio(points, case.cell, case.zone_width),
-                             _log2_ratio(across_contact, case.cell,
-                                         math.sqrt(2.0 * case.depth))))
+        raise CaseError(
+            f"[numerics] accuracy = {accuracy:g}: the grid it needs is out of"
+            " the floating-point range; expected a relative error in (0, 0.1)"
+            " of a size a grid can reach"
+        )
+    return smallest_grid(
+        max(
+            _log2_ratio(points, case.cell, case.zone_width),
+            _log2_ratio(across_contact, case.cell, math.sqrt(2.0 * case.depth)),
+        )
+    )
 
 
 def _grid(case, num, accuracy):
@@ -225,11 +278,16 @@ def _grid(case, num, accuracy):
     points = width / (case.cell / nx)
     if points < MIN_ZONE_POINTS:
         ratio = MIN_ZONE_POINTS * case.cell / width  # inf when beyond the float range
-        need = (max(64, 2 * math.ceil(ratio / 2)) if math.isfinite(ratio)
-                else smallest_grid(_log2_ratio(MIN_ZONE_POINTS, case.cell, width)))
-        raise CaseError(f"[numerics] nx = {nx}: resolves the cohesive zone with"
-                        f" {points:.3g} points; at least {MIN_ZONE_POINTS:g} is needed"
-                        f" (nx >= {need}; left out, nx follows [numerics] accuracy)")
+        need = (
+            max(64, 2 * math.ceil(ratio / 2))
+            if math.isfinite(ratio)
+            else smallest_grid(_log2_ratio(MIN_ZONE_POINTS, case.cell, width))
+        )
+        raise CaseError(
+            f"[numerics] nx = {nx}: resolves the cohesive zone with"
+            f" {points:.3g} points; at least {MIN_ZONE_POINTS:g} is needed"
+            f" (nx >= {need}; left out, nx follows [numerics] accuracy)"
+        )
     return nx, False
 
 
@@ -252,8 +310,13 @@ def _check_memory(nx, automatic, branches=0):
     memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     size = nx * (BYTES_PER_POINT + BYTES_PER_BRANCH * branches)
     if size > memory:
-        gib = (f"{size / 2**30:.1f}" if size.bit_length() < 1000  # else beyond float range
-               else f"2^{size.bit_length() - 31}")
-        raise CaseError(f"[numerics] nx = {nx}{' (automatic)' if automatic else ''}: needs"
-                        f" about {gib} GiB, more than the {memory / 2**30:.1f} GiB of this"
-                        " machine")
+        gib = (
+            f"{size / 2**30:.1f}"
+            if size.bit_length() < 1000  # else beyond float range
+            else f"2^{size.bit_length() - 31}"
+        )
+        raise CaseError(
+            f"[numerics] nx = {nx}{' (automatic)' if automatic else ''}: needs"
+            f" about {gib} GiB, more than the {memory / 2**30:.1f} GiB of this"
+            " machine"
+        )

@@ -1,5 +1,6 @@
 """The ``[[protocol]]`` tables of a case file checked and turned into segments in internal units
 (:class:`~hpcgfmd.model.loading.Segment`; docs/case-file.md, "[[protocol]]")."""
+
 from __future__ import annotations
 
 import math
@@ -8,8 +9,16 @@ from ..errors import CaseError
 from ..model.loading import KINDS, Segment
 
 
-def parse_protocol(entries, *, length: float, time: float, load: float,
-                   speed: float, speed_scale: float, load_control: bool) -> tuple:
+def parse_protocol(
+    entries,
+    *,
+    length: float,
+    time: float,
+    load: float,
+    speed: float,
+    speed_scale: float,
+    load_control: bool,
+) -> tuple:
     """Validate the ``[[protocol]]`` tables of a case file -> segments in internal units.
 
     Parameters
@@ -31,24 +40,41 @@ def parse_protocol(entries, *, length: float, time: float, load: float,
     CaseError
         One line naming the segment, the key, the value and what is accepted.
     """
-    if not isinstance(entries, list) or not entries or not all(
-            isinstance(entry, dict) for entry in entries):
-        raise CaseError(f"protocol = {_shown(entries)}: expected one or more [[protocol]]"
-                        " tables (approach, dwell or retract)")
-    units = dict(length=length, time=time, load=load, speed=speed, speed_scale=speed_scale,
-                 load_control=load_control)
-    segments = tuple(_segment(entry, f"[[protocol]] {number}", **units)
-                     for number, entry in enumerate(entries, start=1))
+    if (
+        not isinstance(entries, list)
+        or not entries
+        or not all(isinstance(entry, dict) for entry in entries)
+    ):
+        raise CaseError(
+            f"protocol = {_shown(entries)}: expected one or more [[protocol]]"
+            " tables (approach, dwell or retract)"
+        )
+    units = dict(
+        length=length,
+        time=time,
+        load=load,
+        speed=speed,
+        speed_scale=speed_scale,
+        load_control=load_control,
+    )
+    segments = tuple(
+        _segment(entry, f"[[protocol]] {number}", **units)
+        for number, entry in enumerate(entries, start=1)
+    )
     if load_control:
         if segments[0].kind == "approach":
-            raise CaseError("[[protocol]] 1 approach: under load control (drive_stiffness = 0)"
-                            " the run starts from the preload at depth; an approach from out"
-                            " of contact has no load to follow; start with a dwell or a retract")
+            raise CaseError(
+                "[[protocol]] 1 approach: under load control (drive_stiffness = 0)"
+                " the run starts from the preload at depth; an approach from out"
+                " of contact has no load to follow; start with a dwell or a retract"
+            )
         for number, segment in enumerate(segments[:-1], start=1):
             if segment.kind == "retract" and segment.target == -math.inf:
-                raise CaseError(f"[[protocol]] {number} retract = -inf: under load control a"
-                                " retraction until detachment must be the last segment (a"
-                                " detached indenter has no load to follow)")
+                raise CaseError(
+                    f"[[protocol]] {number} retract = -inf: under load control a"
+                    " retraction until detachment must be the last segment (a"
+                    " detached indenter has no load to follow)"
+                )
     return segments
 
 
@@ -56,18 +82,24 @@ def _segment(entry, where, *, length, time, load, speed, speed_scale, load_contr
     """One ``[[protocol]]`` table -> its Segment (:func:`parse_protocol`)."""
     kinds = [key for key in entry if key in KINDS]
     if len(kinds) != 1:
-        raise CaseError(f"{where}: {', '.join(kinds) or 'no kind'}: expected exactly one of"
-                        f" {', '.join(KINDS)}")
+        raise CaseError(
+            f"{where}: {', '.join(kinds) or 'no kind'}: expected exactly one of {', '.join(KINDS)}"
+        )
     kind = kinds[0]
     rate_key = "load_rate" if load_control else "velocity"
     allowed = (kind,) if kind == "dwell" else (kind, rate_key)
     for key in entry:
         if key not in allowed:
-            why = (" (load_rate needs drive_stiffness = 0: load control)" if key == "load_rate"
-                   else " (load control moves the load: give load_rate)"
-                   if key == "velocity" and load_control else "")
-            raise CaseError(f"{where} {key}: not accepted with {kind}{why}; accepted:"
-                            f" {', '.join(allowed)}")
+            why = (
+                " (load_rate needs drive_stiffness = 0: load control)"
+                if key == "load_rate"
+                else " (load control moves the load: give load_rate)"
+                if key == "velocity" and load_control
+                else ""
+            )
+            raise CaseError(
+                f"{where} {key}: not accepted with {kind}{why}; accepted: {', '.join(allowed)}"
+            )
     value = entry[kind]
     if isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value):
         raise CaseError(f"{where} {kind} = {_shown(value)}: expected a number")
@@ -79,8 +111,11 @@ def _segment(entry, where, *, length, time, load, speed, speed_scale, load_contr
     # the infinite end a retraction may have: until detachment
     open_end = (-math.inf if load_control else math.inf) if kind == "retract" else None
     if not (math.isfinite(value) or value == open_end):
-        accepted = ("a finite number" if open_end is None
-                    else f"a finite number or {open_end} (until detachment)")
+        accepted = (
+            "a finite number"
+            if open_end is None
+            else f"a finite number or {open_end} (until detachment)"
+        )
         raise CaseError(f"{where} {kind} = {_shown(value)}: expected {accepted}")
     if load_control:
         target = value / load
@@ -88,13 +123,18 @@ def _segment(entry, where, *, length, time, load, speed, speed_scale, load_contr
         target = (-value if kind == "approach" else value) / length
     if rate_key in entry:
         rate = entry[rate_key]
-        if (isinstance(rate, bool) or not isinstance(rate, (int, float))
-                or not 0.0 < rate < math.inf):
+        if (
+            isinstance(rate, bool)
+            or not isinstance(rate, (int, float))
+            or not 0.0 < rate < math.inf
+        ):
             raise CaseError(f"{where} {rate_key} = {_shown(rate)}: expected a finite number > 0")
         rate = rate * (load / time if load_control else speed_scale)
     elif load_control:
-        raise CaseError(f"{where} load_rate is missing: under load control (drive_stiffness"
-                        f" = 0) an {kind} needs a load rate > 0")
+        raise CaseError(
+            f"{where} load_rate is missing: under load control (drive_stiffness"
+            f" = 0) an {kind} needs a load rate > 0"
+        )
     else:
         rate = speed
     return Segment(kind, target, float(rate))

@@ -1,5 +1,6 @@
 """A case file's text written from its keys (TOML through tomli_w): the text of a case built
 from Python keywords, and of the cases of a sweep."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -17,8 +18,9 @@ def plain(value):
     return value
 
 
-def case_file_text(case: dict, numerics: dict | None = None, protocol=None,
-                   output: dict | None = None) -> str:
+def case_file_text(
+    case: dict, numerics: dict | None = None, protocol=None, output: dict | None = None
+) -> str:
     """A case file's text (docs/case-file.md) from its ``[case]`` keys, its ``[numerics]``
     and ``[output]`` keys and its ``[[protocol]]`` segments (a list of dicts)."""
     doc = {"case": plain(case)}

@@ -5,6 +5,7 @@ Internally R = E0 = tau = 1. A ``[physical]`` case keeps R, E0 and tau (tau_r, t
 modulus-weighted mean time, for a Prony series: (M41)) as its units, so that the output is in
 m, Pa and s; a ``[case]`` case's units are R, E0 and tau themselves.
 """
+
 from __future__ import annotations
 
 import math
@@ -13,8 +14,17 @@ from dataclasses import dataclass
 from ..errors import CaseError
 from .keys import number, prony_series, stiffness
 
-PHYSICAL_KEYS = ("radius", "modulus_relaxed", "modulus_instantaneous", "relaxation_time",
-                 "work_of_adhesion", "interaction_range", "velocity", "depth", "cell_length")
+PHYSICAL_KEYS = (
+    "radius",
+    "modulus_relaxed",
+    "modulus_instantaneous",
+    "relaxation_time",
+    "work_of_adhesion",
+    "interaction_range",
+    "velocity",
+    "depth",
+    "cell_length",
+)
 
 
 @dataclass(frozen=True)
@@ -46,8 +56,10 @@ def finite_scales(where, scales):
         except (OverflowError, ZeroDivisionError):  # ** overflowed; a divisor underflowed
             value = math.inf
         if not 0.0 < value < math.inf:
-            raise CaseError(f"{where}: {name} = {value:g} is out of the floating-point range;"
-                            " expected values whose derived scales are finite and > 0")
+            raise CaseError(
+                f"{where}: {name} = {value:g} is out of the floating-point range;"
+                " expected values whose derived scales are finite and > 0"
+            )
 
 
 def groups_from_physical(table: dict):
@@ -62,30 +74,43 @@ def groups_from_physical(table: dict):
     if "relaxation_moduli" in t or "relaxation_times" in t:
         for key in ("modulus_instantaneous", "relaxation_time"):
             if key in t:
-                raise CaseError(f"[physical] {key}: a Prony series (relaxation_moduli,"
-                                " relaxation_times) sets the moduli and the times; leave"
-                                f" {key} out")
-        moduli, times = prony_series(t.get("relaxation_moduli"), t.get("relaxation_times"),
-                                     "physical")
+                raise CaseError(
+                    f"[physical] {key}: a Prony series (relaxation_moduli,"
+                    " relaxation_times) sets the moduli and the times; leave"
+                    f" {key} out"
+                )
+        moduli, times = prony_series(
+            t.get("relaxation_moduli"), t.get("relaxation_times"), "physical"
+        )
         t["modulus_instantaneous"] = number(t, "physical", "modulus_relaxed") + math.fsum(moduli)
         t["relaxation_time"] = math.fsum(m * x for m, x in zip(moduli, times)) / math.fsum(moduli)
         e0, tau = t["modulus_relaxed"], t["relaxation_time"]
-        prony = {"relaxation_moduli": tuple(m / e0 for m in moduli),
-                 "relaxation_times": tuple(x / tau for x in times)}
+        prony = {
+            "relaxation_moduli": tuple(m / e0 for m in moduli),
+            "relaxation_times": tuple(x / tau for x in times),
+        }
     radius, e0, einf, tau, work, dmax, velocity, depth, cell = (
-        number(t, "physical", key) for key in PHYSICAL_KEYS)
+        number(t, "physical", key) for key in PHYSICAL_KEYS
+    )
     if einf < e0:
-        raise CaseError(f"[physical] modulus_instantaneous = {einf}: must be >= modulus_relaxed"
-                        f" = {e0} (k = E0/Einf in (0, 1])")
-    formulas = {"maugis": lambda: (work**2 * radius / (e0**2 * dmax**3)) ** (1.0 / 3.0),
-                "modulus_ratio": lambda: e0 / einf,
-                "velocity": lambda: velocity * tau * radius
-                / ((radius**2 * work / e0) ** (1.0 / 3.0))**2,
-                "depth": lambda: depth / radius, "cell": lambda: cell / radius,
-                "adhesion": lambda: work / (e0 * radius)}
+        raise CaseError(
+            f"[physical] modulus_instantaneous = {einf}: must be >= modulus_relaxed"
+            f" = {e0} (k = E0/Einf in (0, 1])"
+        )
+    formulas = {
+        "maugis": lambda: (work**2 * radius / (e0**2 * dmax**3)) ** (1.0 / 3.0),
+        "modulus_ratio": lambda: e0 / einf,
+        "velocity": lambda: velocity * tau * radius / ((radius**2 * work / e0) ** (1.0 / 3.0)) ** 2,
+        "depth": lambda: depth / radius,
+        "cell": lambda: cell / radius,
+        "adhesion": lambda: work / (e0 * radius),
+    }
     values = (radius, e0, einf, tau, work, dmax, velocity, depth, cell)
-    finite_scales("[physical] " + ", ".join(f"{key} = {value:g}" for key, value
-                                            in zip(PHYSICAL_KEYS, values)), formulas)
+    finite_scales(
+        "[physical] "
+        + ", ".join(f"{key} = {value:g}" for key, value in zip(PHYSICAL_KEYS, values)),
+        formulas,
+    )
     groups = {key: formula() for key, formula in formulas.items()}
     if prony:  # k from the series itself
         groups.update(prony, modulus_ratio=None)

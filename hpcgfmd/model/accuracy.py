@@ -12,12 +12,13 @@ error counted against it is up to 8 % (lambda0 = 0.5) larger than against the pu
 The laws were calibrated on the cases of docs/results.md ("The accuracy knob") and validated
 on others.
 """
+
 from __future__ import annotations
 
 import math
 
 DEFAULT_ACCURACY = 5e-3
-PULL_OFF_SCALE = 1.74      # |relaxed pull-off| in load scales: the error's absolute unit
+PULL_OFF_SCALE = 1.74  # |relaxed pull-off| in load scales: the error's absolute unit
 GRID_SHARE, STEP_SHARE = 0.5, 0.5
 # Grid: pull-off error C (dx / w_eff)^P (elastic lambda = 3.5: 2.3 %, 0.5 %, 0.1 % at
 # w/dx = 1.5, 3, 6).
@@ -163,5 +164,4 @@ def solver_tolerance(accuracy, compliant=False):
     "The paper's four cases" for the soft spring).
     """
     low, high = SOLVER_RANGE_COMPLIANT if compliant else SOLVER_RANGE
-    return min(high, max(low, (SOLVER_SHARE_COMPLIANT if compliant else SOLVER_SHARE)
-                          * accuracy))
+    return min(high, max(low, (SOLVER_SHARE_COMPLIANT if compliant else SOLVER_SHARE) * accuracy))

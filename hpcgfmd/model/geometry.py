@@ -6,6 +6,7 @@ extents the series record, located between nodes). The grid's shape is the domai
 (:class:`hpcgfmd.parallel.domain.Domain`): the solvers and the step control see flat blocks
 of nodes; only the indenter and its measures know the surface's dimension.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -62,6 +63,8 @@ class Cylinder:
         """
         left, right = edge_positions(domain, gap, 0.0, 1.5)
         zone_left, zone_right = edge_positions(domain, gap, dmax, 1.0)
-        return ContactMeasure((left, right),
-                              0.5 * (right - left) if left == left else 0.0,
-                              0.5 * (zone_right - zone_left) if zone_left == zone_left else 0.0)
+        return ContactMeasure(
+            (left, right),
+            0.5 * (right - left) if left == left else 0.0,
+            0.5 * (zone_right - zone_left) if zone_left == zone_left else 0.0,
+        )

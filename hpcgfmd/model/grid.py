@@ -7,6 +7,7 @@ nodes than it needs (on average about 15 %, against about 44 % for powers of two
 is even and halves at least down to f 2^2, as the coarse-to-fine preload needs
 (:mod:`hpcgfmd.runs.coarse_start`).
 """
+
 from __future__ import annotations
 
 import math
@@ -36,7 +37,7 @@ def smallest_grid(log2_nodes: float) -> int:
     for factor in ODD_FACTORS:
         # the tolerance keeps an exact requirement (2^17 nodes) on its own size
         exponent = max(1, math.ceil(log2_nodes - math.log2(factor) - 1e-12))
-        size = factor * 2 ** exponent
+        size = factor * 2**exponent
         if best is None or size < best:
             best = size
     return best

@@ -22,6 +22,7 @@ mode-diagonal maps commute with the transform, so the history needs no transform
 G_{n+1} = K u_{n+1} / Eeff comes with the step's solve (K the step's stiffness). Numpy and
 one compiled loop (:mod:`.history_kernels`); no MPI.
 """
+
 from __future__ import annotations
 
 import math
@@ -73,8 +74,7 @@ def quadratic_terms(material, dt, step_before):
     if step_before is None or not math.isfinite(dt):
         return None
     response = material.curvature_response(dt)
-    return (response / (dt * (dt + step_before)),
-            response / (step_before * (dt + step_before)))
+    return (response / (dt * (dt + step_before)), response / (step_before * (dt + step_before)))
 
 
 class Substrate(ABC):
@@ -173,9 +173,18 @@ class MaxwellHalfSpace(Substrate):
         self._prepare(dt, step_before)
         step = self._step
         added, weight = step.terms if step.terms is not None else (0.0, 0.0)
-        sls_history(self.relaxed, self.traction, self.relaxed_before, step.e_history,
-                    step.decays[0], added, weight, step.terms is not None, out,
-                    self._relaxed_start)
+        sls_history(
+            self.relaxed,
+            self.traction,
+            self.relaxed_before,
+            step.e_history,
+            step.decays[0],
+            added,
+            weight,
+            step.terms is not None,
+            out,
+            self._relaxed_start,
+        )
         if len(self.branches):
             self._branches_start[:] = self.branches
             self._before_start[:] = self.relaxed_before
@@ -203,8 +212,9 @@ class MaxwellHalfSpace(Substrate):
         if not len(self.branches):
             return
         change = np.subtract(self.relaxed, self._relaxed_start, out=self._scratch)
-        for decay, weight, branch, start in zip(step.decays[1:], step.weights[1:],
-                                                self.branches, self._branches_start):
+        for decay, weight, branch, start in zip(
+            step.decays[1:], step.weights[1:], self.branches, self._branches_start
+        ):
             np.multiply(start, decay, out=branch)
             branch += weight * change
         if self.last_step_quadratic:  # c (in G's units) times E_i F_i(dt)
@@ -242,8 +252,11 @@ class MaxwellHalfSpace(Substrate):
 
     # --- state -------------------------------------------------------------------------
     def state(self) -> State:
-        arrays = {"traction": self.traction, "relaxed": self.relaxed,
-                  "relaxed_before": self.relaxed_before}
+        arrays = {
+            "traction": self.traction,
+            "relaxed": self.relaxed,
+            "relaxed_before": self.relaxed_before,
+        }
         arrays.update({f"branch_{i + 2}": branch for i, branch in enumerate(self.branches)})
         return State(arrays)
 
@@ -269,7 +282,15 @@ class _StepData:
         factors = material.step_factors(dt)
         terms = quadratic_terms(material, dt, step_before)
         modulus = factors.e_eff + (terms[0] if terms else 0.0)
-        responses = (material.branch_curvature_responses(dt)
-                     if terms and material.branches > 1 else None)
-        return cls(StepOperators.from_modulus(half_q, modulus, n), factors.decays,
-                   factors.weights, factors.e_history, modulus, terms, responses)
+        responses = (
+            material.branch_curvature_responses(dt) if terms and material.branches > 1 else None
+        )
+        return cls(
+            StepOperators.from_modulus(half_q, modulus, n),
+            factors.decays,
+            factors.weights,
+            factors.e_history,
+            modulus,
+            terms,
+            responses,
+        )

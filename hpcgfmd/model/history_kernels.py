@@ -6,6 +6,7 @@ expressions it was seven passes and three temporaries. One loop here, in the sam
 operations as those expressions, so the values are the same to the bit (no fastmath).
 Local (no MPI), cached by numba as the solvers' kernels are.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -13,8 +14,9 @@ from numba import njit
 
 
 @njit(cache=True)
-def sls_history(relaxed, substrate, relaxed_before, e_history, decay, added, weight,
-                quadratic, out, start):
+def sls_history(
+    relaxed, substrate, relaxed_before, e_history, decay, added, weight, quadratic, out, start
+):
     """out = e_history G_n + decay p_n, and with ``quadratic`` - (added + weight) G_n +
     weight G_{n-1}; start = G_n (the step's start, kept for the update).
 

@@ -17,6 +17,7 @@ and the element energy is -sigma_a dx M. Traction on the substrate is positive u
 (attractive), as in the paper. The law is pure numpy on one rank's block of nodes (with one
 ghost node each side); the contact measures are collective over the case's ranks.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -80,10 +81,10 @@ class DugdaleMaugis:
         # block gap_ext[a:b], whose inner nodes are out[a:b - 2].
         a, b = max(span[0] - 2, 0), min(span[1] + 3, m + 2)
         out[:a] = 0.0
-        out[b - 2:] = 0.0
-        gap_ext, inside, out_all, out = gap_ext[a:b], inside_ext[a:b], out, out[a:b - 2]
+        out[b - 2 :] = 0.0
+        gap_ext, inside, out_all, out = gap_ext[a:b], inside_ext[a:b], out, out[a : b - 2]
         m = b - a - 2
-        both, straddle = work[1][:m + 2], work[2][:m + 2]
+        both, straddle = work[1][: m + 2], work[2][: m + 2]
         # Element j joins gap_ext[j] and gap_ext[j + 1]; node i (gap_ext[i + 1]) gets the
         # elements i and i + 1. Elements with both ends inside (trapezoid rule) give
         # sigma_a / 2 to each end.
@@ -119,14 +120,13 @@ class DugdaleMaugis:
         if span is None:
             return -self.sigma_a * dx * 0.0
         first, last = max(span[0] - 1, 0), min(span[1], gaps.shape[0] - 2)  # elements
-        gaps = gaps[first:last + 2]
+        gaps = gaps[first : last + 2]
         ramp_ext = np.maximum(self.dmax - gaps, 0.0)
         ramp, ramp_next = ramp_ext[:-1], ramp_ext[1:]
         dg = np.diff(gaps)
         straddle = (ramp > 0.0) != (ramp_next > 0.0)
         mean = 0.5 * (ramp + ramp_next)
-        mean[straddle] = ((ramp[straddle] ** 2 - ramp_next[straddle] ** 2)
-                          / (2.0 * dg[straddle]))
+        mean[straddle] = (ramp[straddle] ** 2 - ramp_next[straddle] ** 2) / (2.0 * dg[straddle])
         return -self.sigma_a * dx * float(mean.sum())
 
 
@@ -143,7 +143,7 @@ def true_span(mask):
     if not mask[first]:
         return None
     last = first + int(np.count_nonzero(mask)) - 1
-    if mask[first:last + 1].all():
+    if mask[first : last + 1].all():
         return first, last
     where = np.flatnonzero(mask)
     return int(where[0]), int(where[-1])

@@ -27,6 +27,7 @@ with the cylinder's apex one interaction range out of reach (u_z = 2 dmax); othe
 relaxed preload at ``depth`` (the paper's start). No ``[[protocol]]`` is the paper's
 protocol: the preload, then one retraction at ``velocity`` until complete detachment.
 """
+
 from __future__ import annotations
 
 import math
@@ -71,8 +72,7 @@ def cycle_of(segments, index: int) -> int:
     """The cycle of segment ``index``: the number of retractions before it (a cycle ends with
     its retraction; dwells after it belong to the next cycle). ``segments``: Segments or
     their kinds."""
-    return sum(1 for segment in segments[:index]
-               if getattr(segment, "kind", segment) == "retract")
+    return sum(1 for segment in segments[:index] if getattr(segment, "kind", segment) == "retract")
 
 
 def paper_protocol(speed: float) -> tuple:

@@ -15,6 +15,7 @@ curvature response sum_i E_i F_i(dt), F the integral of :func:`curvature_integra
 All moduli are plane-strain effective moduli E* = E / (1 - nu^2). Pure Python and numpy:
 the stepping of the half-space mode by mode is :mod:`.halfspace`.
 """
+
 from __future__ import annotations
 
 import math
@@ -71,10 +72,12 @@ class GeneralizedMaxwell:
     def __post_init__(self):
         moduli, times = tuple(map(float, self.branch_moduli)), tuple(map(float, self.branch_times))
         if not moduli or len(moduli) != len(times):
-            raise ValueError("branch_moduli and branch_times: expected two lists of one length"
-                             " >= 1")
-        if not (all(e >= 0.0 for e in moduli) and all(t > 0.0 for t in times)
-                and self.e_relaxed > 0.0):
+            raise ValueError(
+                "branch_moduli and branch_times: expected two lists of one length >= 1"
+            )
+        if not (
+            all(e >= 0.0 for e in moduli) and all(t > 0.0 for t in times) and self.e_relaxed > 0.0
+        ):
             raise ValueError("expected E0 > 0, branch moduli >= 0 and branch times > 0")
         if math.isnan(self.e_instantaneous):
             einf = self.e_relaxed + math.fsum(moduli)
@@ -86,11 +89,11 @@ class GeneralizedMaxwell:
         object.__setattr__(self, "e_instantaneous", einf)
 
     @classmethod
-    def standard_linear(cls, e_relaxed: float, e_instantaneous: float,
-                        relaxation_time: float) -> GeneralizedMaxwell:
+    def standard_linear(
+        cls, e_relaxed: float, e_instantaneous: float, relaxation_time: float
+    ) -> GeneralizedMaxwell:
         """The SLS E*(t) = E0 + (Einf - E0) exp(-t / tau) (M5): one branch of Einf - E0."""
-        return cls(e_relaxed, (e_instantaneous - e_relaxed,), (relaxation_time,),
-                   e_instantaneous)
+        return cls(e_relaxed, (e_instantaneous - e_relaxed,), (relaxation_time,), e_instantaneous)
 
     @property
     def branches(self) -> int:
@@ -149,8 +152,9 @@ class GeneralizedMaxwell:
             decays.append(math.exp(-x))
             weights.append(e * (-math.expm1(-x) / x))  # phi without cancellation at small dt
         e_eff = self.e_relaxed + math.fsum(weights)
-        return StepFactors(tuple(decays), tuple(weights), e_eff,
-                           self.e_relaxed * (1.0 - decays[0]) - e_eff)
+        return StepFactors(
+            tuple(decays), tuple(weights), e_eff, self.e_relaxed * (1.0 - decays[0]) - e_eff
+        )
 
     def curvature_response(self, dt: float) -> float:
         """sum_i E_i F_i(dt): the step's traction error per unit curvature of u (stress
@@ -160,20 +164,24 @@ class GeneralizedMaxwell:
 
     def branch_curvature_responses(self, dt: float) -> np.ndarray:
         """E_i F_i(dt) of each branch (stress time^2)."""
-        return np.array([e * curvature_integral(dt, t)
-                         for e, t in zip(self.branch_moduli, self.branch_times)])
+        return np.array(
+            [e * curvature_integral(dt, t) for e, t in zip(self.branch_moduli, self.branch_times)]
+        )
 
     def relaxation_modulus(self, t):
         """E*(t) (M38), stress; t in time units (array or float)."""
         t = np.asarray(t, dtype=float)
-        return self.e_relaxed + sum(e * np.exp(-t / tau) for e, tau
-                                    in zip(self.branch_moduli, self.branch_times))
+        return self.e_relaxed + sum(
+            e * np.exp(-t / tau) for e, tau in zip(self.branch_moduli, self.branch_times)
+        )
 
     def complex_modulus(self, omega):
         """E*(omega) = E0 + sum_i E_i i omega tau_i / (1 + i omega tau_i) (M42), stress."""
         omega = np.asarray(omega, dtype=float)
-        return self.e_relaxed + sum(e * 1j * omega * tau / (1.0 + 1j * omega * tau)
-                                    for e, tau in zip(self.branch_moduli, self.branch_times))
+        return self.e_relaxed + sum(
+            e * 1j * omega * tau / (1.0 + 1j * omega * tau)
+            for e, tau in zip(self.branch_moduli, self.branch_times)
+        )
 
     def creep_compliance(self, t):
         """J(t) of the SLS and of branches of one time: 1/E0 - (1/E0 - 1/Einf)
@@ -181,8 +189,7 @@ class GeneralizedMaxwell:
         if len(set(self.branch_times)) != 1:
             raise ValueError("the closed-form creep compliance is that of one relaxation time")
         e0, einf = self.e_relaxed, self.e_instantaneous
-        return 1.0 / e0 - (1.0 / e0 - 1.0 / einf) * np.exp(-np.asarray(t)
-                                                             / self.retardation_time)
+        return 1.0 / e0 - (1.0 / e0 - 1.0 / einf) * np.exp(-np.asarray(t) / self.retardation_time)
 
 
 def curvature_integral(dt: float, tau: float) -> float:

@@ -6,6 +6,7 @@ with E0 the relaxed plane-strain modulus. Equation numbers refer to the paper (V
 Pérez-Ràfols, Dorogin, Nicola: retraction of an adhesive cylindrical indenter from a
 viscoelastic substrate) as corrected in docs/model.md.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -16,11 +17,13 @@ import numpy as np
 
 def _optimize():
     from scipy import optimize
+
     return optimize
 
 
 def _integrate():
     from scipy import integrate
+
     return integrate
 
 
@@ -47,8 +50,11 @@ def _md_closure(m, abar, lam):
     """Left side minus right side of the Baney-Hui closure (paper Eq. 13; docs/model.md (M27))."""
     s = np.sqrt(m * m - 1.0)
     ach = np.arccosh(m)
-    return (lam * abar**2 / 2.0 * (m * s - ach)
-            + 4.0 * lam**2 * abar / np.pi * (s * ach - m * np.log(m)) - 1.0)
+    return (
+        lam * abar**2 / 2.0 * (m * s - ach)
+        + 4.0 * lam**2 * abar / np.pi * (s * ach - m * np.log(m))
+        - 1.0
+    )
 
 
 def maugis_dugdale(abar, lam):
@@ -151,6 +157,7 @@ def persson_brener_quadrature(vbar, k):
     retardation time tau_r = tau / k (so tau = k), and 2 pi rhodot / c0 = vbar (see
     :func:`persson_brener`).
     """
+
     def modulus(omega):
         return 1.0 + (1.0 / k - 1.0) * 1j * omega * k / (1.0 + 1j * omega * k)
 

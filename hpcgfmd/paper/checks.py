@@ -8,6 +8,7 @@ was asked for, docs/numerics.md "The accuracy knob"): a distance below ``RESOLVE
 is not resolved from zero, one above it is. Distances between curves are the accuracy's
 curve error (:func:`hpcgfmd.paper.curves.point_distances`).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -40,8 +41,10 @@ class Check:
     def line(self) -> str:
         verdict = {True: "supported", False: "NOT supported", None: "not decided"}
         numbers = ", ".join(f"{key} = {_fmt(value)}" for key, value in self.values.items())
-        return (f"Fig. {self.figure}: {self.claim} -- {verdict[self.supported]}:"
-                f" {self.measured}: {numbers}")
+        return (
+            f"Fig. {self.figure}: {self.claim} -- {verdict[self.supported]}:"
+            f" {self.measured}: {numbers}"
+        )
 
 
 def _fmt(value):
@@ -68,14 +71,21 @@ def check_fig2(k=0.1):
     retardation = float(np.max(np.abs(np.log(closed / quadrature))))
     relaxation = float(np.max(np.abs(np.log(closed / other))))
     return [
-        Check("2", "dgamma_eff/dgamma0 -> 1 as vbar -> 0 and -> E_inf/E_0 = 1/k as vbar -> inf",
-              "Eq. 8 at vbar = 1e-9 and 1e9", {"low": low, "high": high, "1/k": 1.0 / k},
-              bool(abs(low - 1) < 1e-6 and abs(high * k - 1) < 1e-6)),
-        Check("2", "Eq. 8 is the closed form of Eq. 6 for the SLS",
-              "largest |ln(closed form / quadrature of Eq. 6)| for vbar in 1e-2..1e3, with"
-              " tau_c the retardation time tau/k, and with tau_c = tau",
-              {"retardation": retardation, "relaxation": relaxation},
-              bool(retardation < 1e-6 < relaxation)),
+        Check(
+            "2",
+            "dgamma_eff/dgamma0 -> 1 as vbar -> 0 and -> E_inf/E_0 = 1/k as vbar -> inf",
+            "Eq. 8 at vbar = 1e-9 and 1e9",
+            {"low": low, "high": high, "1/k": 1.0 / k},
+            bool(abs(low - 1) < 1e-6 and abs(high * k - 1) < 1e-6),
+        ),
+        Check(
+            "2",
+            "Eq. 8 is the closed form of Eq. 6 for the SLS",
+            "largest |ln(closed form / quadrature of Eq. 6)| for vbar in 1e-2..1e3, with"
+            " tau_c the retardation time tau/k, and with tau_c = tau",
+            {"retardation": retardation, "relaxation": relaxation},
+            bool(retardation < 1e-6 < relaxation),
+        ),
     ]
 
 
@@ -106,11 +116,13 @@ def baney_hui_distance(curve: curves.Retraction):
     a_scale, l_scale = curve.abar[0], abs(periodic.min())
     ours = polyline_distances(
         np.stack([curve.abar[:end] / a_scale, curve.lbar[:end] / l_scale], 1),
-        np.stack([grid / a_scale, periodic / l_scale], 1))
+        np.stack([grid / a_scale, periodic / l_scale], 1),
+    )
     upper = (grid >= grid[np.argmin(bh)]) & (grid <= curve.abar[0])
     jkr = polyline_distances(
         np.stack([grid[upper] / a_scale, theory.jkr_load(grid[upper]) / l_scale], 1),
-        np.stack([grid / a_scale, bh / l_scale], 1))
+        np.stack([grid / a_scale, bh / l_scale], 1),
+    )
     return float(np.max(ours)), float(np.max(jkr)) if len(jkr) else np.nan
 
 
@@ -126,17 +138,26 @@ def check_fig4(runs, accuracy):
     large = [v for key, v in jkr.items() if float(key.split("=")[1]) >= 3.5]
     small = [v for key, v in jkr.items() if float(key.split("=")[1]) < 3.5]
     return [
-        Check("4", "our elastic (k = 1) retractions lie on the Baney-Hui curves (Eqs. 12-13)",
-              "largest distance of our points up to the pull-off from the Baney-Hui curve, in"
-              " units of abar_c(0) and |pull-off Lbar| (the accuracy knob's curve error);"
-              f" agreement when <= {RESOLVED:g} x accuracy = {resolved:g}",
-              distances, all(d <= resolved for d in distances.values())),
-        Check("4", "for lambda >= 3.5 Baney-Hui agrees excellently with JKR, poorer below",
-              "largest distance of the JKR curve from Baney-Hui's, from Baney-Hui's load"
-              f" minimum up, on the same scales; excellent when <= {resolved:g}, poorer when"
-              " above it",
-              jkr, bool(max(large) <= resolved and small and max(small) > resolved)
-              if large and small else None),
+        Check(
+            "4",
+            "our elastic (k = 1) retractions lie on the Baney-Hui curves (Eqs. 12-13)",
+            "largest distance of our points up to the pull-off from the Baney-Hui curve, in"
+            " units of abar_c(0) and |pull-off Lbar| (the accuracy knob's curve error);"
+            f" agreement when <= {RESOLVED:g} x accuracy = {resolved:g}",
+            distances,
+            all(d <= resolved for d in distances.values()),
+        ),
+        Check(
+            "4",
+            "for lambda >= 3.5 Baney-Hui agrees excellently with JKR, poorer below",
+            "largest distance of the JKR curve from Baney-Hui's, from Baney-Hui's load"
+            f" minimum up, on the same scales; excellent when <= {resolved:g}, poorer when"
+            " above it",
+            jkr,
+            bool(max(large) <= resolved and small and max(small) > resolved)
+            if large and small
+            else None,
+        ),
     ]
 
 
@@ -158,12 +179,19 @@ def check_depths(figure, runs, key, accuracy):
             if factor == RESOLVED:
                 values[f"{label}: from abar"] = abar
                 merged.append(np.isfinite(abar))
-    return [Check(
-        figure, "after a transient the curves from the two indentation depths superimpose",
-        "the shallow curve's contact half-width, as a fraction of its initial one, from which"
-        f" on (to its pull-off) it stays within {RESOLVED:g} x accuracy = {RESOLVED * accuracy:g}"
-        f" (and within the accuracy, {accuracy:g}) of the deep curve (distance in units of"
-        " abar_c(0) and |pull-off Lbar|)", values, bool(all(merged)))]
+    return [
+        Check(
+            figure,
+            "after a transient the curves from the two indentation depths superimpose",
+            "the shallow curve's contact half-width, as a fraction of its initial one, from which"
+            f" on (to its pull-off) it stays within {RESOLVED:g} x accuracy ="
+            f" {RESOLVED * accuracy:g}"
+            f" (and within the accuracy, {accuracy:g}) of the deep curve (distance in units of"
+            " abar_c(0) and |pull-off Lbar|)",
+            values,
+            bool(all(merged)),
+        )
+    ]
 
 
 # --- Figs. 5b and 8b -------------------------------------------------------------------------
@@ -179,8 +207,9 @@ def check_eq8(figure, runs, masks):
         values[f"{_short(curve)}: steady points"] = int(steady.sum())
         for convention in CONVENTIONS:
             vbar = curve.vbar(convention)[steady]
-            predicted = np.atleast_1d(theory.persson_brener(vbar, curve.groups["k"])
-                                      if vbar.size else vbar)
+            predicted = np.atleast_1d(
+                theory.persson_brener(vbar, curve.groups["k"]) if vbar.size else vbar
+            )
             median, largest, signed = curves.log_ratio_statistics(work, predicted)
             values[f"{_short(curve)} {convention}: median |ln|"] = median
             values[f"{_short(curve)} {convention}: max |ln|"] = largest
@@ -191,16 +220,28 @@ def check_eq8(figure, runs, masks):
     worst = {c: float(np.max(per_run[c])) if per_run[c] else np.nan for c in CONVENTIONS}
     best = min(CONVENTIONS, key=lambda c: summary[c] if np.isfinite(summary[c]) else np.inf)
     return [
-        Check(figure, "the per-point effective work of the steady retraction follows Eq. 8",
-              "per run, the median |ln(dgamma_eff / Eq. 8)| over its steady points (from where"
-              " the two depths' curves merged to the pull-off); the median and the largest of"
-              f" these over the runs, per convention of vbar; follows when the better"
-              f" convention's median is below {EQ8_MEDIAN_LOG:g}",
-              {**{f"{c}: median over runs": summary[c] for c in CONVENTIONS},
-               **{f"{c}: worst run": worst[c] for c in CONVENTIONS}, "data follow": best},
-              bool(summary[best] < EQ8_MEDIAN_LOG) if np.isfinite(summary[best]) else None),
-        Check(figure, "per case", "steady points; median and largest |ln(dgamma_eff / Eq. 8)|"
-              " and the median signed ln (> 0: Eq. 8 below the data)", values, None),
+        Check(
+            figure,
+            "the per-point effective work of the steady retraction follows Eq. 8",
+            "per run, the median |ln(dgamma_eff / Eq. 8)| over its steady points (from where"
+            " the two depths' curves merged to the pull-off); the median and the largest of"
+            f" these over the runs, per convention of vbar; follows when the better"
+            f" convention's median is below {EQ8_MEDIAN_LOG:g}",
+            {
+                **{f"{c}: median over runs": summary[c] for c in CONVENTIONS},
+                **{f"{c}: worst run": worst[c] for c in CONVENTIONS},
+                "data follow": best,
+            },
+            bool(summary[best] < EQ8_MEDIAN_LOG) if np.isfinite(summary[best]) else None,
+        ),
+        Check(
+            figure,
+            "per case",
+            "steady points; median and largest |ln(dgamma_eff / Eq. 8)|"
+            " and the median signed ln (> 0: Eq. 8 below the data)",
+            values,
+            None,
+        ),
     ]
 
 
@@ -218,22 +259,36 @@ def check_instantaneous(runs, masks, accuracy):
         values[f"{_short(curve)}: largest"] = float(np.max(ratio))
         largest.setdefault(curve.groups["lambda0"], []).append(float(np.max(ratio)))
     if not largest:
-        return [Check("8", "lambda0 = 14 is not sufficient to reach the instantaneous limit",
-                      "no steady parts", {}, None)]
+        return [
+            Check(
+                "8",
+                "lambda0 = 14 is not sufficient to reach the instantaneous limit",
+                "no steady parts",
+                {},
+                None,
+            )
+        ]
     lams = sorted(largest)
     top = max(largest[lams[-1]])
     rising = all(max(largest[a]) < min(largest[b]) for a, b in zip(lams, lams[1:]))
     return [
-        Check("8", f"at V_z = 0.9, lambda0 = {lams[-1]:g} is not sufficient to reach the"
-              " instantaneous limit",
-              "steady dgamma_eff / dgamma_inf per run (its largest is at the pull-off); short"
-              f" of the limit when 1 - largest > {RESOLVED:g} x accuracy = {resolved:g}",
-              values, bool(1.0 - top > resolved)),
-        Check("8", "a larger lambda0 brings the contact closer to the instantaneous limit",
-              "the largest steady dgamma_eff / dgamma_inf of each lambda0's runs (both depths)"
-              " rises with lambda0",
-              {f"lambda0={lam:g}": max(largest[lam]) for lam in lams},
-              bool(rising) if len(lams) > 1 else None),
+        Check(
+            "8",
+            f"at V_z = 0.9, lambda0 = {lams[-1]:g} is not sufficient to reach the"
+            " instantaneous limit",
+            "steady dgamma_eff / dgamma_inf per run (its largest is at the pull-off); short"
+            f" of the limit when 1 - largest > {RESOLVED:g} x accuracy = {resolved:g}",
+            values,
+            bool(1.0 - top > resolved),
+        ),
+        Check(
+            "8",
+            "a larger lambda0 brings the contact closer to the instantaneous limit",
+            "the largest steady dgamma_eff / dgamma_inf of each lambda0's runs (both depths)"
+            " rises with lambda0",
+            {f"lambda0={lam:g}": max(largest[lam]) for lam in lams},
+            bool(rising) if len(lams) > 1 else None,
+        ),
     ]
 
 
@@ -254,31 +309,49 @@ def check_collapse(runs):
     chis = sorted(by_chi)
     results = []
     for scope, fraction in (("whole curves", np.inf), ("past the transient", PAST_TRANSIENT)):
+
         def distance(a, b, fraction=fraction):
             below = fraction * min(a.abar[0], b.abar[0])
             return max(curves.curve_distance(a, b, below), curves.curve_distance(b, a, below))
 
-        within = {f"chi_ve={chi:.3g}": distance(*group)
-                  for chi, group in by_chi.items() if len(group) == 2}
-        between = {f"chi_ve={a:.3g} vs {b:.3g}": float(np.nanmin(
-            [distance(x, y) for x in by_chi[a] for y in by_chi[b]]))
-            for a, b in zip(chis, chis[1:])}
+        within = {
+            f"chi_ve={chi:.3g}": distance(*group)
+            for chi, group in by_chi.items()
+            if len(group) == 2
+        }
+        between = {
+            f"chi_ve={a:.3g} vs {b:.3g}": float(
+                np.nanmin([distance(x, y) for x in by_chi[a] for y in by_chi[b]])
+            )
+            for a, b in zip(chis, chis[1:])
+        }
         numbers = list(within.values()) + list(between.values())
         if not within or not between or not np.all(np.isfinite(numbers)):
-            results.append(Check("9", "equal chi_ve gives the same curve",
-                                 f"{scope}: needs two pairs of equal chi_ve that overlap",
-                                 {**within, **between}, None))
+            results.append(
+                Check(
+                    "9",
+                    "equal chi_ve gives the same curve",
+                    f"{scope}: needs two pairs of equal chi_ve that overlap",
+                    {**within, **between},
+                    None,
+                )
+            )
             continue
         ratio = max(within.values()) / min(between.values())
-        results.append(Check(
-            "9", "cases of equal chi_ve = V_z lambda0^2 (different V_z and lambda0) respond"
-            f" alike ({scope})",
-            "largest distance of one curve's points up to the pull-off"
-            + (f" and below {fraction:g} abar(0)" if np.isfinite(fraction) else "")
-            + " from the other curve (units of abar_c(0) and |pull-off Lbar|) within each"
-            " equal-chi_ve pair (either way round), the smallest between neighbouring chi_ve"
-            " groups, and their ratio; a collapse when the ratio is below 1/2",
-            {**within, **between, "ratio": ratio}, bool(ratio < 0.5)))
+        results.append(
+            Check(
+                "9",
+                "cases of equal chi_ve = V_z lambda0^2 (different V_z and lambda0) respond"
+                f" alike ({scope})",
+                "largest distance of one curve's points up to the pull-off"
+                + (f" and below {fraction:g} abar(0)" if np.isfinite(fraction) else "")
+                + " from the other curve (units of abar_c(0) and |pull-off Lbar|) within each"
+                " equal-chi_ve pair (either way round), the smallest between neighbouring chi_ve"
+                " groups, and their ratio; a collapse when the ratio is below 1/2",
+                {**within, **between, "ratio": ratio},
+                bool(ratio < 0.5),
+            )
+        )
     return results
 
 
@@ -304,11 +377,17 @@ def check_convergence(series_by_label, accuracy):
             if setting in ("2^17", "tau/50"):
                 paper += [pull, distance]
         values["finest"] = finest_label
-        checks.append(Check(
-            "B1", f"{label}: the paper's setting (n_x = 2^17, dt = tau/50) is converged",
-            "relative pull-off difference and curve distance against"
-            f" {finest_label}; converged when both are within {RESOLVED:g} x accuracy ="
-            f" {resolved:g}", values, bool(max(paper) <= resolved) if paper else None))
+        checks.append(
+            Check(
+                "B1",
+                f"{label}: the paper's setting (n_x = 2^17, dt = tau/50) is converged",
+                "relative pull-off difference and curve distance against"
+                f" {finest_label}; converged when both are within {RESOLVED:g} x accuracy ="
+                f" {resolved:g}",
+                values,
+                bool(max(paper) <= resolved) if paper else None,
+            )
+        )
     return checks
 
 
@@ -324,21 +403,36 @@ def check_separation(cases):
             _, x, _, _, gap, edge = zero[0]
             profiles.append((vz, x, gap, edge))
     if len(profiles) < 2:
-        return [Check("6", "at zero load a faster retraction leaves a smaller separation",
-                      "needs two L = 0 snapshots with contact", {}, None)]
+        return [
+            Check(
+                "6",
+                "at zero load a faster retraction leaves a smaller separation",
+                "needs two L = 0 snapshots with contact",
+                {},
+                None,
+            )
+        ]
     # compare on the first run's nodes from the outermost contact edge to 2 a_c(0)
     start = max(p[3] for p in profiles)
     x0 = profiles[0][1]
     nodes = x0[(x0 >= start) & (x0 <= 2.0)]
     gaps = [np.interp(nodes, x, gap) for _, x, gap, _ in profiles]
-    values = {f"gap/R at x = a_c(0), V_z={vz:g}": float(np.interp(1.0, x, gap))
-              for vz, x, gap, _ in profiles}
+    values = {
+        f"gap/R at x = a_c(0), V_z={vz:g}": float(np.interp(1.0, x, gap))
+        for vz, x, gap, _ in profiles
+    }
     ordered = all(bool(np.all(fast <= slow + 1e-12)) for slow, fast in zip(gaps, gaps[1:]))
-    return [Check("6", "at zero load a faster retraction leaves a smaller separation where"
-                  " the surfaces were in contact, and the profiles do not cross",
-                  "gap at the initial contact edge, and whether the gaps are ordered by V_z"
-                  " at every node from the outermost contact edge to 2 a_c(0)",
-                  values, ordered)]
+    return [
+        Check(
+            "6",
+            "at zero load a faster retraction leaves a smaller separation where"
+            " the surfaces were in contact, and the profiles do not cross",
+            "gap at the initial contact edge, and whether the gaps are ordered by V_z"
+            " at every node from the outermost contact edge to 2 a_c(0)",
+            values,
+            ordered,
+        )
+    ]
 
 
 def check_annulus(runs, levels=(5.0, 3.0)):
@@ -359,6 +453,12 @@ def check_annulus(runs, levels=(5.0, 3.0)):
             widths.append(float(zone[i - 1] + t * (zone[i] - zone[i - 1])))
             values[f"(4/pi)abar={level:g} Vz={curve.groups['Vz']:g}"] = widths[-1]
         rising &= len(widths) > 1 and all(a < b for a, b in zip(widths, widths[1:]))
-    return [Check("7", "the adhesive annulus widens with the retraction velocity",
-                  "cohesive-zone width (a_a - a_c) / beta at (4/pi) abar_c = 5 and 3, by V_z",
-                  values, bool(rising) if values else None)]
+    return [
+        Check(
+            "7",
+            "the adhesive annulus widens with the retraction velocity",
+            "cohesive-zone width (a_a - a_c) / beta at (4/pi) abar_c = 5 and 3, by V_z",
+            values,
+            bool(rising) if values else None,
+        )
+    ]

@@ -8,6 +8,7 @@ Layout of DIR (default ``paper``): ``runs/`` the farm's result files and summary
 run the command again after an interruption), ``figN.png`` and ``figN.csv`` per figure,
 ``checks.txt`` and ``checks.csv`` with every claim's numbers and verdict.
 """
+
 from __future__ import annotations
 
 import csv
@@ -27,24 +28,46 @@ logger = logging.getLogger(__name__)
 
 def add_parser(sub, common):
     """The ``paper`` subcommand of the command line (:mod:`hpcgfmd.cli`)."""
-    paper = sub.add_parser("paper", parents=[common],
-                           help="run, draw and check the paper's figures (docs/paper.md)")
-    paper.add_argument("-o", "--output", default="paper",
-                       help="directory of the runs, figures and checks (default: paper)")
-    paper.add_argument("--figures", default=",".join(FIGURES),
-                       help=f"comma-separated figures (default: all, {','.join(FIGURES)})")
-    paper.add_argument("--accuracy", type=float, default=None,
-                       help="[numerics] accuracy of every run (default: the sweep files',"
-                            f" {DEFAULT_ACCURACY:g})")
-    paper.add_argument("--sweeps", default=None, metavar="DIR",
-                       help="sweep files fig4.toml, fig5.toml, fig8.toml, fig9.toml, figB1.toml"
-                            " in DIR replace the shipped ones (your own study, same figures)")
-    paper.add_argument("--ranks-per-case", type=int, default=1,
-                       help="ranks sharing one case (default 1)")
-    paper.add_argument("--dry-run", action="store_true",
-                       help="list the cases and their estimated cost; run nothing")
-    paper.add_argument("--draw-only", action="store_true",
-                       help="draw and check from the runs already in DIR/runs; run nothing")
+    paper = sub.add_parser(
+        "paper", parents=[common], help="run, draw and check the paper's figures (docs/paper.md)"
+    )
+    paper.add_argument(
+        "-o",
+        "--output",
+        default="paper",
+        help="directory of the runs, figures and checks (default: paper)",
+    )
+    paper.add_argument(
+        "--figures",
+        default=",".join(FIGURES),
+        help=f"comma-separated figures (default: all, {','.join(FIGURES)})",
+    )
+    paper.add_argument(
+        "--accuracy",
+        type=float,
+        default=None,
+        help=f"[numerics] accuracy of every run (default: the sweep files', {DEFAULT_ACCURACY:g})",
+    )
+    paper.add_argument(
+        "--sweeps",
+        default=None,
+        metavar="DIR",
+        help="sweep files fig4.toml, fig5.toml, fig8.toml, fig9.toml, figB1.toml"
+        " in DIR replace the shipped ones (your own study, same figures)",
+    )
+    paper.add_argument(
+        "--ranks-per-case", type=int, default=1, help="ranks sharing one case (default 1)"
+    )
+    paper.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="list the cases and their estimated cost; run nothing",
+    )
+    paper.add_argument(
+        "--draw-only",
+        action="store_true",
+        help="draw and check from the runs already in DIR/runs; run nothing",
+    )
     paper.set_defaults(func=cmd_paper)
     return paper
 
@@ -54,8 +77,9 @@ def parse_figures(text: str) -> list:
     wanted = [part.strip() for part in text.split(",") if part.strip()]
     unknown = [f for f in wanted if f not in FIGURES]
     if unknown or not wanted:
-        raise UsageError(f"--figures {text}: expected a comma-separated list of"
-                         f" {', '.join(FIGURES)}")
+        raise UsageError(
+            f"--figures {text}: expected a comma-separated list of {', '.join(FIGURES)}"
+        )
     return [f for f in FIGURES if f in wanted]
 
 
@@ -75,8 +99,7 @@ def own_sweeps(directory):
             except (OSError, UnicodeDecodeError) as err:
                 raise UsageError(f"--sweeps {directory}: cannot read {name} ({err})") from None
     if not texts:
-        raise UsageError(f"--sweeps {directory}: none of {', '.join(SWEEP_FILES.values())}"
-                         " there")
+        raise UsageError(f"--sweeps {directory}: none of {', '.join(SWEEP_FILES.values())} there")
     return texts
 
 
@@ -90,8 +113,9 @@ def cmd_paper(comm, args):
         raise UsageError(f"--accuracy {accuracy:g}: expected a relative error in (0, 0.1)")
     size = comm.Get_size()
     if args.ranks_per_case < 1 or size % args.ranks_per_case:
-        raise UsageError(f"--ranks-per-case {args.ranks_per_case}: expected a divisor of"
-                         f" the {size} ranks")
+        raise UsageError(
+            f"--ranks-per-case {args.ranks_per_case}: expected a divisor of the {size} ranks"
+        )
     try:
         sweep, members = paper_study(figures, accuracy, own_sweeps(args.sweeps))
     except SweepError as err:
@@ -100,19 +124,30 @@ def cmd_paper(comm, args):
     if args.dry_run:
         logger.info(plan_table(sweep, runs_dir, size // args.ranks_per_case))
         for figure in figures:
-            logger.info(f"Fig. {figure}: {len(members[figure])} runs"
-                        + (f" ({', '.join(members[figure])})" if members[figure] else ""))
+            logger.info(
+                f"Fig. {figure}: {len(members[figure])} runs"
+                + (f" ({', '.join(members[figure])})" if members[figure] else "")
+            )
         return EXIT_OK
     if os.path.exists(args.output) and not os.path.isdir(args.output):
         raise UsageError(f"-o {args.output}: exists and is not a directory")
     status = EXIT_OK
     if not args.draw_only and sweep.cases:
         check_farm_directory(comm, runs_dir)
-        logger.info(f"paper: {len(sweep.cases)} runs for Figs. {', '.join(figures)} in"
-                    f" {runs_dir}, {size} ranks")
+        logger.info(
+            f"paper: {len(sweep.cases)} runs for Figs. {', '.join(figures)} in"
+            f" {runs_dir}, {size} ranks"
+        )
         # one farm of every figure's runs: its progress lines count k of N over all of them
-        status = run_farm(sweep, comm, runs_dir, ranks_per_case=args.ranks_per_case,
-                          stop=args.stop, label="paper", noun="runs")
+        status = run_farm(
+            sweep,
+            comm,
+            runs_dir,
+            ranks_per_case=args.ranks_per_case,
+            stop=args.stop,
+            label="paper",
+            noun="runs",
+        )
     drawn = EXIT_OK
     if comm.Get_rank() == 0:
         # rank 0 alone draws; whatever fails there, the others must hear its status
@@ -176,16 +211,20 @@ def draw_all(out_dir, runs_dir, figures, members):
     found = {name: _load(runs_dir, name) for f in figures for name in members[f]}
     accuracies = [run_accuracy(item[1]) for item in found.values() if item is not None]
     accuracy = max(accuracies, default=DEFAULT_ACCURACY)
-    logger.info(f"paper: checks resolve distances down to {claims.RESOLVED:g} x accuracy"
-                f" {accuracy:g} (the coarsest of the runs)")
+    logger.info(
+        f"paper: checks resolve distances down to {claims.RESOLVED:g} x accuracy"
+        f" {accuracy:g} (the coarsest of the runs)"
+    )
     all_checks, costs = [], {}
     for figure in figures:
         names = members[figure]
         loaded = [found[n] for n in names if found[n] is not None]
         missing = [n for n in names if found[n] is None]
         if missing:
-            logger.warning(f"Fig. {figure}: {len(missing)} of {len(names)} runs missing or"
-                           f" unfinished ({', '.join(missing)}); drawn without them")
+            logger.warning(
+                f"Fig. {figure}: {len(missing)} of {len(names)} runs missing or"
+                f" unfinished ({', '.join(missing)}); drawn without them"
+            )
         costs[figure] = sum(float(r.attrs.get("wall_time", 0.0)) for _, r in loaded)
         path = os.path.join(out_dir, f"fig{figure}")
         curves = [c for c, _ in loaded]
@@ -206,11 +245,16 @@ def draw_all(out_dir, runs_dir, figures, members):
                 all_checks += claims.check_instantaneous(curves, masks, accuracy)
         elif figure in ("6", "7"):  # the profiles of the deeper indentation (the paper's)
             depth = max((c.groups["depth"] for c in curves), default=0.0)
-            deep = sorted(((c, r) for c, r in loaded if c.groups["depth"] == depth),
-                          key=lambda item: item[0].groups["Vz"])
-            if not draw.draw_profiles(path, [(c.groups["Vz"], r) for c, r in deep],
-                                      "surface" if figure == "6" else "pressure",
-                                      0.08 if figure == "6" else 0.04):
+            deep = sorted(
+                ((c, r) for c, r in loaded if c.groups["depth"] == depth),
+                key=lambda item: item[0].groups["Vz"],
+            )
+            if not draw.draw_profiles(
+                path,
+                [(c.groups["Vz"], r) for c, r in deep],
+                "surface" if figure == "6" else "pressure",
+                0.08 if figure == "6" else 0.04,
+            ):
                 _remove(path, (".png", ".csv"))
             if figure == "6":
                 all_checks += claims.check_separation([(c.groups["Vz"], r) for c, r in deep])
@@ -223,12 +267,16 @@ def draw_all(out_dir, runs_dir, figures, members):
             panels, series = _convergence(loaded)
             draw.draw_convergence(path, panels)
             all_checks += claims.check_convergence(series, accuracy)
-        logger.info(f"Fig. {figure}: {path}.png, {path}.csv ({len(loaded)} runs,"
-                    f" {costs[figure]:.0f} s of runs; drawn in"
-                    f" {time.perf_counter() - started:.1f} s)")
+        logger.info(
+            f"Fig. {figure}: {path}.png, {path}.csv ({len(loaded)} runs,"
+            f" {costs[figure]:.0f} s of runs; drawn in"
+            f" {time.perf_counter() - started:.1f} s)"
+        )
     for figure in figures:
-        write_checks(os.path.join(out_dir, f"fig{figure}-checks"),
-                     [c for c in all_checks if c.figure.rstrip("ab") == figure])
+        write_checks(
+            os.path.join(out_dir, f"fig{figure}-checks"),
+            [c for c in all_checks if c.figure.rstrip("ab") == figure],
+        )
     collect_checks(out_dir)
     for check in all_checks:
         logger.info(check.line())
@@ -244,11 +292,11 @@ def _convergence(loaded):
         grid, step = _setting(result)
         panels.setdefault(case, []).append((f"{grid}, {step}", curve))
         if step == "adaptive":
-            series.setdefault(f"{case}, grid", []).append((f"{grid}", curve,
-                                                           int(result.attrs["nx"])))
+            series.setdefault(f"{case}, grid", []).append(
+                (f"{grid}", curve, int(result.attrs["nx"]))
+            )
         # steps per tau: the adaptive run first, the finest fixed step last (the reference)
-        per_tau = 0 if step == "adaptive" else round(result.attrs["time_unit"]
-                                                     / result.attrs["dt"])
+        per_tau = 0 if step == "adaptive" else round(result.attrs["time_unit"] / result.attrs["dt"])
         series.setdefault(f"{case}, time on {grid}", []).append((step, curve, per_tau))
     ordered = {}
     for label, runs in series.items():
@@ -275,9 +323,14 @@ def _write_table(path, rows):
 def write_checks(prefix, checks):
     """PREFIX.txt (one line per check) and PREFIX.csv (one row per number), atomically."""
     _write_lines(prefix + ".txt", [c.line() for c in checks])
-    _write_table(prefix + ".csv", [(c.figure, c.claim, c.supported, c.measured, key, value)
-                                   for c in checks
-                                   for key, value in (c.values or {"-": ""}).items()])
+    _write_table(
+        prefix + ".csv",
+        [
+            (c.figure, c.claim, c.supported, c.measured, key, value)
+            for c in checks
+            for key, value in (c.values or {"-": ""}).items()
+        ],
+    )
 
 
 def collect_checks(out_dir):

@@ -6,6 +6,7 @@ abar = a_c / beta, Lbar = L_n / (R dgamma0^2 E0)^(1/3), the scaled curve
 work of adhesion of a point, dgamma_eff / dgamma0 = (y - x)^2 / (2 pi) (the intercept of the
 slope-1 line through it; paper Sec. 5.1, :func:`hpcgfmd.model.theory.effective_work_ratio`).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -60,12 +61,20 @@ class Retraction:
         beta = a["beta"] / a["length_unit"]
         abar = half_width / beta
         lbar = series.lbar[:last][keep]
-        rhodot = (-np.gradient(half_width, time) if time.size > 1
-                  else np.zeros_like(time))
+        rhodot = -np.gradient(half_width, time) if time.size > 1 else np.zeros_like(time)
         groups = {key: float(a[key]) for key in ("lambda0", "k", "Vz", "chi_ve", "depth", "cell")}
         x, y = theory.scaled_curve(abar, lbar)
-        return cls(time=time, abar=abar, lbar=lbar, x=x, y=y, rhodot=rhodot,
-                   pull_off=int(np.argmin(lbar)) if lbar.size else 0, groups=groups, beta=beta)
+        return cls(
+            time=time,
+            abar=abar,
+            lbar=lbar,
+            x=x,
+            y=y,
+            rhodot=rhodot,
+            pull_off=int(np.argmin(lbar)) if lbar.size else 0,
+            groups=groups,
+            beta=beta,
+        )
 
     def label(self) -> str:
         """lambda0, V_z and h0/R, for legends and check values."""
@@ -84,8 +93,7 @@ class Retraction:
         (the paper's wording), k times smaller.
         """
         k = self.groups["k"]
-        retardation = theory.peel_velocity(self.rhodot, 1.0, k, self.groups["lambda0"],
-                                           self.beta)
+        retardation = theory.peel_velocity(self.rhodot, 1.0, k, self.groups["lambda0"], self.beta)
         if convention == "retardation":
             return retardation
         if convention == "relaxation":
@@ -98,7 +106,7 @@ class Retraction:
         longer matter, paper Sec. 5.1) to the pull-off (past it the two edges interact or
         the contact jumps off). Empty for a NaN ``from_abar``."""
         mask = np.zeros(self.abar.size, dtype=bool)
-        mask[:self.pull_off + 1] = self.abar[:self.pull_off + 1] <= from_abar
+        mask[: self.pull_off + 1] = self.abar[: self.pull_off + 1] <= from_abar
         return mask
 
 
@@ -121,15 +129,14 @@ def point_distances(curve: Retraction, reference: Retraction, upto: int | None =
         NaN when the reference has fewer than two points up to its pull-off.
     """
     end = (curve.pull_off if upto is None else upto) + 1
-    return load_area_distances(curve.abar[:end], curve.lbar[:end], reference.abar,
-                               reference.lbar)
+    return load_area_distances(curve.abar[:end], curve.lbar[:end], reference.abar, reference.lbar)
 
 
 def curve_distance(a: Retraction, b: Retraction, below: float = np.inf) -> float:
     """Largest :func:`point_distances` of ``a``'s points up to its pull-off with abar <=
     ``below`` from ``b``'s curve; NaN without such points."""
     distances = point_distances(a, b)
-    keep = a.abar[:a.pull_off + 1] <= below
+    keep = a.abar[: a.pull_off + 1] <= below
     return float(np.max(distances[keep])) if keep.any() else np.nan
 
 
@@ -147,8 +154,11 @@ def merged_from(deep: Retraction, shallow: Retraction, tolerance: float):
         return np.nan, np.nan, np.nan
     outside = np.flatnonzero(~inside)
     first = outside[-1] + 1 if outside.size else 0
-    return (float(shallow.abar[first]), float(np.max(gap[first:])),
-            float(shallow.abar[first] / shallow.abar[0]))
+    return (
+        float(shallow.abar[first]),
+        float(np.max(gap[first:])),
+        float(shallow.abar[first] / shallow.abar[0]),
+    )
 
 
 def depth_pairs(retractions, key):
@@ -157,8 +167,11 @@ def depth_pairs(retractions, key):
     by_value = {}
     for curve in retractions:
         by_value.setdefault(curve.groups[key], {})[curve.groups["depth"]] = curve
-    return {value: tuple(depths[d] for d in sorted(depths, reverse=True))
-            for value, depths in sorted(by_value.items()) if len(depths) == 2}
+    return {
+        value: tuple(depths[d] for d in sorted(depths, reverse=True))
+        for value, depths in sorted(by_value.items())
+        if len(depths) == 2
+    }
 
 
 def steady_masks(retractions, key, tolerance):
@@ -207,8 +220,7 @@ def snapshot_profiles(result, contact_levels=(5.0, 3.0)):
         j = int(np.argmin(np.abs(widths - target)))
         if abs(widths[j] - target) <= 0.02 * target:
             chosen.append((f"(4/pi) abar_c = {level:g}", j))
-    tensile = [j for j, i in enumerate(steps) if s.load[i] < 0.0 and i > 0
-               and s.load[i - 1] >= 0.0]
+    tensile = [j for j, i in enumerate(steps) if s.load[i] < 0.0 and i > 0 and s.load[i - 1] >= 0.0]
     if tensile:
         chosen.append(("L = 0", tensile[0]))
     length, stress = s.attrs["length_unit"], s.attrs["stress_unit"]
@@ -217,6 +229,14 @@ def snapshot_profiles(result, contact_levels=(5.0, 3.0)):
         i = steps[j]
         inside = snaps.x[(snaps.gap[j] <= 0.0) & (snaps.x >= 0.0)]
         edge = float(inside.max() / a0) if inside.size else np.nan
-        found.append((title, snaps.x / a0, (snaps.surface[j] - s.indenter[i]) / length,
-                      snaps.pressure[j] / stress, snaps.gap[j] / length, edge))
+        found.append(
+            (
+                title,
+                snaps.x / a0,
+                (snaps.surface[j] - s.indenter[i]) / length,
+                snaps.pressure[j] / stress,
+                snaps.gap[j] / length,
+                edge,
+            )
+        )
     return found

@@ -6,6 +6,7 @@ Lbar / sqrt(abar), the per-point effective work against the peeling velocity vba
 reading), profiles against x / a_c(t = 0). Limits: relaxed = Baney-Hui with lambda0 and
 dgamma0, instantaneous = JKR with dgamma0 / k (paper Sec. 4).
 """
+
 from __future__ import annotations
 
 import matplotlib
@@ -25,8 +26,9 @@ Y_LABEL = r"$(\pi/4)\,\bar a_c^{3/2}$"
 def write_csv(path, columns, rows):
     """``rows`` (iterables in the order of ``columns``) to ``path``, atomically; floats in
     10 significant digits."""
-    atomic.write_csv(path, columns, ([f"{v:.10g}" if isinstance(v, float) else v for v in row]
-                                     for row in rows))
+    atomic.write_csv(
+        path, columns, ([f"{v:.10g}" if isinstance(v, float) else v for v in row] for row in rows)
+    )
 
 
 def _save(fig, path):
@@ -42,23 +44,55 @@ def _limits(ax, lambda0, k, top):
     """Relaxed (Baney-Hui, lambda0) and instantaneous (JKR, dgamma0/k) limits; the y range
     up to ``top`` (the x range is the curves', set before)."""
     abar = np.linspace(0.3, 14.0, 300)
-    ax.plot(*theory.scaled_curve(abar, theory.maugis_dugdale(abar, lambda0)[0]), "k:", lw=1.2,
-            label=rf"relaxed limit ($\lambda_0$ = {lambda0:g})")
-    ax.plot(*theory.scaled_curve(abar, theory.jkr_load(abar, 1.0 / k)), "r:", lw=1.2,
-            label=r"instantaneous limit (JKR, $\Delta\gamma_0/k$)")
+    ax.plot(
+        *theory.scaled_curve(abar, theory.maugis_dugdale(abar, lambda0)[0]),
+        "k:",
+        lw=1.2,
+        label=rf"relaxed limit ($\lambda_0$ = {lambda0:g})",
+    )
+    ax.plot(
+        *theory.scaled_curve(abar, theory.jkr_load(abar, 1.0 / k)),
+        "r:",
+        lw=1.2,
+        label=r"instantaneous limit (JKR, $\Delta\gamma_0/k$)",
+    )
     ax.set_ylim(0, top)
 
 
 def _curve_rows(label, curve, steady):
     vbar = curve.vbar("retardation")
     work = curve.effective_work()
-    return [(label, curve.groups["lambda0"], curve.groups["Vz"], curve.groups["depth"],
-             float(curve.abar[i]), float(curve.lbar[i]), float(curve.x[i]), float(curve.y[i]),
-             float(vbar[i]), float(work[i]), int(steady[i])) for i in range(curve.abar.size)]
+    return [
+        (
+            label,
+            curve.groups["lambda0"],
+            curve.groups["Vz"],
+            curve.groups["depth"],
+            float(curve.abar[i]),
+            float(curve.lbar[i]),
+            float(curve.x[i]),
+            float(curve.y[i]),
+            float(vbar[i]),
+            float(work[i]),
+            int(steady[i]),
+        )
+        for i in range(curve.abar.size)
+    ]
 
 
-CURVE_COLUMNS = ("case", "lambda0", "Vz", "h0", "abar", "Lbar", "x", "y", "vbar_retardation",
-                 "work_ratio", "steady")
+CURVE_COLUMNS = (
+    "case",
+    "lambda0",
+    "Vz",
+    "h0",
+    "abar",
+    "Lbar",
+    "x",
+    "y",
+    "vbar_retardation",
+    "work_ratio",
+    "steady",
+)
 
 
 def _scaled_axes(ax, runs, styles):
@@ -105,9 +139,11 @@ def draw_fig2(path, k=0.1):
     ax.set_title(f"Eq. 8, k = {k:g}")
     ax.legend(fontsize=8)
     _save(fig, path + ".png")
-    write_csv(path + ".csv", ("vbar", "work_retardation_convention",
-                              "work_relaxation_convention"),
-              zip(vbar, retardation, relaxation))
+    write_csv(
+        path + ".csv",
+        ("vbar", "work_retardation_convention", "work_relaxation_convention"),
+        zip(vbar, retardation, relaxation),
+    )
 
 
 def draw_fig4(path, runs, lambdas=(0.75, 1.5, 3.5, 7.0)):
@@ -133,10 +169,19 @@ def draw_fig4(path, runs, lambdas=(0.75, 1.5, 3.5, 7.0)):
         rows += [("Baney-Hui", lam, a, b, u, v) for a, b, u, v in zip(abar, lbar, x, y)]
     for i, lam in enumerate(lambdas):
         for curve in (c for c in runs if abs(c.groups["lambda0"] - lam) < 1e-9):
-            ax.plot(curve.x, curve.y, "o", color=f"C{i}", ms=2.5, mfc="none",
-                    label=rf"hpcgfmd $\lambda$ = {lam:g}, k = 1")
-            rows += [("hpcgfmd", lam, a, b, u, v) for a, b, u, v in
-                     zip(curve.abar, curve.lbar, curve.x, curve.y)]
+            ax.plot(
+                curve.x,
+                curve.y,
+                "o",
+                color=f"C{i}",
+                ms=2.5,
+                mfc="none",
+                label=rf"hpcgfmd $\lambda$ = {lam:g}, k = 1",
+            )
+            rows += [
+                ("hpcgfmd", lam, a, b, u, v)
+                for a, b, u, v in zip(curve.abar, curve.lbar, curve.x, curve.y)
+            ]
     ax.plot(*theory.scaled_curve(abar, theory.jkr_load(abar)), "k--", lw=1, label="JKR (Eq. 10)")
     ax.set_xlim(-12, 25)
     ax.set_ylim(0, 12)
@@ -167,9 +212,14 @@ def draw_curves_and_work(path, runs, masks, color_key):
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
     lambda0, k, depths = _reference(runs)
     keys = sorted({c.groups[color_key] for _, c in runs})
-    styles = [{"color": f"C{keys.index(c.groups[color_key])}", "lw": 1,
-               "ls": "--" if c.groups["depth"] == depths[0] and len(depths) > 1 else "-"}
-              for _, c in runs]
+    styles = [
+        {
+            "color": f"C{keys.index(c.groups[color_key])}",
+            "lw": 1,
+            "ls": "--" if c.groups["depth"] == depths[0] and len(depths) > 1 else "-",
+        }
+        for _, c in runs
+    ]
     _scaled_axes(ax1, runs, styles)
     _limits(ax1, lambda0, k, _top(runs))
     shallow = f", solid {depths[-1]:g}" if len(depths) > 1 else ""
@@ -183,8 +233,7 @@ def draw_curves_and_work(path, runs, masks, color_key):
         rows += _curve_rows(label, curve, steady)
     grid = np.logspace(-2, 5, 200)
     ax2.loglog(grid, theory.persson_brener(grid, k), "k-", label=r"Eq. 8, $\tau_c = \tau/k$")
-    ax2.loglog(grid, theory.persson_brener(k * grid, k), "k--",
-               label=r"Eq. 8, $\tau_c = \tau$")
+    ax2.loglog(grid, theory.persson_brener(k * grid, k), "k--", label=r"Eq. 8, $\tau_c = \tau$")
     ax2.set_xlabel(r"$\bar v(\dot\rho) = 2\pi\dot\rho\,\tau/(k c_0)$")
     ax2.set_ylabel(r"$\Delta\gamma_{eff}/\Delta\gamma_0$")
     ax2.set_ylim(0.5, 1.5 / k)
@@ -205,17 +254,26 @@ def draw_fig9(path, runs):
     for _, curve in runs:
         chi = round(curve.groups["chi_ve"], 6)
         seen[chi] = seen.get(chi, 0) + 1
-        styles.append({"color": f"C{chis.index(chi)}", "lw": 1,
-                       "ls": "-" if seen[chi] == 1 else "--"})
+        styles.append(
+            {"color": f"C{chis.index(chi)}", "lw": 1, "ls": "-" if seen[chi] == 1 else "--"}
+        )
     _scaled_axes(ax, runs, styles)
     _limits(ax, lambda0, k, _top(runs))
     ax.legend(fontsize=6)
-    ax.set_title(f"h0/R = {', '.join(f'{d:g}' for d in depths)}, colour:"
-                 r" $\chi_{ve} = V_z\lambda_0^2$")
+    ax.set_title(
+        f"h0/R = {', '.join(f'{d:g}' for d in depths)}, colour:"
+        r" $\chi_{ve} = V_z\lambda_0^2$"
+    )
     _save(fig, path + ".png")
-    write_csv(path + ".csv", CURVE_COLUMNS,
-              [row for label, curve in runs for row in
-               _curve_rows(label, curve, np.zeros(curve.abar.size, dtype=bool))])
+    write_csv(
+        path + ".csv",
+        CURVE_COLUMNS,
+        [
+            row
+            for label, curve in runs
+            for row in _curve_rows(label, curve, np.zeros(curve.abar.size, dtype=bool))
+        ],
+    )
 
 
 def draw_profiles(path, cases, field, zoom):
@@ -285,10 +343,17 @@ def draw_convergence(path, panels):
     rows = []
     for ax, (label, runs) in zip(axes, panels.items()):
         for i, (setting, curve) in enumerate(runs):
-            ax.plot(curve.x, curve.y, color=f"C{i}", lw=1,
-                    label=f"{setting}: pull-off {curve.lbar[curve.pull_off]:.4f}")
-            rows += [(label, setting, float(a), float(b), float(u), float(v)) for a, b, u, v in
-                     zip(curve.abar, curve.lbar, curve.x, curve.y)]
+            ax.plot(
+                curve.x,
+                curve.y,
+                color=f"C{i}",
+                lw=1,
+                label=f"{setting}: pull-off {curve.lbar[curve.pull_off]:.4f}",
+            )
+            rows += [
+                (label, setting, float(a), float(b), float(u), float(v))
+                for a, b, u, v in zip(curve.abar, curve.lbar, curve.x, curve.y)
+            ]
         ax.set_xlabel(X_LABEL)
         ax.set_ylabel(Y_LABEL)
         ax.set_title(label)

@@ -7,6 +7,7 @@ runs once: the cases are merged by their identity and named from their groups, s
 figure finds its runs under the same names in one output directory, and the farm's
 resumption, locking and summary apply unchanged.
 """
+
 from __future__ import annotations
 
 import tomllib
@@ -19,8 +20,13 @@ from ..runs.sweep import Sweep, parse_sweep, to_toml
 #: Every figure of the paper the command draws, in the paper's order.
 FIGURES = ("2", "4", "5", "6", "7", "8", "9", "B1")
 #: The sweep file of each figure's runs (the others draw runs of these).
-SWEEP_FILES = {"4": "fig4.toml", "5": "fig5.toml", "8": "fig8.toml", "9": "fig9.toml",
-               "B1": "figB1.toml"}
+SWEEP_FILES = {
+    "4": "fig4.toml",
+    "5": "fig5.toml",
+    "8": "fig8.toml",
+    "9": "fig9.toml",
+    "B1": "figB1.toml",
+}
 #: Figures drawn from another figure's runs.
 RUNS_OF = {"6": "5", "7": "5"}
 #: ``[numerics] accuracy`` of the shipped sweep files (the command's ``--accuracy`` replaces it).
@@ -51,8 +57,9 @@ def figure_sweep(figure: str, accuracy: float | None = None, text: str | None = 
 def case_name(case) -> str:
     """The run's file stem from its groups: ``lambda0_7-k_0.1-Vz_4.5-h0_0.1`` plus the grid
     and the fixed step when the case gives them."""
-    name = (f"lambda0_{case.maugis:g}-k_{case.modulus_ratio:g}-Vz_{case.velocity:g}"
-            f"-h0_{case.depth:g}")
+    name = (
+        f"lambda0_{case.maugis:g}-k_{case.modulus_ratio:g}-Vz_{case.velocity:g}-h0_{case.depth:g}"
+    )
     if not case.numerics.nx_automatic:
         name += f"-nx_{case.numerics.nx}"
     if case.numerics.step_control == "fixed":
@@ -119,10 +126,12 @@ def paper_study(figures, accuracy=None, texts=None):
     seen = {}
     for item in merged:  # different runs, one name: a study that varies more than the name
         if item.name in seen:
-            raise SweepError(f"paper: runs {seen[item.name]} and {item.index} would both be"
-                             f" named {item.name} (they differ in a key the name leaves out:"
-                             " cell, adhesion, units or numerics); vary lambda0, k, V_z, h0,"
-                             " nx or dt only")
+            raise SweepError(
+                f"paper: runs {seen[item.name]} and {item.index} would both be"
+                f" named {item.name} (they differ in a key the name leaves out:"
+                " cell, adhesion, units or numerics); vary lambda0, k, V_z, h0,"
+                " nx or dt only"
+            )
         seen[item.name] = item.index
     return Sweep(cases=merged, swept=swept, path="paper"), members
 
@@ -130,5 +139,4 @@ def paper_study(figures, accuracy=None, texts=None):
 def _snapshots(case) -> int:
     """How many snapshot triggers a case's [output] sets."""
     out = case.output
-    return (len(out.snapshot_times) + len(out.snapshot_contact_widths)
-            + int(out.snapshot_zero_load))
+    return len(out.snapshot_times) + len(out.snapshot_contact_widths) + int(out.snapshot_zero_load)

@@ -3,6 +3,7 @@
 Nothing here talks to a communicator by itself: the functions take sizes and ranks, so the
 same code serves any communicator the caller passes around (never a global COMM_WORLD).
 """
+
 from __future__ import annotations
 
 

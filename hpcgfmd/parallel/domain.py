@@ -21,6 +21,7 @@ but Open MPI's and MPICH's reductions of a few doubles over one communicator do 
 combines the same partial results; floating addition is commutative); the rank-independence
 tests would hang, not pass, if it failed.
 """
+
 from __future__ import annotations
 
 import time
@@ -150,10 +151,22 @@ class Domain:
             return extended
         comm = self.comm
         started = time.perf_counter()
-        comm.Sendrecv(extended[1:2], dest=self._left, sendtag=71,
-                      recvbuf=extended[-1:], source=self._right, recvtag=71)
-        comm.Sendrecv(extended[-2:-1], dest=self._right, sendtag=72,
-                      recvbuf=extended[:1], source=self._left, recvtag=72)
+        comm.Sendrecv(
+            extended[1:2],
+            dest=self._left,
+            sendtag=71,
+            recvbuf=extended[-1:],
+            source=self._right,
+            recvtag=71,
+        )
+        comm.Sendrecv(
+            extended[-2:-1],
+            dest=self._right,
+            sendtag=72,
+            recvbuf=extended[:1],
+            source=self._left,
+            recvtag=72,
+        )
         self.communication_time += time.perf_counter() - started
         self.messages += 1
         return extended

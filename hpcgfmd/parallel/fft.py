@@ -10,6 +10,7 @@ Three classes share the interface of :class:`~.real_fft.RealFFT`:
   with the four-step (transposed) algorithm (:mod:`hpcgfmd.parallel.fft_transposed`); the
   other rank counts and lengths.
 """
+
 from __future__ import annotations
 
 from . import wisdom
@@ -63,5 +64,11 @@ def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
     return fft
 
 
-__all__ = ["HalvedRealFFT", "RealFFT", "SerialRealFFT", "TransposedRealFFT", "aligned_empty",
-           "plan_real_fft"]
+__all__ = [
+    "HalvedRealFFT",
+    "RealFFT",
+    "SerialRealFFT",
+    "TransposedRealFFT",
+    "aligned_empty",
+    "plan_real_fft",
+]

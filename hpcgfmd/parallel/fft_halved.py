@@ -51,6 +51,7 @@ alternates the stages and never waits: two synchronisations per application. A f
 followed by a forward or an application, and an application or an inverse followed by an
 inverse, wait once. Measurements: docs/results.md, "Two ranks: the halved transform".
 """
+
 from __future__ import annotations
 
 import time
@@ -118,12 +119,13 @@ class HalvedRealFFT(RealFFT):
         Seconds in the synchronisations and the waits for the peer (s).
     """
 
-    def __init__(self, comm, n: int, planner_effort: str = "FFTW_MEASURE",
-                 transport: str = "auto"):
+    def __init__(self, comm, n: int, planner_effort: str = "FFTW_MEASURE", transport: str = "auto"):
         size, rank = comm.Get_size(), comm.Get_rank()
         if not fits(size, n):
-            raise ValueError(f"the two-rank split needs 2 ranks and n a multiple of 4 "
-                             f"(n >= 8), got {size} ranks and n = {n}")
+            raise ValueError(
+                f"the two-rank split needs 2 ranks and n a multiple of 4 "
+                f"(n >= 8), got {size} ranks and n = {n}"
+            )
         self.comm, self.n, self.rank = comm, n, rank
         half, quarter = n // 2, n // 4
         self.x_blocks = [(0, half), (half, n)]
@@ -143,8 +145,7 @@ class HalvedRealFFT(RealFFT):
         self._buffers = StageBuffers(comm, outputs, incoming, transport)
         self.transport = self._buffers.transport
         peer = 1 - rank
-        self._send = {stage: self._buffers.mine[stage].blocks[peer][0, :half]
-                      for stage in _STAGES}
+        self._send = {stage: self._buffers.mine[stage].blocks[peer][0, :half] for stage in _STAGES}
         self._received = {stage: self._buffers.read[stage][peer][0] for stage in _STAGES}
         self._synchronised = None  # the stage of the last synchronisation (see _write)
 
@@ -155,16 +156,23 @@ class HalvedRealFFT(RealFFT):
             self._real = pyfftw.empty_aligned(half, dtype="float64")
             self.spectrum = pyfftw.empty_aligned(quarter + 1, dtype="complex128")
             self._forward = pyfftw.FFTW(self._real, self.spectrum, flags=flags, threads=1)
-            self._backward = pyfftw.FFTW(self.spectrum, self._send["h"],
-                                         direction="FFTW_BACKWARD",
-                                         flags=flags + ("FFTW_DESTROY_INPUT",), threads=1)
+            self._backward = pyfftw.FFTW(
+                self.spectrum,
+                self._send["h"],
+                direction="FFTW_BACKWARD",
+                flags=flags + ("FFTW_DESTROY_INPUT",),
+                threads=1,
+            )
         else:  # ifft_L(W) too, untwisted by both ranks as they combine (step 3)
             self.spectrum = pyfftw.empty_aligned(quarter, dtype="complex128")
-            self._forward = pyfftw.FFTW(self.spectrum, self.spectrum, flags=flags,
-                                        threads=1)
-            self._backward = pyfftw.FFTW(self.spectrum, self._send["h"].view(np.complex128),
-                                         direction="FFTW_BACKWARD",
-                                         flags=flags + ("FFTW_DESTROY_INPUT",), threads=1)
+            self._forward = pyfftw.FFTW(self.spectrum, self.spectrum, flags=flags, threads=1)
+            self._backward = pyfftw.FFTW(
+                self.spectrum,
+                self._send["h"].view(np.complex128),
+                direction="FFTW_BACKWARD",
+                flags=flags + ("FFTW_DESTROY_INPUT",),
+                threads=1,
+            )
             self._odd = np.exp((-2j * np.pi / n) * (2 * m + 1))  # t_k = w^(2k+1)
         self.pairs = 0
         self.communication_time = 0.0
@@ -195,8 +203,10 @@ class HalvedRealFFT(RealFFT):
 
     def _check(self, name, array, shape):
         if array.shape != shape:
-            raise ValueError(f"{name} has shape {array.shape}, rank {self.rank} of the "
-                             f"two-rank transform takes {shape}")
+            raise ValueError(
+                f"{name} has shape {array.shape}, rank {self.rank} of the "
+                f"two-rank transform takes {shape}"
+            )
 
     def _transform_field(self, field):
         """Collective (step 1 and the forward half of step 2): the local modes of the field

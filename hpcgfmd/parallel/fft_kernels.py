@@ -7,6 +7,7 @@ has the algebra): L = n/4, t_k = w^(2k+1) and twist[m] = w^(2m), w = exp(-2 pi i
 Each pass over the odd modes takes the modes k and L-1-k together, which their symmetry
 couples.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -53,8 +54,9 @@ def odd_modes(v, odd):
     count = v.shape[0]
     for k in range((count + 1) // 2):
         j = count - 1 - k
-        pr, pi, qr, qi = _odd_pair(f[2 * k], f[2 * k + 1], f[2 * j], f[2 * j + 1],
-                                   t[2 * k], t[2 * k + 1])
+        pr, pi, qr, qi = _odd_pair(
+            f[2 * k], f[2 * k + 1], f[2 * j], f[2 * j + 1], t[2 * k], t[2 * k + 1]
+        )
         f[2 * j], f[2 * j + 1] = pr - qr, qi - pi
         f[2 * k], f[2 * k + 1] = pr + qr, pi + qi
 
@@ -70,8 +72,9 @@ def odd_modes_backward(v, odd):
     count = v.shape[0]
     for k in range((count + 1) // 2):
         j = count - 1 - k
-        wkr, wki, wjr, wji = _back_pair(f[2 * k], f[2 * k + 1], f[2 * j], -f[2 * j + 1],
-                                        t[2 * k], t[2 * k + 1])
+        wkr, wki, wjr, wji = _back_pair(
+            f[2 * k], f[2 * k + 1], f[2 * j], -f[2 * j + 1], t[2 * k], t[2 * k + 1]
+        )
         f[2 * j], f[2 * j + 1] = wjr, wji
         f[2 * k], f[2 * k + 1] = wkr, wki
 
@@ -86,8 +89,9 @@ def odd_modes_multiplied(v, odd, diagonal):
         tr, ti = t[2 * k], t[2 * k + 1]
         pr, pi, qr, qi = _odd_pair(f[2 * k], f[2 * k + 1], f[2 * j], f[2 * j + 1], tr, ti)
         dk, dj = diagonal[k], diagonal[j]
-        wkr, wki, wjr, wji = _back_pair(dk * (pr + qr), dk * (pi + qi),
-                                        dj * (pr - qr), dj * (pi - qi), tr, ti)
+        wkr, wki, wjr, wji = _back_pair(
+            dk * (pr + qr), dk * (pi + qi), dj * (pr - qr), dj * (pi - qi), tr, ti
+        )
         f[2 * j], f[2 * j + 1] = wjr, wji
         f[2 * k], f[2 * k + 1] = wkr, wki
 
@@ -96,8 +100,12 @@ def odd_modes_multiplied(v, odd, diagonal):
 def _odd_pair(vkr, vki, vjr, vji, tr, ti):
     """P and Q of :func:`odd_modes` as (Re P, Im P, Re Q, Im Q)."""
     er, ei = vkr - vjr, vki + vji  # V_k - conj V_j
-    return 0.5 * (vkr + vjr), 0.5 * (vki - vji), 0.5 * (er * ti + ei * tr), \
-        -0.5 * (er * tr - ei * ti)
+    return (
+        0.5 * (vkr + vjr),
+        0.5 * (vki - vji),
+        0.5 * (er * ti + ei * tr),
+        -0.5 * (er * tr - ei * ti),
+    )
 
 
 @njit(cache=True, inline="always")

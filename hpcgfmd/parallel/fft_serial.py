@@ -8,6 +8,7 @@ place whenever those are aligned as the plans' buffers are (:func:`aligned_empty
 arrays): the copies in and out of the transform's own buffers would cost two more passes
 over the field, each evicting cache the transform needs. Other arrays go through the buffers.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -72,10 +73,14 @@ class SerialRealFFT(RealFFT):
         self.spectrum = pyfftw.empty_aligned(n // 2 + 1, dtype="complex128")
         # The forward transform keeps its input (it may be the caller's field); the backward
         # one may overwrite the spectrum, which is the transform's own.
-        self._forward = pyfftw.FFTW(self.real, self.spectrum, flags=(planner_effort,),
-                                    threads=1)
-        self._backward = pyfftw.FFTW(self.spectrum, self.real, direction="FFTW_BACKWARD",
-                                     flags=(planner_effort, "FFTW_DESTROY_INPUT"), threads=1)
+        self._forward = pyfftw.FFTW(self.real, self.spectrum, flags=(planner_effort,), threads=1)
+        self._backward = pyfftw.FFTW(
+            self.spectrum,
+            self.real,
+            direction="FFTW_BACKWARD",
+            flags=(planner_effort, "FFTW_DESTROY_INPUT"),
+            threads=1,
+        )
         self._alignment = self._forward.input_alignment
         self._direct_arrays = ()  # arrays found aligned, newest first (see _direct)
         self.pairs = 0
@@ -113,10 +118,14 @@ class SerialRealFFT(RealFFT):
         for known in self._direct_arrays:
             if array is known:
                 return True
-        direct = (array.ctypes.data % self._alignment == 0 and array.flags.c_contiguous
-                  and array.shape == (self.n,) and array.dtype == np.float64)
+        direct = (
+            array.ctypes.data % self._alignment == 0
+            and array.flags.c_contiguous
+            and array.shape == (self.n,)
+            and array.dtype == np.float64
+        )
         if direct:
-            self._direct_arrays = (array,) + self._direct_arrays[:DIRECT_MEMORY - 1]
+            self._direct_arrays = (array,) + self._direct_arrays[: DIRECT_MEMORY - 1]
         return direct
 
     def _transform_from(self, field):

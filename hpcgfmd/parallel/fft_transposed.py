@@ -69,6 +69,7 @@ Transport (``transport``) and communication per call
 The measurements behind this variant (per-stage timings, transports, what was tried and
 dropped) are in docs/results.md, "Distributed transform".
 """
+
 from __future__ import annotations
 
 import math
@@ -84,13 +85,12 @@ from .transport import TRANSPORTS, StageBuffers, padded_width
 # Work-array sizes of the chunked stages, in elements: a stage-A/C chunk of columns holds
 # about _COLUMN_CHUNK reals (plus its half spectrum), a stage-B chunk about _ROW_CHUNK complex
 # values, so that input, output and FFT stay in the 2 MB L2 cache (tuned at n = 2**17..2**22).
-_COLUMN_CHUNK = 2 ** 16
+_COLUMN_CHUNK = 2**16
 _MAX_COLUMNS = 128
-_ROW_CHUNK = 2 ** 14
+_ROW_CHUNK = 2**14
 # Rows per call of the transposing copies from and to the caller's (power-of-two strided)
 # arrays.
 _ROW_BLOCK = 64
-
 
 
 def split_length(n):
@@ -172,8 +172,7 @@ class TransposedRealFFT(RealFFT):
         including waiting for the other ranks.
     """
 
-    def __init__(self, comm, n: int, planner_effort: str = "FFTW_MEASURE",
-                 transport: str = "auto"):
+    def __init__(self, comm, n: int, planner_effort: str = "FFTW_MEASURE", transport: str = "auto"):
         if transport not in TRANSPORTS:
             raise ValueError(f"transport must be one of {TRANSPORTS}, got {transport!r}")
         self.comm, self.n = comm, n
@@ -201,16 +200,27 @@ class TransposedRealFFT(RealFFT):
 
         def outputs(s):
             Rs, Cs, Ms = (b - a for a, b in (rows[s], cols[s], modes[s]))
-            return {"pack": [(Rs if t != s else 0, padded_width(ncols[t], 8))
-                             for t in range(size)],
-                    "xt": [(Cs, padded_width(nmodes[t], 16)) for t in range(size)],
-                    "z": [(Ms, padded_width(ncols[t], 16)) for t in range(size)],
-                    "h": [(Cs, padded_width(nrows[t], 8)) for t in range(size)]}
+            return {
+                "pack": [(Rs if t != s else 0, padded_width(ncols[t], 8)) for t in range(size)],
+                "xt": [(Cs, padded_width(nmodes[t], 16)) for t in range(size)],
+                "z": [(Ms, padded_width(ncols[t], 16)) for t in range(size)],
+                "h": [(Cs, padded_width(nrows[t], 8)) for t in range(size)],
+            }
 
-        self._buffers = StageBuffers(comm, outputs, {
-            stage: [(count[s] if s != rank else 0, width) for s in range(size)]
-            for stage, count, width in (("pack", nrows, C), ("xt", ncols, M),
-                                        ("z", nmodes, C), ("h", ncols, R))}, transport)
+        self._buffers = StageBuffers(
+            comm,
+            outputs,
+            {
+                stage: [(count[s] if s != rank else 0, width) for s in range(size)]
+                for stage, count, width in (
+                    ("pack", nrows, C),
+                    ("xt", ncols, M),
+                    ("z", nmodes, C),
+                    ("h", ncols, R),
+                )
+            },
+            transport,
+        )
         self.transport = self._buffers.transport
         self._out, self._from = self._buffers.mine, self._buffers.read
 
@@ -227,10 +237,18 @@ class TransposedRealFFT(RealFFT):
         row_chunks = _chunks(M, max(1, _ROW_CHUNK // n2))
         self._row_blocks = _chunks(R, _ROW_BLOCK)
         work_real, work_half, work_rows, column_plans, row_plans = _plans(
-            col_chunks, row_chunks, n1, n2, planner_effort)
-        (self._packs, self._stage_a, self._stage_b, self._stage_c, self._final_own,
-         self._final_peers) = _stage_steps(self, col_chunks, row_chunks, column_plans,
-                                           row_plans, work_real, work_half, work_rows)
+            col_chunks, row_chunks, n1, n2, planner_effort
+        )
+        (
+            self._packs,
+            self._stage_a,
+            self._stage_b,
+            self._stage_c,
+            self._final_own,
+            self._final_peers,
+        ) = _stage_steps(
+            self, col_chunks, row_chunks, column_plans, row_plans, work_real, work_half, work_rows
+        )
         # Spectrum buffer for forward/inverse callers (same role as SerialRealFFT.spectrum).
         self.spectrum = pyfftw.zeros_aligned(self.spectrum_shape, dtype=np.complex128)
         self.pairs = 0
@@ -408,19 +426,20 @@ def _plans(col_chunks, row_chunks, n1, n2, planner_effort):
         real, half = work_real[:h], work_half[:h]
         column_plans[h] = (
             pyfftw.FFTW(real, half, axes=(1,), flags=flags, threads=1),
-            pyfftw.FFTW(half, real, axes=(1,), direction="FFTW_BACKWARD", flags=flags,
-                        threads=1))
+            pyfftw.FFTW(half, real, axes=(1,), direction="FFTW_BACKWARD", flags=flags, threads=1),
+        )
     for h in {b - a for a, b in row_chunks}:
         work = work_rows[:h]
         row_plans[h] = (
             pyfftw.FFTW(work, work, axes=(1,), flags=flags, threads=1),
-            pyfftw.FFTW(work, work, axes=(1,), direction="FFTW_BACKWARD", flags=flags,
-                        threads=1))
+            pyfftw.FFTW(work, work, axes=(1,), direction="FFTW_BACKWARD", flags=flags, threads=1),
+        )
     return work_real, work_half, work_rows, column_plans, row_plans
 
 
-def _stage_steps(self, col_chunks, row_chunks, column_plans, row_plans, work_real,
-                 work_half, work_rows):
+def _stage_steps(
+    self, col_chunks, row_chunks, column_plans, row_plans, work_real, work_half, work_rows
+):
     """The views the stages of ``self`` (a TransposedRealFFT) copy between, built once, so
     that a call only slices the caller's arrays.
 
@@ -434,44 +453,72 @@ def _stage_steps(self, col_chunks, row_chunks, column_plans, row_plans, work_rea
     C, M, R = self._C, self._M, self._R
     out, read = self._out, self._from
     blocks = {stage: out[stage].blocks for stage in out}
-    packs = [(blocks["pack"][s][:, :cols[s][1] - cols[s][0]], slice(*cols[s]))
-             for s in self._peers]
+    packs = [
+        (blocks["pack"][s][:, : cols[s][1] - cols[s][0]], slice(*cols[s])) for s in self._peers
+    ]
     stage_a, stage_b, stage_c = [], [], []
     for a, b in col_chunks:
-        real, half = work_real[:b - a], work_half[:b - a]
+        real, half = work_real[: b - a], work_half[: b - a]
         forward, backward = column_plans[b - a]
         # A: peers' rows of these columns, then (per call) this rank's rows from field;
         # rfft; twiddle while writing each destination's mode block.
-        stage_a.append((
-            [(real[:, slice(*rows[s])], part[:, a:b].T) for s, part in read["pack"].items()],
-            [(real[:, row0 + p:row0 + q], slice(p, q)) for p, q in self._row_blocks],
-            slice(col0 + a, col0 + b), forward,
-            [(half[:, slice(*modes[t])], self._twiddle[a:b, slice(*modes[t])],
-              blocks["xt"][t][a:b, :modes[t][1] - modes[t][0]]) for t in range(size)]))
+        stage_a.append(
+            (
+                [(real[:, slice(*rows[s])], part[:, a:b].T) for s, part in read["pack"].items()],
+                [(real[:, row0 + p : row0 + q], slice(p, q)) for p, q in self._row_blocks],
+                slice(col0 + a, col0 + b),
+                forward,
+                [
+                    (
+                        half[:, slice(*modes[t])],
+                        self._twiddle[a:b, slice(*modes[t])],
+                        blocks["xt"][t][a:b, : modes[t][1] - modes[t][0]],
+                    )
+                    for t in range(size)
+                ],
+            )
+        )
         # C: every rank's mode rows of these columns, conjugate twiddle, c2r, then each
         # destination's row block.
-        stage_c.append((
-            [(half[:, slice(*modes[s])], part[:, a:b].T) for s, part in read["z"].items()]
-            + [(half[:, mode0:mode0 + M], blocks["z"][rank][:, a:b].T)],
-            half, self._twiddle_conj[a:b], backward,
-            [(blocks["h"][t][a:b, :rows[t][1] - rows[t][0]], real[:, slice(*rows[t])])
-             for t in range(size)]))
+        stage_c.append(
+            (
+                [(half[:, slice(*modes[s])], part[:, a:b].T) for s, part in read["z"].items()]
+                + [(half[:, mode0 : mode0 + M], blocks["z"][rank][:, a:b].T)],
+                half,
+                self._twiddle_conj[a:b],
+                backward,
+                [
+                    (blocks["h"][t][a:b, : rows[t][1] - rows[t][0]], real[:, slice(*rows[t])])
+                    for t in range(size)
+                ],
+            )
+        )
     for a, b in row_chunks:
-        work = work_rows[:b - a]
+        work = work_rows[: b - a]
         forward, backward = row_plans[b - a]
         # B: every rank's columns of these mode rows, FFT, multiplier, inverse FFT, then
         # each destination's column block.
-        stage_b.append((
-            [(work[:, slice(*cols[s])], part[:, a:b].T) for s, part in read["xt"].items()]
-            + [(work[:, col0:col0 + C], blocks["xt"][rank][:, a:b].T)],
-            forward, work, slice(a, b), backward,
-            [(blocks["z"][t][a:b, :cols[t][1] - cols[t][0]], work[:, slice(*cols[t])])
-             for t in range(size)]))
+        stage_b.append(
+            (
+                [(work[:, slice(*cols[s])], part[:, a:b].T) for s, part in read["xt"].items()]
+                + [(work[:, col0 : col0 + C], blocks["xt"][rank][:, a:b].T)],
+                forward,
+                work,
+                slice(a, b),
+                backward,
+                [
+                    (blocks["z"][t][a:b, : cols[t][1] - cols[t][0]], work[:, slice(*cols[t])])
+                    for t in range(size)
+                ],
+            )
+        )
     # Final gather: this rank's rows from every rank's h (own part first, see
     # apply_diagonal), as (rows slice, columns slice, source view).
     own_h = blocks["h"][rank][:, :R]
-    final_own = [(slice(p, q), slice(col0, col0 + C), own_h[:, p:q].T)
-                 for p, q in self._row_blocks]
-    final_peers = [(slice(p, q), slice(*cols[s]), part[:, p:q].T)
-                   for s, part in read["h"].items() for p, q in self._row_blocks]
+    final_own = [(slice(p, q), slice(col0, col0 + C), own_h[:, p:q].T) for p, q in self._row_blocks]
+    final_peers = [
+        (slice(p, q), slice(*cols[s]), part[:, p:q].T)
+        for s, part in read["h"].items()
+        for p, q in self._row_blocks
+    ]
     return packs, stage_a, stage_b, stage_c, final_own, final_peers

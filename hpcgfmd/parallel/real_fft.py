@@ -12,6 +12,7 @@ Each rank owns a block of nodes in real space (``x_blocks``) and a block of mode
 spectrum (``spectrum_shape``, in the layout's own order; ``wavenumber`` gives each local
 mode's index m, q = 2 pi m / L). Mode-local physics does not care about the order.
 """
+
 from __future__ import annotations
 
 from abc import ABC, abstractmethod

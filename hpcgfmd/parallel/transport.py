@@ -7,6 +7,7 @@ every block is a whole number of cache lines; the destination reads it in place 
 shared window (``"shared"``) or from its receive buffer after an ``Alltoallv``
 (``"messages"``). Both give bitwise equal results.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -28,8 +29,12 @@ def padded_width(count, itemsize):
     return (lines + (lines % 2 == 0)) * 64 // itemsize if count else 0
 
 
-DTYPES = {"pack": np.dtype(np.float64), "xt": np.dtype(np.complex128),
-          "z": np.dtype(np.complex128), "h": np.dtype(np.float64)}
+DTYPES = {
+    "pack": np.dtype(np.float64),
+    "xt": np.dtype(np.complex128),
+    "z": np.dtype(np.complex128),
+    "h": np.dtype(np.float64),
+}
 _MPI_TYPES = {np.dtype(np.float64): MPI.DOUBLE, np.dtype(np.complex128): MPI.C_DOUBLE_COMPLEX}
 
 
@@ -63,11 +68,13 @@ class BlockArray:
         if memory is None:
             self.flat = pyfftw.zeros_aligned(total, dtype=dtype)
         else:
-            self.flat = memory[:total * dtype.itemsize].view(dtype)
+            self.flat = memory[: total * dtype.itemsize].view(dtype)
         self.counts = [rows * width for rows, width in shapes]
         self.displacements = [int(d) for d in np.cumsum([0] + self.counts[:-1])]
-        self.blocks = [self.flat[d:d + c].reshape(shape)
-                       for d, c, shape in zip(self.displacements, self.counts, shapes)]
+        self.blocks = [
+            self.flat[d : d + c].reshape(shape)
+            for d, c, shape in zip(self.displacements, self.counts, shapes)
+        ]
         self.mpi_type = _MPI_TYPES[np.dtype(dtype)]
 
     @staticmethod
@@ -115,18 +122,27 @@ class StageBuffers:
         if self.transport == "shared":
             mine, theirs = self._shared(outputs, peers)
         if self.transport != "shared":
-            mine = {stage: BlockArray(shapes, DTYPES[stage])
-                    for stage, shapes in outputs(rank).items()}
+            mine = {
+                stage: BlockArray(shapes, DTYPES[stage]) for stage, shapes in outputs(rank).items()
+            }
         self.mine = mine
         if self.transport == "shared":
-            self.read = {stage: {s: theirs[s][stage].blocks[rank][:, :shapes[s][1]]
-                                 for s in peers} for stage, shapes in incoming.items()}
+            self.read = {
+                stage: {s: theirs[s][stage].blocks[rank][:, : shapes[s][1]] for s in peers}
+                for stage, shapes in incoming.items()
+            }
         else:
-            self._receive = {stage: BlockArray(
-                [(rows, padded_width(width, DTYPES[stage].itemsize)) for rows, width in shapes],
-                DTYPES[stage]) for stage, shapes in incoming.items()}
-            self.read = {stage: {s: self._receive[stage].blocks[s][:, :shapes[s][1]]
-                                 for s in peers} for stage, shapes in incoming.items()}
+            self._receive = {
+                stage: BlockArray(
+                    [(rows, padded_width(width, DTYPES[stage].itemsize)) for rows, width in shapes],
+                    DTYPES[stage],
+                )
+                for stage, shapes in incoming.items()
+            }
+            self.read = {
+                stage: {s: self._receive[stage].blocks[s][:, : shapes[s][1]] for s in peers}
+                for stage, shapes in incoming.items()
+            }
 
     @property
     def shared(self) -> bool:
@@ -156,8 +172,9 @@ class StageBuffers:
         comm, rank = self.comm, self.comm.Get_rank()
 
         def nbytes(s):
-            return sum(BlockArray.nbytes(shapes, DTYPES[stage])
-                       for stage, shapes in outputs(s).items())
+            return sum(
+                BlockArray.nbytes(shapes, DTYPES[stage]) for stage, shapes in outputs(s).items()
+            )
 
         try:
             window = MPI.Win.Allocate_shared(nbytes(rank) + 64, 1, comm=comm)
@@ -177,7 +194,7 @@ class StageBuffers:
             found = {}
             for stage, shapes in outputs(s).items():
                 size = BlockArray.nbytes(shapes, DTYPES[stage])
-                found[stage] = BlockArray(shapes, DTYPES[stage], memory[start:start + size])
+                found[stage] = BlockArray(shapes, DTYPES[stage], memory[start : start + size])
                 start += size
             return found
 
@@ -202,9 +219,10 @@ class StageBuffers:
             send, receive = self.mine[stage], self._receive[stage]
             rank = self.comm.Get_rank()
             counts = [0 if t == rank else c for t, c in enumerate(send.counts)]
-            self.comm.Alltoallv([send.flat, (counts, send.displacements), send.mpi_type],
-                                [receive.flat, (receive.counts, receive.displacements),
-                                 receive.mpi_type])
+            self.comm.Alltoallv(
+                [send.flat, (counts, send.displacements), send.mpi_type],
+                [receive.flat, (receive.counts, receive.displacements), receive.mpi_type],
+            )
 
     def barrier(self):
         """Collective: with the shared window, wait until every rank has read what it read

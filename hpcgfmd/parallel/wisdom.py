@@ -12,6 +12,7 @@ the wisdom of every rank that planned, merged; it is written atomically
 (:func:`hpcgfmd.atomic.write_text`), so concurrent writers (the groups of a farm) lose at most
 each other's additions, never the file. An unreadable file is ignored with a warning and replaced.
 """
+
 from __future__ import annotations
 
 import json
@@ -90,8 +91,13 @@ def save(comm, path, known):
     for entry in _read(path) + [w for w in everyone if w is not None]:
         pyfftw.import_wisdom(entry)
     merged = pyfftw.export_wisdom()
-    text = json.dumps({"format": _FORMAT, "pyfftw": pyfftw.__version__,
-                       "wisdom": [[part.decode("latin-1") for part in merged]]})
+    text = json.dumps(
+        {
+            "format": _FORMAT,
+            "pyfftw": pyfftw.__version__,
+            "wisdom": [[part.decode("latin-1") for part in merged]],
+        }
+    )
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         write_text(path, text)

@@ -6,6 +6,7 @@ when a rank receives SIGTERM or SIGUSR1, before it stops on a full disk, and aft
 that failed to converge (the last accepted step). One reduction per step decides for all
 ranks: a signal on any rank, rank 0's clock, rank 0's free space.
 """
+
 from __future__ import annotations
 
 import errno
@@ -47,13 +48,15 @@ class Checkpoints:
         fields, attrs = sim.state.gather()
         attrs.update(case_identity=sim.case.identity(), **self.extra())
         try:
-            write_checkpoint(self.path_checkpoint, self.comm, sim.n, sim.domain.x_start,
-                             fields, attrs)
+            write_checkpoint(
+                self.path_checkpoint, self.comm, sim.n, sim.domain.x_start, fields, attrs
+            )
         except OSError as err:  # alike on every rank: rank 0's free space was broadcast
             if err.errno != errno.ENOSPC:
                 raise
-            raise CaseFailure(f"disk full at step {sim.surface.step_index}:"
-                              f" {err.strerror}") from None
+            raise CaseFailure(
+                f"disk full at step {sim.surface.step_index}: {err.strerror}"
+            ) from None
         self.last = time.monotonic()
 
     def short_of_space(self) -> bool:
@@ -64,20 +67,22 @@ class Checkpoints:
         """Collective: checkpoint and stop the run (disk full)."""
         self.save()
         free = free_bytes(self.path) if self.comm.Get_rank() == 0 else 0
-        raise CaseFailure(f"disk full: {os.path.dirname(os.path.abspath(self.path))} has"
-                          f" {free} bytes free, a step and a checkpoint need {self.room};"
-                          f" stopped at step {self.sim.surface.step_index} with checkpoint"
-                          f" {self.path_checkpoint}: free space and run the same command"
-                          " again")
+        raise CaseFailure(
+            f"disk full: {os.path.dirname(os.path.abspath(self.path))} has"
+            f" {free} bytes free, a step and a checkpoint need {self.room};"
+            f" stopped at step {self.sim.surface.step_index} with checkpoint"
+            f" {self.path_checkpoint}: free space and run the same command"
+            " again"
+        )
 
     def after_step(self, stop) -> bool:
         """Collective, after every accepted step: checkpoint when it is due, stop on a full
         disk; True when a stop signal was received (the checkpoint is then written)."""
-        by_time = (self.comm.Get_rank() == 0
-                   and time.monotonic() - self.last >= self.interval)
+        by_time = self.comm.Get_rank() == 0 and time.monotonic() - self.last >= self.interval
         by_step = self.every > 0 and self.sim.surface.step_index % self.every == 0
         signalled, timed, short = self.sim.domain.maxes(
-            float(stop.received is not None), float(by_time), float(self.short_of_space()))
+            float(stop.received is not None), float(by_time), float(self.short_of_space())
+        )
         if short:
             self.stop_for_space()
         if signalled or timed or by_step:

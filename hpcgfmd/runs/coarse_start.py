@@ -21,6 +21,7 @@ zero). The fine solver projects the start onto the wall (u <= h + u_z), which th
 between coarse nodes on the parabola exceed by at most dx^2 / (2R) per coarse interval.
 Rank independence: every level is collective and deterministic on any number of ranks.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -57,8 +58,9 @@ def coarser_nx(case) -> int | None:
 def coarse_case(case, nx: int):
     """``case`` on ``nx`` nodes, solved to the coarse levels' tolerance."""
     tolerance = max(case.numerics.tolerance, COARSE_TOLERANCE)
-    return dataclasses.replace(case, numerics=dataclasses.replace(
-        case.numerics, nx=nx, tolerance=tolerance))
+    return dataclasses.replace(
+        case, numerics=dataclasses.replace(case.numerics, nx=nx, tolerance=tolerance)
+    )
 
 
 def prolong(coarse_full: np.ndarray, x_start: int, x_stop: int) -> np.ndarray:

@@ -1,5 +1,6 @@
 """The contact edges of the last two accepted steps: the step control's edge criterion and the
 solver's watch on a solve's edges read them (docs/numerics.md, "Time steps")."""
+
 from __future__ import annotations
 
 import math
@@ -50,13 +51,16 @@ class ContactEdges:
 
     def state(self) -> State:
         """The edges (:mod:`hpcgfmd.state`)."""
-        return State(scalars={"current": np.array(self.current),
-                              "previous": np.array(self.previous or (math.nan, math.nan)),
-                              "has_previous": self.previous is not None})
+        return State(
+            scalars={
+                "current": np.array(self.current),
+                "previous": np.array(self.previous or (math.nan, math.nan)),
+                "has_previous": self.previous is not None,
+            }
+        )
 
     def restore(self, state: State):
         """Continue from :meth:`state`."""
         s = state.scalars
         self.current = tuple(float(v) for v in s["current"])
-        self.previous = (tuple(float(v) for v in s["previous"]) if s["has_previous"]
-                         else None)
+        self.previous = tuple(float(v) for v in s["previous"]) if s["has_previous"] else None

@@ -39,6 +39,7 @@ Fixed steps: T / dt. Iterations per step: :func:`_iterations_per_step` of the no
 crosses per step. Seconds: SECONDS_PER_NODE_ITERATION nx iterations + SECONDS_PER_NODE_STEP
 nx steps (the step's own transforms and output) + START_SECONDS.
 """
+
 from __future__ import annotations
 
 import math
@@ -50,24 +51,24 @@ from ..solvers import solver_class
 from ..solvers.tip_lag import LAG_PER_LOAD, LAG_PER_LOAD_SPECTRUM, tip_lag_error
 
 # Geometry and detachment (measured on the paper's runs; docstring).
-A0_PER_GEOMETRIC = 0.624   # preload contact half-width / sqrt(2 R h0)
-PRELOAD_LOAD = 0.5         # preload load / (E0 h0) (0.45-0.52 at L/R = 10, h0/R = 0.05-0.1)
-PULL_OFF_HEIGHT = 5.19     # elastic pull-off height of the relaxed-equivalent drive, beta^2 R
-GLASSY_SHARE = 0.83        # enhancement's glassy limit: 1 + GLASSY_SHARE (k^(-2/3) - 1)
-ENHANCEMENT_RATE = 18.4    # chi_ve / k at which half of it is reached ...
-ENHANCEMENT_ORDER = 0.68   # ... and the power of chi_ve / k it rises with
+A0_PER_GEOMETRIC = 0.624  # preload contact half-width / sqrt(2 R h0)
+PRELOAD_LOAD = 0.5  # preload load / (E0 h0) (0.45-0.52 at L/R = 10, h0/R = 0.05-0.1)
+PULL_OFF_HEIGHT = 5.19  # elastic pull-off height of the relaxed-equivalent drive, beta^2 R
+GLASSY_SHARE = 0.83  # enhancement's glassy limit: 1 + GLASSY_SHARE (k^(-2/3) - 1)
+ENHANCEMENT_RATE = 18.4  # chi_ve / k at which half of it is reached ...
+ENHANCEMENT_ORDER = 0.68  # ... and the power of chi_ve / k it rises with
 # Steps (fitted to the adaptive runs' accepted steps: each within 1.4x).
-NORM_ORDER = 1.68          # P of the criteria's norm
-EDGE_SHARE = 0.94          # the mean edge motion per step, in edge allowances
-LAG_SHARE = 0.48           # the tip-lag bound's steps taken (the edge is rarely at its mean)
+NORM_ORDER = 1.68  # P of the criteria's norm
+EDGE_SHARE = 0.94  # the mean edge motion per step, in edge allowances
+LAG_SHARE = 0.48  # the tip-lag bound's steps taken (the edge is rarely at its mean)
 # Work (fitted to the runs' iterations, each within 1.5x, then to their CPU seconds: each
 # within 1.8x, FFTW's wisdom cached; scripts/farm_cost.py).
-ITERATIONS_AT_REST = 5.7   # CG iterations of a step whose edges cross no node
-NODE_ITERATIONS = 0.52     # ... and those of the nodes crossed, NODE_ITERATIONS n^NODE_ORDER
+ITERATIONS_AT_REST = 5.7  # CG iterations of a step whose edges cross no node
+NODE_ITERATIONS = 0.52  # ... and those of the nodes crossed, NODE_ITERATIONS n^NODE_ORDER
 NODE_ORDER = 1.36
 SECONDS_PER_NODE_ITERATION = 1.5e-8  # one CG iteration per node (2.0 ms at 2^17)
-SECONDS_PER_NODE_STEP = 7.1e-8       # a step's own work per node (history estimate, output)
-START_SECONDS = 0.22                 # a case's set-up and preload at the paper's sizes
+SECONDS_PER_NODE_STEP = 7.1e-8  # a step's own work per node (history estimate, output)
+START_SECONDS = 0.22  # a case's set-up and preload at the paper's sizes
 
 
 @dataclass(frozen=True)
@@ -112,10 +113,12 @@ def estimated_steps(case) -> float:
 
 def model_line() -> str:
     """The model's constants in one line (the farm's dry run prints it)."""
-    return (f"{SECONDS_PER_NODE_ITERATION * 2**17 * 1e3:.2g} ms per CG iteration at 2^17"
-            f" nodes, {ITERATIONS_AT_REST:.3g} + {NODE_ITERATIONS:.2g} n^{NODE_ORDER:g}"
-            " iterations per step of n nodes crossed; steps from the edge, tip-lag, load and"
-            " dt_max criteria (hpcgfmd/runs/cost.py)")
+    return (
+        f"{SECONDS_PER_NODE_ITERATION * 2**17 * 1e3:.2g} ms per CG iteration at 2^17"
+        f" nodes, {ITERATIONS_AT_REST:.3g} + {NODE_ITERATIONS:.2g} n^{NODE_ORDER:g}"
+        " iterations per step of n nodes crossed; steps from the edge, tip-lag, load and"
+        " dt_max criteria (hpcgfmd/runs/cost.py)"
+    )
 
 
 def enhancement(chi_ve: float, k: float) -> float:
@@ -140,11 +143,14 @@ def detachment_time(case, depth: float, rate: float) -> float:
     (module docstring; at least the time to rise by ``depth``'s elastic share)."""
     target = pull_off_height(case, rate)
     material = case.material()
-    branches = list(zip(material.branch_moduli, material.branch_times)) if case.modulus_ratio < 1.0 else []
+    branches = (
+        list(zip(material.branch_moduli, material.branch_times)) if case.modulus_ratio < 1.0 else []
+    )
 
     def effective(t):
-        return -depth + rate * t + sum(m * rate * tau * -math.expm1(-t / tau)
-                                       for m, tau in branches)
+        return (
+            -depth + rate * t + sum(m * rate * tau * -math.expm1(-t / tau) for m, tau in branches)
+        )
 
     low, high = 0.0, (depth + target) / rate  # u_eff >= u_z: the elastic time is an upper bound
     if effective(high) <= target or high == 0.0:
@@ -191,8 +197,11 @@ def plan(case) -> list:
             end = min(segment.target, position)
             end_width = _contact(-end)
             load = abs(PRELOAD_LOAD * (max(-end, 0.0) - max(-start, 0.0)))
-            out.append(_estimate(case, "approach", start, end, (start - end) / rate, width,
-                                 end_width, load))
+            out.append(
+                _estimate(
+                    case, "approach", start, end, (start - end) / rate, width, end_width, load
+                )
+            )
             position, width = end, end_width
             continue
         # a retraction: until detachment, or its target if that comes first
@@ -206,8 +215,11 @@ def plan(case) -> list:
         end = min(segment.target, detach)
         detaches = end >= detach
         end_width = 0.0 if detaches else min(width, _contact(-end))
-        out.append(_estimate(case, "retract", start, end, (end - start) / rate, width,
-                             end_width, load, detaches))
+        out.append(
+            _estimate(
+                case, "retract", start, end, (end - start) / rate, width, end_width, load, detaches
+            )
+        )
         position, width = end, end_width
     return out
 
@@ -225,14 +237,24 @@ def _load_control_plan(case):
         end = segment.target if segment.kind == "approach" else max(segment.target, pull_off)
         detaches = segment.kind == "retract" and end <= pull_off
         end_width = 0.0 if detaches else _contact(max(end, 0.0) / PRELOAD_LOAD)
-        out.append(_estimate(case, segment.kind, start, end, abs(end - start) / segment.rate,
-                             width, end_width, abs(end - start), detaches))
+        out.append(
+            _estimate(
+                case,
+                segment.kind,
+                start,
+                end,
+                abs(end - start) / segment.rate,
+                width,
+                end_width,
+                abs(end - start),
+                detaches,
+            )
+        )
         load, width = end, end_width
     return out
 
 
-def _estimate(case, kind, start, end, duration, width, end_width, load_change,
-              detaches=False):
+def _estimate(case, kind, start, end, duration, width, end_width, load_change, detaches=False):
     """One segment's :class:`SegmentCost`: its steps, iterations and seconds."""
     num = case.numerics
     duration = max(duration, 0.0)
@@ -242,12 +264,15 @@ def _estimate(case, kind, start, end, duration, width, end_width, load_change,
     elif num.step_control == "fixed":
         steps = math.ceil(duration / num.dt - 1e-9)
     else:
-        bounds = (duration / num.dt_max,
-                  travel / (EDGE_SHARE * num.edge_fraction * case.zone_width),
-                  LAG_SHARE * duration / _lag_step(case, travel / duration),
-                  math.sqrt(load_change / (num.load_tolerance * case.load_scale)))
-        steps = (math.log2(max(num.dt_max / num.dt, 1.0))
-                 + math.fsum(b**NORM_ORDER for b in bounds) ** (1.0 / NORM_ORDER))
+        bounds = (
+            duration / num.dt_max,
+            travel / (EDGE_SHARE * num.edge_fraction * case.zone_width),
+            LAG_SHARE * duration / _lag_step(case, travel / duration),
+            math.sqrt(load_change / (num.load_tolerance * case.load_scale)),
+        )
+        steps = math.log2(max(num.dt_max / num.dt, 1.0)) + math.fsum(
+            b**NORM_ORDER for b in bounds
+        ) ** (1.0 / NORM_ORDER)
     crossed = travel / case.dx / steps if steps else 0.0
     iterations = steps * _iterations_per_step(case, crossed)
     seconds = num.nx * (SECONDS_PER_NODE_ITERATION * iterations + SECONDS_PER_NODE_STEP * steps)
@@ -264,9 +289,9 @@ def _lag_step(case, edge_speed) -> float:
     material = case.material()
     one_time = len(set(material.branch_times)) == 1
     allowance = num.time_tolerance / (
-        PULL_OFF_SCALE * (LAG_PER_LOAD if one_time else LAG_PER_LOAD_SPECTRUM))
-    branches = ((material.branch_moduli, material.branch_times)
-                if case.relaxation_moduli else None)
+        PULL_OFF_SCALE * (LAG_PER_LOAD if one_time else LAG_PER_LOAD_SPECTRUM)
+    )
+    branches = (material.branch_moduli, material.branch_times) if case.relaxation_moduli else None
 
     def error(dt):
         return tip_lag_error(dt, edge_speed * dt, case.zone_width, case.modulus_ratio, branches)

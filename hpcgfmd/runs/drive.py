@@ -7,6 +7,7 @@ position u_z balances the spring, f(u_z) = L(u_z) - k_s (u_z - Z) = 0, L the loa
 the applied load F(t) itself, from F0 = L_0, and f(u_z) = L(u_z) - F. :meth:`CompliantDrive.balance`
 searches u_z around the step's equilibrium solve (docs/numerics.md, "The compliant drive").
 """
+
 from __future__ import annotations
 
 import math
@@ -14,10 +15,10 @@ import math
 from ..errors import NonConvergenceError
 from ..state import State
 
-SPRING_TOLERANCE = 0.1    # spring imbalance accepted, in load allowances
-MAX_SPRING_SOLVES = 40    # the solves one step's search may take
-SPRING_TRUST = 0.5        # its Newton moves of the indenter at most, in dmax
-SPRING_TRAVEL = 1e-3      # the indenter's uncertainty accepted with a stiff spring, in dmax
+SPRING_TOLERANCE = 0.1  # spring imbalance accepted, in load allowances
+MAX_SPRING_SOLVES = 40  # the solves one step's search may take
+SPRING_TRUST = 0.5  # its Newton moves of the indenter at most, in dmax
+SPRING_TRAVEL = 1e-3  # the indenter's uncertainty accepted with a stiff spring, in dmax
 
 
 class CompliantDrive:
@@ -131,14 +132,20 @@ class CompliantDrive:
             else:
                 above = point
             bracket = below is not None and above is not None and below[0] < above[0]
-            if (abs(imbalance) <= tolerance
-                    or (abs(imbalance) <= (stiffness - slope) * self.travel
-                        and abs(imbalance * slope) <= tolerance * (stiffness - slope))
-                    or (bracket and (above[0] - below[0]) * max(stiffness, abs(slope))
-                        <= tolerance)):
+            if (
+                abs(imbalance) <= tolerance
+                or (
+                    abs(imbalance) <= (stiffness - slope) * self.travel
+                    and abs(imbalance * slope) <= tolerance * (stiffness - slope)
+                )
+                or (bracket and (above[0] - below[0]) * max(stiffness, abs(slope)) <= tolerance)
+            ):
                 return record
-            target = (drive if detached  # the spring alone, balanced at the drive (k_s > 0)
-                      else self._next(point, previous, below, above, bracket, bisect, slope))
+            target = (
+                drive
+                if detached  # the spring alone, balanced at the drive (k_s > 0)
+                else self._next(point, previous, below, above, bracket, bisect, slope)
+            )
             bisect = bracket and not bisect
             previous, indenter = point, target
         if equilibrium.can_shorten:  # the step control may shorten the step: abandoned
@@ -146,7 +153,8 @@ class CompliantDrive:
         raise NonConvergenceError(
             f"{equilibrium.where()}: no position of the indenter balances the drive's"
             f" spring (drive_stiffness = {stiffness:g}) within {MAX_SPRING_SOLVES} solves;"
-            " reduce dt or raise [numerics] tolerance")
+            " reduce dt or raise [numerics] tolerance"
+        )
 
     def _next(self, point, previous, below, above, bracket, bisect, slope):
         """The search's next indenter position (:meth:`balance`)."""
@@ -168,8 +176,9 @@ class CompliantDrive:
 
     def state(self) -> State:
         """The indenter's rate, the search's slope and the last load (:mod:`hpcgfmd.state`)."""
-        return State(scalars={"rate": self.rate, "slope": self.slope,
-                              "accepted_load": self.accepted_load})
+        return State(
+            scalars={"rate": self.rate, "slope": self.slope, "accepted_load": self.accepted_load}
+        )
 
     def restore(self, state: State):
         s = state.scalars

@@ -8,6 +8,7 @@ the compliant drive (:mod:`.drive`) solves it at several indenter positions, eac
 last solve below the balance carried along by the indenter (:meth:`Equilibrium.anchor`).
 Every method is collective over the case's communicator.
 """
+
 from __future__ import annotations
 
 import math
@@ -103,20 +104,29 @@ class Equilibrium:
             raise NonConvergenceError(
                 f"{self.where()}: residual {result.residual:.3g} above tolerance"
                 f" {run.case.numerics.tolerance:g} after {result.iterations} iterations;"
-                " raise [numerics] max_iterations or reduce dt")
-        solver.problem.interface_traction(surface.u, solver.elastic_traction(), self.wall,
-                                          self.history, result.mean_traction,
-                                          surface.traction)
-        run.substrate.update(solver.elastic_traction(), self.history,
-                             math.inf if relaxed else dt, None if relaxed else step_before)
+                " raise [numerics] max_iterations or reduce dt"
+            )
+        solver.problem.interface_traction(
+            surface.u,
+            solver.elastic_traction(),
+            self.wall,
+            self.history,
+            result.mean_traction,
+            surface.traction,
+        )
+        run.substrate.update(
+            solver.elastic_traction(),
+            self.history,
+            math.inf if relaxed else dt,
+            None if relaxed else step_before,
+        )
         return self._record(result, 0.0 if relaxed else dt)
 
     def anchor(self):
         """Keep the last solve as the start of the next ones: its u, with the nodes within
         the interaction range carried along by the indenter."""
         surface = self.run.surface
-        self._anchor = (surface.indenter, surface.u.copy(),
-                        self.gap() <= self.run.case.dmax)
+        self._anchor = (surface.indenter, surface.u.copy(), self.gap() <= self.run.case.dmax)
 
     def place(self, indenter: float):
         """The wall h + u_z of the indenter at ``indenter`` (this rank's block, length)."""
@@ -130,21 +140,34 @@ class Equilibrium:
         run, surface = self.run, self.run.surface
         measure = run.geometry.measure(run.domain, self.gap(), run.case.dmax)
         load = -run.domain.sum(surface.traction.sum()) * run.domain.dx
-        return StepRecord(time=surface.time, indenter=surface.indenter, drive=surface.drive,
-                          segment=run.schedule.index, load=load,
-                          contact_half_width=measure.contact,
-                          cohesive_half_width=measure.zone, iterations=result.iterations,
-                          residual=result.residual, dt=dt, edges=measure.edges)
+        return StepRecord(
+            time=surface.time,
+            indenter=surface.indenter,
+            drive=surface.drive,
+            segment=run.schedule.index,
+            load=load,
+            contact_half_width=measure.contact,
+            cohesive_half_width=measure.zone,
+            iterations=result.iterations,
+            residual=result.residual,
+            dt=dt,
+            edges=measure.edges,
+        )
 
     def _non_finite(self, residual) -> str:
         """Collective: one line naming the step and the state arrays that hold non-finite
         values (after a solve whose residual was not finite)."""
         run = self.run
-        arrays = {"u": run.surface.u, "history": self.history,
-                  "substrate traction": run.substrate.traction,
-                  "traction": run.surface.traction}
+        arrays = {
+            "u": run.surface.u,
+            "history": self.history,
+            "substrate traction": run.substrate.traction,
+            "traction": run.surface.traction,
+        }
         bad = run.domain.maxes(*(float(not np.isfinite(a).all()) for a in arrays.values()))
         where = ", ".join(name for name, flag in zip(arrays, bad) if flag) or "none of the state"
         surface = run.surface
-        return (f"step {surface.step_index} (t = {surface.time:.6g} tau): the equilibrium"
-                f" solve's residual is {residual}; non-finite values in: {where}")
+        return (
+            f"step {surface.step_index} (t = {surface.time:.6g} tau): the equilibrium"
+            f" solve's residual is {residual}; non-finite values in: {where}"
+        )

@@ -29,6 +29,7 @@ Exit status: 0 all cases finished; 75 interrupted by a signal, or cases left to 
 process writing them (the same command continues); 100 + N when N cases failed (capped at
 199); 2 for a bad sweep file or command line.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -63,14 +64,38 @@ from .single_case import run_case
 logger = logging.getLogger(__name__)
 # text whatever the rows hold (an error column with no failure is empty strings, not NaN)
 TEXT_COLUMNS = ("name", "status", "error", "file")
-SUMMARY_COLUMNS = ("index", "name", "status", "error", "lambda0", "lambda_inf", "k", "Vz",
-                   "chi_ve", "alpha", "depth", "cell", "nx", "pull_off_load", "pull_off_lbar",
-                   "pull_off_contact_half_width", "pull_off_abar", "detachment_indenter",
-                   "max_effective_work", "steps", "wall_time", "ranks", "file")
+SUMMARY_COLUMNS = (
+    "index",
+    "name",
+    "status",
+    "error",
+    "lambda0",
+    "lambda_inf",
+    "k",
+    "Vz",
+    "chi_ve",
+    "alpha",
+    "depth",
+    "cell",
+    "nx",
+    "pull_off_load",
+    "pull_off_lbar",
+    "pull_off_contact_half_width",
+    "pull_off_abar",
+    "detachment_indenter",
+    "max_effective_work",
+    "steps",
+    "wall_time",
+    "ranks",
+    "file",
+)
 # the dimension of each numeric summary column (storage.result_file.UNIT_NAMES; None: a number
 # of its own, the groups are dimensionless); swept columns keep the sweep file's values
-SUMMARY_DIMENSIONS = {"pull_off_load": "load", "pull_off_contact_half_width": "length",
-                      "detachment_indenter": "length"}
+SUMMARY_DIMENSIONS = {
+    "pull_off_load": "load",
+    "pull_off_contact_half_width": "length",
+    "detachment_indenter": "length",
+}
 
 
 def case_file(out_dir, item) -> str:
@@ -123,9 +148,13 @@ def check_farm_directory(comm, out_dir):
 def plan_table(sweep, out_dir, groups):
     """The dry run's listing: each case, its groups, its file's state and its estimated cost."""
     width = max([32] + [len(item.name) for item in sweep.cases])
-    lines = [f"{len(sweep.cases)} cases; outputs in {out_dir}",
-             (f"{'#':>3}  {'name':<{width}} {'lambda0':>8} {'k':>6} {'V_z':>8} {'chi_ve':>9}"
-              f" {'h0/R':>6} {'nx':>8} {'cost/s':>8}  file")]
+    lines = [
+        f"{len(sweep.cases)} cases; outputs in {out_dir}",
+        (
+            f"{'#':>3}  {'name':<{width}} {'lambda0':>8} {'k':>6} {'V_z':>8} {'chi_ve':>9}"
+            f" {'h0/R':>6} {'nx':>8} {'cost/s':>8}  file"
+        ),
+    ]
     costs = [item.cost() for item in sweep.cases]
     loads = [0.0] * max(groups, 1)
     for cost in sorted(costs, reverse=True):
@@ -135,12 +164,16 @@ def plan_table(sweep, out_dir, groups):
             lines.append(f"{item.index:>3}  {item.name:<{width}} invalid: {item.error}")
             continue
         g = item.case.groups()
-        lines.append(f"{item.index:>3}  {item.name:<{width}} {g['lambda0']:>8.4g} {g['k']:>6.3g}"
-                     f" {g['Vz']:>8.4g} {g['chi_ve']:>9.4g} {g['depth']:>6.3g}"
-                     f" {item.case.numerics.nx:>8} {cost:>8.3g}"
-                     f"  {file_status(case_file(out_dir, item), item)}")
-    lines.append(f"estimated cost: {sum(costs):.3g} core-seconds (model: {model_line()});"
-                 f" about {max(loads):.3g} s on {groups} group(s) of ranks, longest first")
+        lines.append(
+            f"{item.index:>3}  {item.name:<{width}} {g['lambda0']:>8.4g} {g['k']:>6.3g}"
+            f" {g['Vz']:>8.4g} {g['chi_ve']:>9.4g} {g['depth']:>6.3g}"
+            f" {item.case.numerics.nx:>8} {cost:>8.3g}"
+            f"  {file_status(case_file(out_dir, item), item)}"
+        )
+    lines.append(
+        f"estimated cost: {sum(costs):.3g} core-seconds (model: {model_line()});"
+        f" about {max(loads):.3g} s on {groups} group(s) of ranks, longest first"
+    )
     return "\n".join(lines)
 
 
@@ -162,8 +195,9 @@ class _Counter:
     def __init__(self, comm, order):
         itemsize = MPI.INT64_T.Get_size()
         self.order = order
-        self.window = MPI.Win.Allocate((1 + TALLIES) * itemsize if comm.Get_rank() == 0 else 0,
-                                       itemsize, comm=comm)
+        self.window = MPI.Win.Allocate(
+            (1 + TALLIES) * itemsize if comm.Get_rank() == 0 else 0, itemsize, comm=comm
+        )
         if comm.Get_rank() == 0:
             self.window.Lock(0)
             self.window.Put(np.zeros(1 + TALLIES, dtype=np.int64), 0)
@@ -202,12 +236,20 @@ class _Counter:
         """Add one case done (its estimated ``cost``; ``wall``: its wall seconds when it ran
         from its start, else None) to the farm's tallies; returns them with it:
         (cases done, their estimated cost, estimated cost and wall seconds of the timed)."""
-        add = np.array([1, round(1e3 * cost), round(1e3 * cost) if wall is not None else 0,
-                        round(1e3 * wall) if wall is not None else 0], dtype=np.int64)
+        add = np.array(
+            [
+                1,
+                round(1e3 * cost),
+                round(1e3 * cost) if wall is not None else 0,
+                round(1e3 * wall) if wall is not None else 0,
+            ],
+            dtype=np.int64,
+        )
         self.window.Lock(0)  # exclusive: the four additions are one atomic update
         for slot in range(TALLIES):
-            self.window.Fetch_and_op(add[slot:slot + 1], self._tallies[slot:slot + 1], 0,
-                                     DONE + slot, op=MPI.SUM)
+            self.window.Fetch_and_op(
+                add[slot : slot + 1], self._tallies[slot : slot + 1], 0, DONE + slot, op=MPI.SUM
+            )
         self.window.Unlock(0)
         done, cost_done, timed_cost, timed_wall = (self._tallies + add).tolist()
         return done, 1e-3 * cost_done, 1e-3 * timed_cost, 1e-3 * timed_wall
@@ -231,17 +273,19 @@ class _StaticQueue:
 
     def report(self, cost, wall=None):
         timed = wall is not None
-        self.tallies = [self.tallies[0] + 1, self.tallies[1] + cost,
-                        self.tallies[2] + (cost if timed else 0.0),
-                        self.tallies[3] + (wall if timed else 0.0)]
+        self.tallies = [
+            self.tallies[0] + 1,
+            self.tallies[1] + cost,
+            self.tallies[2] + (cost if timed else 0.0),
+            self.tallies[3] + (wall if timed else 0.0),
+        ]
         return tuple(self.tallies)
 
     def free(self):
         pass
 
 
-def progress_line(label, noun, done, total, elapsed, cost_left, timed_cost, timed_wall,
-                  groups):
+def progress_line(label, noun, done, total, elapsed, cost_left, timed_cost, timed_wall, groups):
     """The farm's line after a case ends: k of N done, the time elapsed and the time left.
 
     The time left is the estimated cost of the cases not done, ``cost_left`` core-seconds
@@ -254,16 +298,23 @@ def progress_line(label, noun, done, total, elapsed, cost_left, timed_cost, time
     cost_left = max(cost_left, 0.0) if done < total else 0.0
     left = cost_left * ratio / max(groups, 1)
     basis = f"x {ratio:.2f} measured/estimated" if measured else "the estimate alone"
-    return (f"{label}: {done} of {total} {noun} done, {duration_text(elapsed)} elapsed, ETA"
-            f" {duration_text(left)} ({cost_left:.3g} estimated core-s left over {groups}"
-            f" group(s), {basis})")
+    return (
+        f"{label}: {done} of {total} {noun} done, {duration_text(elapsed)} elapsed, ETA"
+        f" {duration_text(left)} ({cost_left:.3g} estimated core-s left over {groups}"
+        f" group(s), {basis})"
+    )
 
 
 def _run_one(item, out_dir, group, say, stop):
     """Collective on ``group``: run (or resume, or skip) one case; returns its record."""
     path = case_file(out_dir, item)
-    record = {"index": item.index, "name": item.name, "file": os.path.basename(path),
-              "ranks": group.Get_size(), "error": ""}
+    record = {
+        "index": item.index,
+        "name": item.name,
+        "file": os.path.basename(path),
+        "ranks": group.Get_size(),
+        "error": "",
+    }
     if item.case is None:
         return _failed(item, record, say, item.error)
     try:  # one writer per result file (storage/lock.py): another farm may be running it
@@ -294,28 +345,44 @@ def _run_locked(item, path, record, group, say, stop):
         return dict(record, status="finished")
     if status == "damaged":
         newest = checkpoint_path(path)
-        return _failed(item, record, say, f"cannot resume: {newest} and its previous"
-                       " generation are damaged; remove them to start the case again")
+        return _failed(
+            item,
+            record,
+            say,
+            f"cannot resume: {newest} and its previous"
+            " generation are damaged; remove them to start the case again",
+        )
     if status == "other case":
-        return _failed(item, record, say, f"{path} holds another case; move it away to run"
-                       " this one")
-    say(f"[{item.index}] {item.name}: {'resuming' if status == 'resumable' else 'starting'}"
-        f" on {group.Get_size()} rank(s)")
+        return _failed(
+            item, record, say, f"{path} holds another case; move it away to run this one"
+        )
+    say(
+        f"[{item.index}] {item.name}: {'resuming' if status == 'resumable' else 'starting'}"
+        f" on {group.Get_size()} rank(s)"
+    )
     alike = (CaseError, CaseFailure, FloatingPointError)
     if group.Get_size() == 1:  # nothing collective to leave hanging: record any error
         alike += (Exception,)
     started = time.monotonic()
     try:
         with _quiet_case():
-            summary = run_case(item.case, path, group, overwrite=status == "unfinished",
-                               resume=status == "resumable", stop=stop)
+            summary = run_case(
+                item.case,
+                path,
+                group,
+                overwrite=status == "unfinished",
+                resume=status == "resumable",
+                stop=stop,
+            )
     except Interrupted:
         say(f"[{item.index}] {item.name}: interrupted, checkpointed")
         return dict(record, status="interrupted")
     except alike as err:
         return _failed(item, record, say, f"{type(err).__name__}: {err}")
-    say(f"[{item.index}] {item.name}: finished, {summary['steps']} steps,"
-        f" {time.monotonic() - started:.1f} s")
+    say(
+        f"[{item.index}] {item.name}: finished, {summary['steps']} steps,"
+        f" {time.monotonic() - started:.1f} s"
+    )
     # a case run from its start measures the cost model (a resumed one ran only its rest)
     return dict(record, status="finished", timed=status != "resumable")
 
@@ -334,8 +401,9 @@ def _quiet_case():
             one.setLevel(level)
 
 
-def run_farm(sweep, comm, out_dir, ranks_per_case=1, only=None, stop=None, label="farm",
-             noun="cases") -> int:
+def run_farm(
+    sweep, comm, out_dir, ranks_per_case=1, only=None, stop=None, label="farm", noun="cases"
+) -> int:
     """Collective: run the cases of ``sweep`` on ``comm``; returns the exit status.
 
     ``only`` runs just that case index on all of ``comm`` (one element of a job array).
@@ -385,20 +453,35 @@ def run_farm(sweep, comm, out_dir, ranks_per_case=1, only=None, stop=None, label
             records.append(record)
             wall = time.monotonic() - case_started if record.get("timed") else None
             done, cost_done, timed_cost, timed_wall = queue.report(costs[index], wall)
-            say(progress_line(label, noun, done, queue.total, time.monotonic() - started,
-                              total_cost - cost_done, timed_cost, timed_wall, n_groups)
-                + ("" if queue.shared else "; this group's cases only"))
+            say(
+                progress_line(
+                    label,
+                    noun,
+                    done,
+                    queue.total,
+                    time.monotonic() - started,
+                    total_cost - cost_done,
+                    timed_cost,
+                    timed_wall,
+                    n_groups,
+                )
+                + ("" if queue.shared else "; this group's cases only")
+            )
     queue.free()
     gathered = comm.gather(records, root=0)
     status = 0
     if rank == 0:
         done = {r["index"]: r for part in gathered for r in part}
         rows = write_summary(sweep, out_dir, done)
-        counts = {s: sum(r["status"] == s for r in rows) for s in
-                  ("finished", "failed", "interrupted", "pending")}
-        logger.info(f"farm: {counts['finished']} finished, {counts['failed']} failed,"
-                    f" {counts['interrupted']} interrupted, {counts['pending']} pending;"
-                    f" summary in {os.path.join(out_dir, 'summary.csv')}")
+        counts = {
+            s: sum(r["status"] == s for r in rows)
+            for s in ("finished", "failed", "interrupted", "pending")
+        }
+        logger.info(
+            f"farm: {counts['finished']} finished, {counts['failed']} failed,"
+            f" {counts['interrupted']} interrupted, {counts['pending']} pending;"
+            f" summary in {os.path.join(out_dir, 'summary.csv')}"
+        )
         mine = [r for r in rows if r["index"] in set(order)]  # --case: just that one
         failed = sum(r["status"] == "failed" for r in mine)
         if any(r["status"] in ("interrupted", "pending") for r in mine):
@@ -416,14 +499,17 @@ def _case_results(path):
     i = s.pull_off()
     # Delta gamma_eff from the point (Lbar/sqrt(abar), (pi/4) abar^(3/2)) holds while the
     # contact is JKR-like, up to pull-off; past it abar -> 0 at detachment and x diverges.
-    work = s.effective_work()[:np.count_nonzero(s.contact_half_width[:i + 1] > 0)]
-    return {"pull_off_load": float(s.load[i]), "pull_off_lbar": float(s.lbar[i]),
-            "pull_off_contact_half_width": float(s.contact_half_width[i]),
-            "pull_off_abar": float(s.abar[i]),
-            "detachment_indenter": float(s.attrs.get("detachment_indenter", np.nan)),
-            "max_effective_work": float(np.max(work)) if work.size else np.nan,
-            "steps": int(s.attrs.get("steps", s.time.size - 1)),
-            "wall_time": float(s.attrs.get("wall_time", np.nan))}
+    work = s.effective_work()[: np.count_nonzero(s.contact_half_width[: i + 1] > 0)]
+    return {
+        "pull_off_load": float(s.load[i]),
+        "pull_off_lbar": float(s.lbar[i]),
+        "pull_off_contact_half_width": float(s.contact_half_width[i]),
+        "pull_off_abar": float(s.abar[i]),
+        "detachment_indenter": float(s.attrs.get("detachment_indenter", np.nan)),
+        "max_effective_work": float(np.max(work)) if work.size else np.nan,
+        "steps": int(s.attrs.get("steps", s.time.size - 1)),
+        "wall_time": float(s.attrs.get("wall_time", np.nan)),
+    }
 
 
 def summary_rows(sweep, out_dir, records):
@@ -437,11 +523,15 @@ def summary_rows(sweep, out_dir, records):
             status = "failed"
         if status == "pending" and file_status(path, item) == "finished":
             status = "finished"
-        row = {"index": item.index, "name": item.name, "status": status,
-               "error": (record or {}).get("error", "") or (item.error or ""),
-               # empty when the case wrote none (it failed before its first step)
-               "file": os.path.basename(path) if os.path.exists(path) else "",
-               "ranks": (record or {}).get("ranks", "")}
+        row = {
+            "index": item.index,
+            "name": item.name,
+            "status": status,
+            "error": (record or {}).get("error", "") or (item.error or ""),
+            # empty when the case wrote none (it failed before its first step)
+            "file": os.path.basename(path) if os.path.exists(path) else "",
+            "ranks": (record or {}).get("ranks", ""),
+        }
         row.update({k: v for k, v in item.values.items()})
         if item.case is not None:
             row.update(item.case.groups())
@@ -473,25 +563,35 @@ def _write_tables(out_dir, rows, swept, form):
     names = UNIT_NAMES[form]
     columns = list(SUMMARY_COLUMNS[:4]) + [k for k in swept] + list(SUMMARY_COLUMNS[4:])
     write_csv(os.path.join(out_dir, "summary.csv"), columns, rows)
-    with replacing(os.path.join(out_dir, "summary.h5")) as temporary, \
-            h5py.File(temporary, "w") as f:
+    with (
+        replacing(os.path.join(out_dir, "summary.h5")) as temporary,
+        h5py.File(temporary, "w") as f,
+    ):
         for column in columns:
             values = [row.get(column, "") for row in rows]
             numbers = [v for v in values if v != ""]
             if column == "index":
                 f.create_dataset(column, data=np.asarray(values, dtype=np.int64))
             elif column not in TEXT_COLUMNS and all(
-                    isinstance(v, (int, float, np.integer, np.floating))
-                    and not isinstance(v, bool) for v in numbers):
+                isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+                for v in numbers
+            ):
                 # missing values (a failed case has no pull-off) are NaN: plottable columns
-                f.create_dataset(column, data=np.asarray(
-                    [np.nan if v == "" else v for v in values], dtype=float))
+                f.create_dataset(
+                    column, data=np.asarray([np.nan if v == "" else v for v in values], dtype=float)
+                )
             else:
-                f.create_dataset(column, data=np.asarray([str(v) for v in values], dtype=object),
-                                 dtype=h5py.string_dtype())
+                f.create_dataset(
+                    column,
+                    data=np.asarray([str(v) for v in values], dtype=object),
+                    dtype=h5py.string_dtype(),
+                )
                 continue
             f[column].attrs["units"] = (
-                "as in the sweep file" if column in swept
-                else "s" if column == "wall_time"
-                else names[SUMMARY_DIMENSIONS.get(column)])
+                "as in the sweep file"
+                if column in swept
+                else "s"
+                if column == "wall_time"
+                else names[SUMMARY_DIMENSIONS.get(column)]
+            )
         f.attrs["columns"] = columns

@@ -6,12 +6,13 @@ state before the last accepted step (u_{n-1}), the last accepted one (u_n) and t
 (u_{n+1}). :class:`HistoryWindow` keeps u_{n-1} with its time and indenter position, and
 the nodes' interaction states (2 on the wall, 1 in the cohesive zone, 0 beyond the range)
 of u_{n-1}, u_n and the attempt, so that an accepted step's states are not recomputed by
-the next estimate. It is a part of the run's state (:mod:`hpcgfmd.state`): a restored run estimates the
-next step's error exactly as the uninterrupted one.
+the next estimate. It is a part of the run's state (:mod:`hpcgfmd.state`): a restored run
+estimates the next step's error exactly as the uninterrupted one.
 
 Invariant: after :meth:`accept`, the older state is the one before the accepted step and
 the attempt's states are those of (u_n, u_{n+1}); a rejected attempt changes neither.
 """
+
 from __future__ import annotations
 
 import math
@@ -53,8 +54,7 @@ class HistoryWindow:
         self._attempt_states = None
         self._absent = np.zeros(domain.local_n)  # the older state before one is known
 
-    def estimate(self, before, time_before, indenter_before, after, time_after,
-                 indenter_after):
+    def estimate(self, before, time_before, indenter_before, after, time_after, indenter_after):
         """Collective: the attempt's load error and the part of it kept in the history
         after the correction (:meth:`HistoryError.estimate`; (0, 0) before two steps were
         accepted). ``before``: u_n; ``after``: the attempt's u (this rank's blocks)."""
@@ -70,8 +70,17 @@ class HistoryWindow:
             state_before = self._state_at(before, indenter_before)
         state = self._state_at(after, indenter_after)
         self._attempt_states = (state_before, state)
-        return self.error.estimate(older, time_older, state_older, before, time_before,
-                                   state_before, after, time_after, state)
+        return self.error.estimate(
+            older,
+            time_older,
+            state_older,
+            before,
+            time_before,
+            state_before,
+            after,
+            time_after,
+            state,
+        )
 
     def accept(self, before, time_before, indenter_before):
         """The attempt was accepted: correct the substrate's state (the exact-for-quadratic
@@ -107,13 +116,20 @@ class HistoryWindow:
         older state not known yet)."""
         error, older = self.error, self._older
         return State(
-            {"u_older": older[0] if older else self._absent,
-             "curvature": error.smooth_curvature, "correction": error.previous_correction},
-            {"time_older": older[1] if older else math.nan,
-             "indenter_older": older[2] if older else math.nan,
-             "curvature_age": error.curvature_age, "curvature_time": error.curvature_time,
-             "has_previous_correction": bool(error.has_previous),
-             "previous_correction_reused": bool(error.previous_reused)})
+            {
+                "u_older": older[0] if older else self._absent,
+                "curvature": error.smooth_curvature,
+                "correction": error.previous_correction,
+            },
+            {
+                "time_older": older[1] if older else math.nan,
+                "indenter_older": older[2] if older else math.nan,
+                "curvature_age": error.curvature_age,
+                "curvature_time": error.curvature_time,
+                "has_previous_correction": bool(error.has_previous),
+                "previous_correction_reused": bool(error.previous_reused),
+            },
+        )
 
     def restore(self, state: State):
         """Continue from :meth:`state` (the attempt's interaction states are recomputed)."""
@@ -124,8 +140,11 @@ class HistoryWindow:
         if math.isnan(time_older):
             self._older = None
         else:
-            self._older = (_kept(self._older, state.arrays["u_older"]), time_older,
-                           float(s["indenter_older"]))
+            self._older = (
+                _kept(self._older, state.arrays["u_older"]),
+                time_older,
+                float(s["indenter_older"]),
+            )
         error.curvature_age = float(s["curvature_age"])
         error.curvature_time = float(s["curvature_time"])
         error.smooth_curvature[:] = state.arrays["curvature"]

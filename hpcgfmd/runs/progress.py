@@ -1,4 +1,5 @@
 """Progress lines of a running case, through the ``hpcgfmd`` logger (rank 0 prints them)."""
+
 from __future__ import annotations
 
 import logging
@@ -78,13 +79,13 @@ class Progress:
             if math.isnan(start_value):
                 start_value = current.start
             # a retraction until detachment: the estimated travel from where it started
-            end = (start_value + current.end - current.start if current.detaches
-                   else current.end)
+            end = start_value + current.end - current.start if current.detaches else current.end
             span = end - start_value
             share = (record.drive - start_value) / span if span else 1.0
         share = min(max(share, 0.0), MAX_SEGMENT_SHARE)
-        return (math.fsum(weights[:self.segment]) + share * weights[self.segment]) / math.fsum(
-            weights)
+        return (math.fsum(weights[: self.segment]) + share * weights[self.segment]) / math.fsum(
+            weights
+        )
 
     def left(self, done, elapsed):
         """Seconds left, extrapolated from the share done since the first line, or None."""
@@ -107,9 +108,11 @@ class Progress:
         elapsed = now - self.start
         u = self.units
         share = f" ({done:.0%} of the protocol)" if math.isfinite(done) else ""
-        logger.info(f"step {step:6d}  t = {record.time * u.time:.5g}"
-                    f"  load = {record.load * u.load:.5g}"
-                    f"  a_c = {record.contact_half_width * u.length:.5g}"
-                    f"  iterations = {record.iterations:4d}"
-                    f"  elapsed {duration_text(elapsed)}, left ~"
-                    f"{duration_text(self.left(done, elapsed))}{share}")
+        logger.info(
+            f"step {step:6d}  t = {record.time * u.time:.5g}"
+            f"  load = {record.load * u.load:.5g}"
+            f"  a_c = {record.contact_half_width * u.length:.5g}"
+            f"  iterations = {record.iterations:4d}"
+            f"  elapsed {duration_text(elapsed)}, left ~"
+            f"{duration_text(self.left(done, elapsed))}{share}"
+        )

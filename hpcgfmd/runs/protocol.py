@@ -21,6 +21,7 @@ drive. :class:`~.run_state.RunState` gathers their states without knowing their 
 undo a rejected step and to write checkpoints. Internal units R = E0 = tau = 1 throughout.
 Every method is collective over the case's communicator.
 """
+
 from __future__ import annotations
 
 import math
@@ -75,22 +76,45 @@ class Retraction:
         # quadratic step (M46) once a step was accepted; fixed steps keep the linear one (M8)
         self.quadratic = self.steps.adaptive and case.modulus_ratio < 1.0
         # (crossings: half the glassy zone width, w / (2 k), HistoryError's docstring)
-        self.window = (HistoryWindow(self.substrate, self.fft, self.domain, self.profile,
-                                     case.dmax, 0.5 * case.zone_width / case.modulus_ratio)
-                       if self.quadratic else None)
+        self.window = (
+            HistoryWindow(
+                self.substrate,
+                self.fft,
+                self.domain,
+                self.profile,
+                case.dmax,
+                0.5 * case.zone_width / case.modulus_ratio,
+            )
+            if self.quadratic
+            else None
+        )
         self.surface = Surface(self.domain.local_n, -case.depth)
         self.schedule = Schedule(case.segments, case.load_control)
         self.spring = CompliantDrive(case) if case.compliant else None
         self.edges = ContactEdges()
         self.equilibrium = Equilibrium(self)
         self._k_u = aligned_empty(self.domain.local_n)  # K u_n under a step's stiffness
-        parts = {"surface": self.surface, "substrate": self.substrate, "edges": self.edges,
-                 "steps": self.steps, "schedule": self.schedule, "predictor": self.predictor,
-                 "window": self.window, "drive": self.spring}
-        counting = {"run": self, "solver": self.solver, "predictor": self.predictor,
-                    "fft": self.fft, "drive": self.spring}
-        self.state = RunState({k: v for k, v in parts.items() if v is not None},
-                              {k: v for k, v in counting.items() if v is not None})
+        parts = {
+            "surface": self.surface,
+            "substrate": self.substrate,
+            "edges": self.edges,
+            "steps": self.steps,
+            "schedule": self.schedule,
+            "predictor": self.predictor,
+            "window": self.window,
+            "drive": self.spring,
+        }
+        counting = {
+            "run": self,
+            "solver": self.solver,
+            "predictor": self.predictor,
+            "fft": self.fft,
+            "drive": self.spring,
+        }
+        self.state = RunState(
+            {k: v for k, v in parts.items() if v is not None},
+            {k: v for k, v in counting.items() if v is not None},
+        )
         self.rejected_steps = 0  # adaptive steps repeated with a shorter dt
         self.preload_iterations = 0
         self.preload_levels = []  # (nx, iterations) of the coarser preload levels
@@ -104,12 +128,17 @@ class Retraction:
         if case.starts_out_of_contact:
             surface.indenter = surface.drive = START_HEIGHT * case.dmax
         else:
-            start, self.preload_levels = coarse_start(case, self.domain, self.planner_effort,
-                                                      type(self))
+            start, self.preload_levels = coarse_start(
+                case, self.domain, self.planner_effort, type(self)
+            )
             if start is not None:
                 surface.u[:] = start
-        self.equilibrium.begin(self.substrate.operators(math.inf), math.inf,
-                               solver=self.solver.preload_solver(), relaxed=True)
+        self.equilibrium.begin(
+            self.substrate.operators(math.inf),
+            math.inf,
+            solver=self.solver.preload_solver(),
+            relaxed=True,
+        )
         record = self.equilibrium.solve(surface.indenter)
         self.edges.advance(record.edges)
         if self.spring is not None:  # the spring holds the start's load
@@ -155,22 +184,35 @@ class Retraction:
         if self.window is not None:
             before = self.state.saved("surface")
             error, kept = self.window.estimate(
-                before.arrays["u"], float(before.scalars["time"]),
-                float(before.scalars["indenter"]), self.surface.u, self.surface.time,
-                self.surface.indenter)
-        return StepOutcome(dt, record.time, record.load, self.edges.motion(), error, kept,
-                           record.cohesive_half_width - record.contact_half_width)
+                before.arrays["u"],
+                float(before.scalars["time"]),
+                float(before.scalars["indenter"]),
+                self.surface.u,
+                self.surface.time,
+                self.surface.indenter,
+            )
+        return StepOutcome(
+            dt,
+            record.time,
+            record.load,
+            self.edges.motion(),
+            error,
+            kept,
+            record.cohesive_half_width - record.contact_half_width,
+        )
 
     def _accept(self, record, dt, cut_from):
         """The attempt is the new state: the controllers and the history window move on."""
         self.steps.accept(record.time, record.load, cut_from)
         before = self.state.saved("surface")
         if self.window is not None:  # the corrected history; u_n becomes u_{n-1}
-            self.window.accept(before.arrays["u"], before.scalars["time"],
-                               before.scalars["indenter"])
+            self.window.accept(
+                before.arrays["u"], before.scalars["time"], before.scalars["indenter"]
+            )
         if self.spring is not None:
-            self.spring.accept(float(before.scalars["indenter"]), self.surface.indenter,
-                               record.load, dt)
+            self.spring.accept(
+                float(before.scalars["indenter"]), self.surface.indenter, record.load, dt
+            )
         self.surface.dt_previous = dt
 
     def _advance(self, dt, end=None) -> StepRecord | None:
@@ -197,13 +239,13 @@ class Retraction:
             surface.time = schedule.fixed_time(surface.step_index, dt)
         indenter_before = surface.indenter
         surface.drive = schedule.value(surface.time)
-        indenter = (self.spring.guess(indenter_before, dt) if self.spring is not None
-                    else surface.drive)
+        indenter = (
+            self.spring.guess(indenter_before, dt) if self.spring is not None else surface.drive
+        )
         ops = self.substrate.operators(dt, before)
         equilibrium.begin(ops, dt, before, self.edges.watch(self.steps.edge_limit(dt)))
         if self.solver.starts_from_prediction:
-            rise = (indenter - indenter_before if self.case.compliant
-                    else schedule.rate() * dt)
+            rise = indenter - indenter_before if self.case.compliant else schedule.rate() * dt
             self._predict(ops, dt, before, indenter, gap_before, rise)
         if self.spring is not None:
             return self.spring.balance(equilibrium, surface.drive, indenter)
@@ -215,11 +257,17 @@ class Retraction:
         ratio = 1.0 if surface.dt_previous is None else dt / surface.dt_previous
         history = self.equilibrium.history
         self.predictor.start(
-            surface.u, wall, gap_before, gap_before <= 0.0, rise, ratio, self.edges.current,
+            surface.u,
+            wall,
+            gap_before,
+            gap_before <= 0.0,
+            rise,
+            ratio,
+            self.edges.current,
             self.edges.previous,
-            lambda v, k_v=None: self.solver.problem.energy(v, wall, ops, history,
-                                                           stiffness_u=k_v),
-            self.substrate.state_elastic_traction(dt, self._k_u, before))
+            lambda v, k_v=None: self.solver.problem.energy(v, wall, ops, history, stiffness_u=k_v),
+            self.substrate.state_elastic_traction(dt, self._k_u, before),
+        )
 
     def detached(self) -> bool:
         """Collective: True when no node is within the interaction range (complete detachment)."""
@@ -231,8 +279,7 @@ class Retraction:
         """Collective: True when the protocol is over (after the last step's segment ended;
         the paper's protocol: at complete detachment)."""
         segment = self.schedule.index
-        over = self.schedule.after_step(self.surface.time, self.surface.step_index,
-                                        self.detached())
+        over = self.schedule.after_step(self.surface.time, self.surface.step_index, self.detached())
         if self.schedule.index != segment:
             self.steps.new_segment()
         return over
@@ -244,8 +291,11 @@ class Retraction:
     # --- counters ------------------------------------------------------------------------
     def counters(self) -> dict:
         """The run's own counters (iterations of every solve, rejected steps, the preload's)."""
-        return {"iterations": self.equilibrium.iterations, "rejected_steps": self.rejected_steps,
-                "preload_iterations": self.preload_iterations}
+        return {
+            "iterations": self.equilibrium.iterations,
+            "rejected_steps": self.rejected_steps,
+            "preload_iterations": self.preload_iterations,
+        }
 
     def restore_counters(self, counters: dict):
         self.equilibrium.iterations = int(counters["iterations"])
@@ -254,5 +304,4 @@ class Retraction:
 
     def summary(self) -> dict:
         """Counters of the run so far (rank-independent), for the output file's summary."""
-        return {"steps": self.surface.step_index, "spring_solves": 0,
-                **self.state.counters()}
+        return {"steps": self.surface.step_index, "spring_solves": 0, **self.state.counters()}

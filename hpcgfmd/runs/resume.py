@@ -9,6 +9,7 @@ gives way to the previous generation, with a warning. Anything else is a
 :func:`prepare_output` takes the output's lock with that decision: the command line and
 :func:`hpcgfmd.run` start every run through it.
 """
+
 from __future__ import annotations
 
 import logging
@@ -95,12 +96,14 @@ def _check_resume(case, output, restart, overwrite):
     if not have_checkpoint:
         raise UsageError(f"--restart: no checkpoint {newest} for -o {output}")
     if not have_output:
-        raise UsageError(f"--restart: checkpoint {newest} exists but its output {output}"
-                         " does not")
+        raise UsageError(f"--restart: checkpoint {newest} exists but its output {output} does not")
     checkpoint, problems = usable_checkpoint(newest)
     if checkpoint is None:
-        raise UsageError(f"cannot resume -o {output}: " + "; ".join(problems)
-                         + " (pass --overwrite to start the case again)")
+        raise UsageError(
+            f"cannot resume -o {output}: "
+            + "; ".join(problems)
+            + " (pass --overwrite to start the case again)"
+        )
     if problems:
         logger.warning(f"{problems[0]}; resuming from the previous checkpoint {checkpoint}")
     try:
@@ -109,18 +112,25 @@ def _check_resume(case, output, restart, overwrite):
     except (OSError, KeyError, ValueError) as err:
         raise UsageError(f"{checkpoint}: not an hpcgfmd checkpoint ({err})") from None
     if identity != case.identity():
-        raise UsageError(f"{checkpoint}: checkpoint of a different case (identity {identity},"
-                         f" this case {case.identity()}); choose another -o or remove it")
+        raise UsageError(
+            f"{checkpoint}: checkpoint of a different case (identity {identity},"
+            f" this case {case.identity()}); choose another -o or remove it"
+        )
     try:
         with h5py.File(output, "r") as f:
-            written = (str(f.attrs["case_identity"]), int(f.attrs["steps_complete"]),
-                       int(f["snapshots"].attrs["complete"]))
+            written = (
+                str(f.attrs["case_identity"]),
+                int(f.attrs["steps_complete"]),
+                int(f["snapshots"].attrs["complete"]),
+            )
     except (OSError, KeyError) as err:
         raise UsageError(f"-o {output}: not the output of this checkpoint ({err})") from None
     needed = (identity, int(saved["surface.step_index"]) + 1, int(saved["snapshots_written"]))
     if written[0] != identity or written[1] < needed[1] or written[2] < needed[2]:
-        raise UsageError(f"-o {output}: does not match checkpoint {checkpoint} (case"
-                         f" {written[0]}, {written[1]} steps, {written[2]} snapshots written;"
-                         f" the checkpoint needs case {needed[0]}, {needed[1]} steps,"
-                         f" {needed[2]} snapshots)")
+        raise UsageError(
+            f"-o {output}: does not match checkpoint {checkpoint} (case"
+            f" {written[0]}, {written[1]} steps, {written[2]} snapshots written;"
+            f" the checkpoint needs case {needed[0]}, {needed[1]} steps,"
+            f" {needed[2]} snapshots)"
+        )
     return checkpoint

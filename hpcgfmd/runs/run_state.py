@@ -9,6 +9,7 @@ Invariant: after :meth:`RunState.save` and any number of attempts at a step,
 :meth:`RunState.revert` puts every part back to the saved state; counters are not state and
 keep the work of the attempts.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -45,7 +46,8 @@ class RunState:
             kept = self._saved.get(name)
             if kept is None or kept.arrays.keys() != state.arrays.keys():
                 kept = self._saved[name] = State(
-                    {key: np.empty_like(a) for key, a in state.arrays.items()})
+                    {key: np.empty_like(a) for key, a in state.arrays.items()}
+                )
             for key, array in state.arrays.items():
                 np.copyto(kept.arrays[key], array)
             kept.scalars = dict(state.scalars)
@@ -94,5 +96,8 @@ class RunState:
 def _qualified(values: dict, prefix: str) -> dict:
     """The entries of ``values`` named ``prefix.key``, by ``key``."""
     start = prefix + "."
-    return {key[len(start):]: value for key, value in values.items()
-            if key.startswith(start) and "." not in key[len(start):]}
+    return {
+        key[len(start) :]: value
+        for key, value in values.items()
+        if key.startswith(start) and "." not in key[len(start) :]
+    }

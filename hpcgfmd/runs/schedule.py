@@ -10,6 +10,7 @@ the drive never falls inside a step.
 The paper's protocol is one retraction with an infinite target: D(t) = -h0 + v_z (t - 0),
 bit for bit the u_z(t) = -h0 + v_z t of (M13).
 """
+
 from __future__ import annotations
 
 import math
@@ -103,8 +104,14 @@ class Schedule:
 
     def state(self) -> State:
         """The schedule's position in the protocol (:mod:`hpcgfmd.state`)."""
-        return State(scalars={"index": self.index, "start_time": self.start_time,
-                              "start_step": self.start_step, "start_value": self.start_value})
+        return State(
+            scalars={
+                "index": self.index,
+                "start_time": self.start_time,
+                "start_step": self.start_step,
+                "start_value": self.start_value,
+            }
+        )
 
     def restore(self, state: State):
         """Continue from :meth:`state`."""

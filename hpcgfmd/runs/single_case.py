@@ -8,6 +8,7 @@ the run stops with :class:`~hpcgfmd.errors.Interrupted` (exit status 75). ``resu
 continues from the checkpoint on any number of ranks, appending to the same output file.
 Progress goes to the ``hpcgfmd`` logger (:mod:`hpcgfmd.logs`).
 """
+
 from __future__ import annotations
 
 import json
@@ -66,13 +67,15 @@ class SnapshotSchedule:
         return hit
 
     def state(self) -> str:
-        return json.dumps({"times": self.times, "widths": self.widths,
-                           "zero_load": self.zero_load})
+        return json.dumps({"times": self.times, "widths": self.widths, "zero_load": self.zero_load})
 
     def restore(self, text):
         saved = json.loads(text)
-        self.times, self.widths, self.zero_load = (saved["times"], saved["widths"],
-                                                   saved["zero_load"])
+        self.times, self.widths, self.zero_load = (
+            saved["times"],
+            saved["widths"],
+            saved["zero_load"],
+        )
 
 
 def describe(case: Case) -> str:
@@ -80,43 +83,59 @@ def describe(case: Case) -> str:
     g = case.groups()
     u = case.units
     num = case.numerics
-    auto = (f" (from accuracy {num.accuracy:g}: the smallest f 2^a, f in {{1, 3, 9}}, with"
-            f" {knob.zone_points(num.accuracy, case.chi_ve, case.modulus_ratio, case.maugis):.2g}"
-            " points"
-            f" across w and {knob.contact_points(num.accuracy):.3g} across sqrt(2 R h0))"
-            if num.nx_automatic
-            else "")
+    auto = (
+        f" (from accuracy {num.accuracy:g}: the smallest f 2^a, f in {{1, 3, 9}}, with"
+        f" {knob.zone_points(num.accuracy, case.chi_ve, case.modulus_ratio, case.maugis):.2g}"
+        " points"
+        f" across w and {knob.contact_points(num.accuracy):.3g} across sqrt(2 R h0))"
+        if num.nx_automatic
+        else ""
+    )
     if num.step_control == "fixed":
         steps = "fixed steps dt"
     else:
-        steps = (f"adaptive steps from dt in [{num.dt_min * u.time:.4g},"
-                 f" {num.dt_max * u.time:.4g}], edge motion <= {num.edge_fraction:.3g} w,"
-                 f" load deviation <= {num.load_tolerance:.3g}, history error <="
-                 f" {num.time_tolerance:.3g} load scales")
-    material = ([f"Prony series: E_i/E0 = {_numbers(g['relaxation_moduli'])}, tau_i/tau_r ="
-                 f" {_numbers(g['relaxation_times'])}; V_z and chi_ve with tau_r ="
-                 f" {u.time:.6g}"] if case.relaxation_moduli else [])
+        steps = (
+            f"adaptive steps from dt in [{num.dt_min * u.time:.4g},"
+            f" {num.dt_max * u.time:.4g}], edge motion <= {num.edge_fraction:.3g} w,"
+            f" load deviation <= {num.load_tolerance:.3g}, history error <="
+            f" {num.time_tolerance:.3g} load scales"
+        )
+    material = (
+        [
+            f"Prony series: E_i/E0 = {_numbers(g['relaxation_moduli'])}, tau_i/tau_r ="
+            f" {_numbers(g['relaxation_times'])}; V_z and chi_ve with tau_r ="
+            f" {u.time:.6g}"
+        ]
+        if case.relaxation_moduli
+        else []
+    )
     if case.compliant:
-        material.append(f"compliant drive: the indenter on a spring of k_s ="
-                        f" {case.drive_stiffness * u.stress:.6g} per unit length"
-                        f" (k_s / E0 = {case.drive_stiffness:.6g})")
-    return "\n".join([
-        f"lambda0 = {g['lambda0']:.6g}   lambda_inf = {g['lambda_inf']:.6g}   k = {g['k']:.6g}"
-        f"   V_z = {g['Vz']:.6g}   chi_ve = {g['chi_ve']:.6g}   alpha = {g['alpha']:.6g}",
-        *material,
-        f"h0/R = {g['depth']:.6g}   L/R = {g['cell']:.6g}   beta = {case.beta * u.length:.6g}"
-        f"   load scale = {case.load_scale * u.load:.6g}   w/dx = {g['zone_points']:.3g}",
-        f"nx = {num.nx}{auto}   dt = {num.dt * u.time:.6g}   tolerance = {num.tolerance:g}"
-        f"   accuracy = {num.accuracy:g}",
-        f"solver: {solver_class(num.solver).describe(num)}; {steps}"])
+        material.append(
+            f"compliant drive: the indenter on a spring of k_s ="
+            f" {case.drive_stiffness * u.stress:.6g} per unit length"
+            f" (k_s / E0 = {case.drive_stiffness:.6g})"
+        )
+    return "\n".join(
+        [
+            f"lambda0 = {g['lambda0']:.6g}   lambda_inf = {g['lambda_inf']:.6g}   k = {g['k']:.6g}"
+            f"   V_z = {g['Vz']:.6g}   chi_ve = {g['chi_ve']:.6g}   alpha = {g['alpha']:.6g}",
+            *material,
+            f"h0/R = {g['depth']:.6g}   L/R = {g['cell']:.6g}   beta = {case.beta * u.length:.6g}"
+            f"   load scale = {case.load_scale * u.load:.6g}   w/dx = {g['zone_points']:.3g}",
+            f"nx = {num.nx}{auto}   dt = {num.dt * u.time:.6g}   tolerance = {num.tolerance:g}"
+            f"   accuracy = {num.accuracy:g}",
+            f"solver: {solver_class(num.solver).describe(num)}; {steps}",
+        ]
+    )
 
 
 def _numbers(values) -> str:
     return "[" + ", ".join(f"{v:.6g}" for v in values) + "]"
 
 
-def run_case(case: Case, path, comm, overwrite=False, resume=False,
-             planner_effort="FFTW_MEASURE", stop=None) -> dict:
+def run_case(
+    case: Case, path, comm, overwrite=False, resume=False, planner_effort="FFTW_MEASURE", stop=None
+) -> dict:
     """Collective: run (or resume) the retraction of ``case`` into the HDF5 file ``path``.
 
     A new run solves the preload before the file is created: a contact too large for the
@@ -161,27 +180,33 @@ def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
         if dom.max(float(stop.received is not None)):  # the checkpoint is still the latest
             raise Interrupted(f"stopped by a signal while resuming; checkpoint {checkpoint}")
         try:
-            out = ResultFile.reopen(path, case, dom, comm, steps=sim.surface.step_index + 1,
-                                    snapshots=snapshots)
+            out = ResultFile.reopen(
+                path, case, dom, comm, steps=sim.surface.step_index + 1, snapshots=snapshots
+            )
         except (ValueError, KeyError) as err:  # alike on every rank: the same file
             raise CaseError(f"{path} does not match its checkpoint {checkpoint}: {err}") from None
-        logger.info(f"resuming from {checkpoint} at step {sim.surface.step_index}"
-                    f" (t = {sim.surface.time * case.units.time:.6g}) on {comm.Get_size()}"
-                    " rank(s)")
+        logger.info(
+            f"resuming from {checkpoint} at step {sim.surface.step_index}"
+            f" (t = {sim.surface.time * case.units.time:.6g}) on {comm.Get_size()}"
+            " rank(s)"
+        )
         return out, snapshots, float(attrs["wall_time"])
     room = room_for_a_step(sim.n, sim.state.field_count())
     free = comm.bcast(free_bytes(path) if comm.Get_rank() == 0 else None, root=0)
     if free < 2 * room:  # the new file, its first steps and a checkpoint (storage/space.py)
-        raise CaseError(f"-o {path}: {free} bytes free on its file system, at least"
-                        f" {2 * room} needed to start")
+        raise CaseError(
+            f"-o {path}: {free} bytes free on its file system, at least {2 * room} needed to start"
+        )
     record = sim.preload()
     if record.cohesive_half_width > MAX_ZONE_PER_CELL * case.cell:
         need = record.cohesive_half_width / MAX_ZONE_PER_CELL
-        raise CaseError(f"{case.cell_key()} = {case.cell * case.units.length:g}: too small"
-                        f" for the contact; after the preload the cohesive zone reaches"
-                        f" a_a = {record.cohesive_half_width * case.units.length:.4g}, more"
-                        f" than {MAX_ZONE_PER_CELL:g} L; need L >="
-                        f" {need * case.units.length:.4g}")
+        raise CaseError(
+            f"{case.cell_key()} = {case.cell * case.units.length:g}: too small"
+            f" for the contact; after the preload the cohesive zone reaches"
+            f" a_a = {record.cohesive_half_width * case.units.length:.4g}, more"
+            f" than {MAX_ZONE_PER_CELL:g} L; need L >="
+            f" {need * case.units.length:.4g}"
+        )
     if dom.max(float(stop.received is not None)):
         raise Interrupted("stopped by a signal before the first step; nothing was written")
     remove_checkpoint(checkpoint, comm)  # a stale one would pair with the new file
@@ -197,6 +222,7 @@ def _resume_from(newest, resume, comm):
     else the newest usable one, rank 0 deciding); a damaged newest one passed over is
     renamed ``<name>.corrupt``, so that the next checkpoint does not push the good previous
     generation out."""
+
     def choose():
         if isinstance(resume, str):  # chosen (and reported) by the caller
             chosen = resume
@@ -219,12 +245,19 @@ def _resume_from(newest, resume, comm):
 def _run(sim, case, path, comm, overwrite, resume, stop, start):
     """Collective: the body of :func:`run_case` on a built :class:`Retraction`."""
     schedule = SnapshotSchedule(case.output)
-    out, snapshots, wall_before = _open_output(sim, case, path, comm, overwrite, resume, stop,
-                                               schedule)
+    out, snapshots, wall_before = _open_output(
+        sim, case, path, comm, overwrite, resume, stop, schedule
+    )
     written = [snapshots]
-    keeper = Checkpoints(sim, path, lambda: {
-        "snapshot_schedule": schedule.state(), "snapshots_written": written[0],
-        "wall_time": wall_before + time.monotonic() - start})
+    keeper = Checkpoints(
+        sim,
+        path,
+        lambda: {
+            "snapshot_schedule": schedule.state(),
+            "snapshots_written": written[0],
+            "wall_time": wall_before + time.monotonic() - start,
+        },
+    )
     surface = sim.surface
     try:
         progress = Progress(case.output.progress_interval, case.units, case)
@@ -235,26 +268,31 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
                 record = sim.step()
             except NonConvergenceError as err:  # (alike on every rank: a reduced residual)
                 keeper.save()  # the last accepted step (Retraction.step undid the failed one)
-                raise NonConvergenceError(f"{err}; checkpoint {keeper.path_checkpoint} holds"
-                                          f" the last accepted step, {surface.step_index}"
-                                          ) from None
+                raise NonConvergenceError(
+                    f"{err}; checkpoint {keeper.path_checkpoint} holds"
+                    f" the last accepted step, {surface.step_index}"
+                ) from None
             out.append_step(record.as_dict())
             if schedule.due(record):
-                out.add_snapshot(record.time, surface.u, surface.traction,
-                                 sim.equilibrium.gap())
+                out.add_snapshot(record.time, surface.u, surface.traction, sim.equilibrium.gap())
                 written[0] += 1
             progress.update(surface.step_index, record)
             if surface.indenter > MAX_INDENTER_HEIGHT and not sim.finished():
                 raise CaseFailure(f"no complete detachment by u_z = {MAX_INDENTER_HEIGHT} R")
             if keeper.after_step(stop):
-                raise Interrupted(f"stopped by a signal at step {surface.step_index}"
-                                  f" (t = {surface.time * case.units.time:.6g});"
-                                  f" checkpoint {keeper.path_checkpoint}")
+                raise Interrupted(
+                    f"stopped by a signal at step {surface.step_index}"
+                    f" (t = {surface.time * case.units.time:.6g});"
+                    f" checkpoint {keeper.path_checkpoint}"
+                )
         out.add_snapshot(surface.time, surface.u, surface.traction, sim.equilibrium.gap())
-        summary = {**sim.summary(), "wall_time": wall_before + time.monotonic() - start,
-                   "ranks": comm.Get_size(),
-                   "detachment_indenter": surface.indenter * case.units.length,
-                   "detachment_time": surface.time * case.units.time}
+        summary = {
+            **sim.summary(),
+            "wall_time": wall_before + time.monotonic() - start,
+            "ranks": comm.Get_size(),
+            "detachment_indenter": surface.indenter * case.units.length,
+            "detachment_time": surface.time * case.units.time,
+        }
         out.finish(summary)
     finally:
         out.close()
@@ -282,14 +320,19 @@ def _warn_unresolved_pull_off(case, path):
     last = int(series.pull_off())  # the step of the most tensile load
     first = 0
     if series.segment is not None:  # the steps of the pull-off's segment, and the one before
-        first = max(int(np.flatnonzero(series.segment[:last + 1] != series.segment[last])
-                        .max(initial=-1)), 0)
-    widths = series.contact_half_width[first:last + 1] / case.units.length
+        first = max(
+            int(np.flatnonzero(series.segment[: last + 1] != series.segment[last]).max(initial=-1)),
+            0,
+        )
+    widths = series.contact_half_width[first : last + 1] / case.units.length
     moved = float(abs(widths[1:] - widths[:-1]).max(initial=0.0)) / case.zone_width
     allowance = case.numerics.edge_fraction
     if moved > allowance:
         # from this case's rank 0, whichever rank of the job it is (a farm's group leader)
-        logger.warning(f"{path}: fixed steps: a contact edge moved {moved:.3g} cohesive-zone"
-                       f" widths in one step before the pull-off, the accuracy allows"
-                       f" {allowance:.3g}; the pull-off may be off by more than the accuracy:"
-                       " choose a smaller dt, or adaptive steps", extra={"every_rank": True})
+        logger.warning(
+            f"{path}: fixed steps: a contact edge moved {moved:.3g} cohesive-zone"
+            f" widths in one step before the pull-off, the accuracy allows"
+            f" {allowance:.3g}; the pull-off may be off by more than the accuracy:"
+            " choose a smaller dt, or adaptive steps",
+            extra={"every_rank": True},
+        )

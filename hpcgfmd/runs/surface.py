@@ -1,4 +1,5 @@
 """The surface and the indenter at the last step: what a run advances (a part of its state)."""
+
 from __future__ import annotations
 
 import math
@@ -42,18 +43,22 @@ class Surface:
         self.dt_previous = None
 
     def state(self) -> State:
-        return State({"u": self.u, "traction": self.traction},
-                     {"time": self.time, "indenter": self.indenter, "drive": self.drive,
-                      "step_index": self.step_index,
-                      "dt_previous": math.nan if self.dt_previous is None
-                      else self.dt_previous})
+        return State(
+            {"u": self.u, "traction": self.traction},
+            {
+                "time": self.time,
+                "indenter": self.indenter,
+                "drive": self.drive,
+                "step_index": self.step_index,
+                "dt_previous": math.nan if self.dt_previous is None else self.dt_previous,
+            },
+        )
 
     def restore(self, state: State):
         self.u[:] = state.arrays["u"]
         self.traction[:] = state.arrays["traction"]
         s = state.scalars
-        self.time, self.indenter, self.drive = (float(s[k]) for k in
-                                                ("time", "indenter", "drive"))
+        self.time, self.indenter, self.drive = (float(s[k]) for k in ("time", "indenter", "drive"))
         self.step_index = int(s["step_index"])
         dt_previous = float(s["dt_previous"])
         self.dt_previous = None if math.isnan(dt_previous) else dt_previous

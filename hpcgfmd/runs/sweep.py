@@ -25,6 +25,7 @@ validate is kept and reported as failed with its error, so one bad value does no
 study. Each case's output file is named from the swept values
 (``velocity_0.45-depth_0.1.h5``).
 """
+
 from __future__ import annotations
 
 import itertools
@@ -110,12 +111,13 @@ def _resolve(key, base):
         section, name = key.split(".", 1)
         present = section in base or section in ("numerics", "output")  # optional sections
         if not present or name not in sections().get(section, ()):
-            raise SweepError(f"{_dotted(key)}: no key {name!r} in section"
-                             f" [{quoted_key(section)}] of this base case")
+            raise SweepError(
+                f"{_dotted(key)}: no key {name!r} in section"
+                f" [{quoted_key(section)}] of this base case"
+            )
         return section, name
     known = sections()
-    owners = [s for s in known if (s in base or s in ("numerics", "output"))
-              and key in known[s]]
+    owners = [s for s in known if (s in base or s in ("numerics", "output")) and key in known[s]]
     if not owners:
         form = "case" if "case" in base else "physical"
         accepted = ", ".join((*known[form], *known["numerics"], *known["output"]))
@@ -141,7 +143,7 @@ def _label(value) -> str:
         return "_".join(_label(entry) for entry in value)
     if isinstance(value, dict):  # a protocol's segment
         return "_".join(f"{key}_{_label(entry)}" for key, entry in value.items())
-    text = tomli_w.dumps({"v": value})[len("v = "):].strip()
+    text = tomli_w.dumps({"v": value})[len("v = ") :].strip()
     return re.sub(r"[^A-Za-z0-9.+_-]", "", text)
 
 
@@ -155,8 +157,10 @@ def parse_sweep(text: str, directory: str = ".", path: str = "") -> Sweep:
         raise SweepError(f"not valid TOML: {err}") from None
     for key in doc:
         if key not in ("base", "grid", "cases", "farm"):
-            raise SweepError(f"{quoted_key(key)}: unknown key or section; accepted: base, [grid],"
-                             " [[cases]], [farm]")
+            raise SweepError(
+                f"{quoted_key(key)}: unknown key or section; accepted: base, [grid],"
+                " [[cases]], [farm]"
+            )
     if "base" not in doc:
         raise SweepError("base: missing; give a case file name or [base.case] / [base.physical]")
     base = _read_base(doc["base"], directory)
@@ -172,8 +176,9 @@ def parse_sweep(text: str, directory: str = ".", path: str = "") -> Sweep:
     axes = []
     for key, values in _flatten(grid).items():
         if not isinstance(values, list) or not values:
-            raise SweepError(f"[grid] {_dotted(key)} = {values!r}: expected a non-empty list"
-                             " of values")
+            raise SweepError(
+                f"[grid] {_dotted(key)} = {values!r}: expected a non-empty list of values"
+            )
         axes.append((_resolve(key, base), values))
     ranks, output = _read_farm(doc.get("farm", {}))
     cases, swept = _expand(base, entries, axes)
@@ -200,8 +205,9 @@ def _read_base(base, directory):
         except UnicodeDecodeError:
             raise SweepError(f"base = {given!r}: not UTF-8 text") from None
         except RecursionError:
-            raise SweepError(f"base = {given!r}: not valid TOML: arrays or inline tables"
-                             " nested too deeply") from None
+            raise SweepError(
+                f"base = {given!r}: not valid TOML: arrays or inline tables nested too deeply"
+            ) from None
         except ValueError as err:  # TOMLDecodeError, or int()'s limit of 4300 digits
             raise SweepError(f"base = {given!r}: not valid TOML: {err}") from None
     if not isinstance(base, dict) or not ({"case", "physical"} & set(base)):
@@ -215,8 +221,9 @@ def _read_farm(farm):
         raise SweepError(f"farm = {farm!r}: expected a section [farm] of ranks_per_case, output")
     for key in farm:
         if key not in FARM_KEYS:
-            raise SweepError(f"[farm] {quoted_key(key)}: unknown key; accepted:"
-                             f" {', '.join(FARM_KEYS)}")
+            raise SweepError(
+                f"[farm] {quoted_key(key)}: unknown key; accepted: {', '.join(FARM_KEYS)}"
+            )
     ranks = farm.get("ranks_per_case", 1)
     if isinstance(ranks, bool) or not isinstance(ranks, int) or ranks < 1:
         raise SweepError(f"[farm] ranks_per_case = {ranks!r}: expected an integer >= 1")
@@ -237,8 +244,9 @@ def _expand(base, entries, axes):
             values[".".join(_resolve(key, base))] = value
         for (parts, _), value in zip(axes, point):
             if ".".join(parts) in values:
-                raise SweepError(f"{parts[-1]}: in both [grid] and [[cases]]; give it in one of"
-                                 " them")
+                raise SweepError(
+                    f"{parts[-1]}: in both [grid] and [[cases]]; give it in one of them"
+                )
             values[".".join(parts)] = value
         for key in values:
             if key not in swept:

@@ -5,6 +5,7 @@ The search space of CG is the free nodes with zero mean displacement; the unifor
 iterated to a fixed point. Only the near span [lo, hi) of the current point holds nodes on
 the wall, so every mask here lives on that span (views of the first hi - lo entries).
 """
+
 from __future__ import annotations
 
 import math
@@ -50,13 +51,12 @@ class ActiveSet:
         number of free nodes and the masks on the near span.
         """
         n = self._n
-        on_s = self.on_wall[:hi - lo]
+        on_s = self.on_wall[: hi - lo]
         kernels.on_wall(gap, lo, hi, on_wall_tolerance, on_s)
-        pressed_s = self.pressed[:hi - lo]
+        pressed_s = self.pressed[: hi - lo]
         for _ in range(10):
             pressed_sum, count = kernels.press(r, lo, hi, on_s, mu, pressed_s)
-            r_free, n_free = self.domain.sums(total - pressed_sum if count else total,
-                                              n - count)
+            r_free, n_free = self.domain.sums(total - pressed_sum if count else total, n - count)
             mu_new = r_free / n_free
             if mu_new == mu:
                 break
@@ -71,7 +71,7 @@ class ActiveSet:
     def remember(self, lo, hi, pressed_s):
         """Keep this iteration's pressed set for the next :meth:`joined`."""
         before = self._pressed_before
-        before[self._before[0]:self._before[1]] = False
+        before[self._before[0] : self._before[1]] = False
         before[lo:hi] = pressed_s
         self._before = (lo, hi)
 
@@ -86,14 +86,14 @@ class ActiveSet:
         """
         dom, n = self.domain, self._n
         d_s = d[lo:hi]
-        pushed_s = self.pushed[:hi - lo]
+        pushed_s = self.pushed[: hi - lo]
         np.greater(d_s, 0.0, out=pushed_s)
         pushed_s &= on_s
         if not dom.any(pushed_s):
             return None
         self.held_steps += 1
-        held_s = self._held[:d_s.size]
-        excluded_s = self._excluded[:d_s.size]
+        held_s = self._held[: d_s.size]
+        excluded_s = self._excluded[: d_s.size]
         held_s[:] = False
         while True:  # removing the mean can push another node in
             held_s |= pushed_s
@@ -124,8 +124,9 @@ class ActiveSet:
         if on_s.size == 0 or not on_s.any():
             return math.inf, -math.inf
         x = self.domain.x
-        return float(x[lo + int(on_s.argmax())]), float(x[lo + on_s.size - 1
-                                                          - int(on_s[::-1].argmax())])
+        return float(x[lo + int(on_s.argmax())]), float(
+            x[lo + on_s.size - 1 - int(on_s[::-1].argmax())]
+        )
 
     def strayed(self, watch, left, right):
         """True when an edge of the iterate's contact is farther than ``watch.limit`` away.

@@ -12,6 +12,7 @@ declare the ``[numerics]`` keys of its own in ``KEYS`` and import its module in
 (:mod:`hpcgfmd.case.numerics` asks the registry); nothing outside this package names a
 solver.
 """
+
 from __future__ import annotations
 
 import math
@@ -130,8 +131,9 @@ class EquilibriumSolver(ABC):
         return math.nan
 
     @abstractmethod
-    def solve(self, u, wall, ops, history, applied=None,
-              edge_watch: EdgeWatch | None = None) -> SolveResult:
+    def solve(
+        self, u, wall, ops, history, applied=None, edge_watch: EdgeWatch | None = None
+    ) -> SolveResult:
         """Collective: relax ``u`` in place to the equilibrium of the step.
 
         ``edge_watch``: a solver may stop early (``abandoned``) once its iterate's contact
@@ -157,12 +159,14 @@ class EquilibriumSolver(ABC):
 
 def register(name: str):
     """Class decorator: make a solver available as ``[numerics] solver = name``."""
+
     def add(cls):
         if name in _REGISTRY:
             raise ValueError(f"solver {name!r} is registered twice")
         cls.name = name
         _REGISTRY[name] = cls
         return cls
+
     return add
 
 

@@ -2,6 +2,7 @@
 states, and the correction of the substrate's state that removes most of it
 (docs/numerics.md, "Time steps"; docs/model.md, (M46)).
 """
+
 from __future__ import annotations
 
 import math
@@ -11,7 +12,7 @@ import numpy as np
 from ..parallel.fft import aligned_empty
 from .step_kernels import clear_near_crossings, contact_sums, curvature
 
-CURVATURE_AGE = 8      # steps a smooth curvature stands in for windows with crossings ...
+CURVATURE_AGE = 8  # steps a smooth curvature stands in for windows with crossings ...
 CURVATURE_LIFETIME = 0.05  # ... and time, in relaxation times tau (u_tt changes over tau)
 
 
@@ -91,8 +92,18 @@ class HistoryError:
         self.previous_correction[:] = 0.0
         self.has_previous = False  # set by correct(); restored from checkpoints
 
-    def estimate(self, older, time_older, state_older, before, time_before, state_before,
-                 after, time_after, state):
+    def estimate(
+        self,
+        older,
+        time_older,
+        state_older,
+        before,
+        time_before,
+        state_before,
+        after,
+        time_after,
+        state,
+    ):
         """Collective (one FFT pair): the step's load error and the error its correction
         leaves in the history (load per unit length, signed: the kept errors of successive
         steps add up with their signs).
@@ -120,20 +131,26 @@ class HistoryError:
         """
         h1, h0 = time_after - time_before, time_before - time_older
         c = self._curvature
-        kinks, first, last = curvature(older, before, after, h0, h1, state_older,
-                                       state_before, state, c)
+        kinks, first, last = curvature(
+            older, before, after, h0, h1, state_older, state_before, state, c
+        )
         crossings, left, right = self.domain.marks_around(kinks, first, last)
         self._smooth = crossings == 0
-        reuse = (not self._smooth and self.curvature_age <= CURVATURE_AGE
-                 and time_after - self.curvature_time <= self._lifetime)
+        reuse = (
+            not self._smooth
+            and self.curvature_age <= CURVATURE_AGE
+            and time_after - self.curvature_time <= self._lifetime
+        )
         if not self._smooth and not reuse and self.reach > 0:
             clear_near_crossings(state_older, state_before, state, self.reach, left, right, c)
         self._time = time_after
         # the missed traction (|q|/2) response c per mode (one FFT pair)
         self._response = self.substrate.material.curvature_response(h1)
-        self.fft.apply_diagonal(self.smooth_curvature if reuse else c,
-                                self.substrate.half_q * (self._response / self.substrate.n),
-                                self._traction)
+        self.fft.apply_diagonal(
+            self.smooth_curvature if reuse else c,
+            self.substrate.half_q * (self._response / self.substrate.n),
+            self._traction,
+        )
         self._estimated = True
         self._step = h1
         comparable = self.has_previous and not reuse and not self.previous_reused

@@ -16,6 +16,7 @@ contact span so that they vectorise.
 Index conventions: a block of m nodes; ``gap_ext`` holds its gaps with one ghost node each
 side (node i is ``gap_ext[i + 1]``); spans are half-open node ranges [lo, hi).
 """
+
 from __future__ import annotations
 
 import numpy as np

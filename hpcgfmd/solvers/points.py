@@ -4,6 +4,7 @@ Everything about the wall and the cohesive law is confined to the span of nodes 
 gap < level (level = dmax with adhesion: the contact and its cohesive zone, a few % of the
 cell), so a point's law is evaluated on that span only.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -75,11 +76,11 @@ class PointEvaluator:
         ghosts) only; ``point.gap`` is then valid there alone.
         """
         if window is not None and length < window[2]:
-            first, last, smallest = kernels.shifted_window(base, d, length, point.gap,
-                                                           self.level, window[0], window[1])
+            first, last, smallest = kernels.shifted_window(
+                base, d, length, point.gap, self.level, window[0], window[1]
+            )
         else:
-            first, last, smallest = kernels.shifted_gaps(base, d, length, point.gap,
-                                                         self.level)
+            first, last, smallest = kernels.shifted_gaps(base, d, length, point.gap, self.level)
         return self._finish(point, first, last, smallest, d)
 
     @staticmethod
@@ -96,8 +97,9 @@ class PointEvaluator:
         m = self._n
         self.domain.fill_halo(point.gap_ext)
         if m:
-            lo, hi, p, q = kernels.spans(first, last, m, point.gap_ext[0] < self.level,
-                                         point.gap_ext[-1] < self.level)
+            lo, hi, p, q = kernels.spans(
+                first, last, m, point.gap_ext[0] < self.level, point.gap_ext[-1] < self.level
+            )
         else:
             lo = hi = p = q = 0
         point.near = (lo, hi)
@@ -105,9 +107,17 @@ class PointEvaluator:
         law = self.law
         if law.sigma_a > 0.0:
             old_p, old_q = point.traction_span
-            slope = kernels.traction_on_span(point.gap_ext, point.traction, old_p, old_q, p, q,
-                                             law.dmax, law.sigma_a,
-                                             point.traction if d is None else d)
+            slope = kernels.traction_on_span(
+                point.gap_ext,
+                point.traction,
+                old_p,
+                old_q,
+                p,
+                q,
+                law.dmax,
+                law.sigma_a,
+                point.traction if d is None else d,
+            )
             if d is None:
                 slope = 0.0
             point.traction_span = (p, q)

@@ -17,6 +17,7 @@ ends on the branch the previous step was on:
 After the preload, u_{n-1} is taken as u_n with the contact lowered by the rise (not a
 state: the quadratic guess waits for three accepted ones).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -69,8 +70,9 @@ class Predictor:
         self._starts = (aligned_empty(n), aligned_empty(n))
         self._absent = np.zeros(n)  # a state not known yet
 
-    def start(self, u, wall, gap_before, contact, rise, ratio, edges, edges_previous,
-              energy, stiffness_u):
+    def start(
+        self, u, wall, gap_before, contact, rise, ratio, edges, edges_previous, energy, stiffness_u
+    ):
         """Collective: replace ``u`` (u_n) by the lowest-energy feasible guess, if lower.
 
         Parameters
@@ -104,11 +106,19 @@ class Predictor:
         extrapolated = linear
         if self.u_before_previous is not None and np.isfinite(self.ratio_previous):
             extrapolated = self._extrapolated
-            quadratic_guess(u, self.u_previous, self.u_before_previous,
-                            *lagrange_weights(ratio, self.ratio_previous), wall, contact,
-                            extrapolated)
-        guesses = (extrapolated, self._moving_edges(linear, wall, gap_before, ratio, edges,
-                                                    edges_previous))
+            quadratic_guess(
+                u,
+                self.u_previous,
+                self.u_before_previous,
+                *lagrange_weights(ratio, self.ratio_previous),
+                wall,
+                contact,
+                extrapolated,
+            )
+        guesses = (
+            extrapolated,
+            self._moving_edges(linear, wall, gap_before, ratio, edges, edges_previous),
+        )
         candidates = {}
         for kind, guess in enumerate(guesses):
             if guess is None:
@@ -161,41 +171,58 @@ class Predictor:
             length = min(last - first + 1, n)
             values = dom.segment(gap_before, first, length)
             window = gap[block]
-            window[near] = np.interp(x[block][near] - shift,
-                                     dom.position(first + np.arange(length)), values)
+            window[near] = np.interp(
+                x[block][near] - shift, dom.position(first + np.arange(length)), values
+            )
         np.maximum(gap, 0.0, out=gap)
         return np.subtract(wall, gap, out=self._moved)
 
     def state(self) -> State:
         """u_{n-1} and u_{n-2} (zeros when unknown) and the last step ratio
         (:mod:`hpcgfmd.state`)."""
-        arrays = {name: self._absent if kept is None else kept
-                  for name, kept in (("u_previous", self.u_previous),
-                                     ("u_before_previous", self.u_before_previous))}
-        return State(arrays, {"has_previous": self.u_previous is not None,
-                              "has_before_previous": self.u_before_previous is not None,
-                              "ratio_previous": self.ratio_previous})
+        arrays = {
+            name: self._absent if kept is None else kept
+            for name, kept in (
+                ("u_previous", self.u_previous),
+                ("u_before_previous", self.u_before_previous),
+            )
+        }
+        return State(
+            arrays,
+            {
+                "has_previous": self.u_previous is not None,
+                "has_before_previous": self.u_before_previous is not None,
+                "ratio_previous": self.ratio_previous,
+            },
+        )
 
     def restore(self, state: State):
         """Continue from :meth:`state`."""
         s = state.scalars
-        self.u_previous = (_kept(self.u_previous, state.arrays["u_previous"])
-                           if s["has_previous"] else None)
-        self.u_before_previous = (_kept(self.u_before_previous,
-                                        state.arrays["u_before_previous"])
-                                  if s["has_before_previous"] else None)
+        self.u_previous = (
+            _kept(self.u_previous, state.arrays["u_previous"]) if s["has_previous"] else None
+        )
+        self.u_before_previous = (
+            _kept(self.u_before_previous, state.arrays["u_before_previous"])
+            if s["has_before_previous"]
+            else None
+        )
         self.ratio_previous = float(s["ratio_previous"])
 
     def counters(self) -> dict:
         """Steps started from each guess and from u_n itself."""
-        return {"rejected_predictions": self.rejected,
-                "extrapolated_predictions": self.choices[0],
-                "moving_edge_predictions": self.choices[1]}
+        return {
+            "rejected_predictions": self.rejected,
+            "extrapolated_predictions": self.choices[0],
+            "moving_edge_predictions": self.choices[1],
+        }
 
     def restore_counters(self, counters: dict):
         self.rejected = int(counters["rejected_predictions"])
-        self.choices = [int(counters["extrapolated_predictions"]),
-                        int(counters["moving_edge_predictions"])]
+        self.choices = [
+            int(counters["extrapolated_predictions"]),
+            int(counters["moving_edge_predictions"]),
+        ]
 
 
 def _kept(buffer, values):
@@ -215,5 +242,8 @@ def lagrange_weights(ratio, ratio_previous):
     w2 = s (s + 1) / ((1 + b) b); they sum to 1 and reproduce t and t^2 exactly.
     """
     s, b = ratio, 1.0 / ratio_previous
-    return ((s + 1.0) * (s + 1.0 + b) / (1.0 + b), -s * (s + 1.0 + b) / b,
-            s * (s + 1.0) / ((1.0 + b) * b))
+    return (
+        (s + 1.0) * (s + 1.0 + b) / (1.0 + b),
+        -s * (s + 1.0 + b) / b,
+        s * (s + 1.0) / ((1.0 + b) * b),
+    )

@@ -3,6 +3,7 @@
 Used by every solver (the start of a CG solve, its projected steps, the exact projections of
 the damped dynamics) and by the predictor's guesses.
 """
+
 from __future__ import annotations
 
 from .step_kernels import below_wall

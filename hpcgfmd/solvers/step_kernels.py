@@ -8,6 +8,7 @@ the callers reduce their sums. Sums may be reassociated (vectorised), as in the 
 the same block gives the same bits every time. NaN propagates as it did through numpy: a
 non-finite displacement is never replaced by the wall.
 """
+
 from __future__ import annotations
 
 import numpy as np

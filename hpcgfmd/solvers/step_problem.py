@@ -14,6 +14,7 @@ traction, the multiplier of the zero mean); the residual is the largest projecte
 imbalance (:meth:`StepProblem.measure`). These are properties of the step, not of a solver:
 every solver (:mod:`.base`) uses them.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -113,8 +114,9 @@ class StepProblem:
         checkpoint does the same transforms as an uninterrupted one. A miss costs a sample
         comparison, a match a full one (~0.1 pair).
         """
-        same = (self._guess_energy < np.inf
-                and self._matches(u, self._guess, self._guess_stiffness, stiffness))
+        same = self._guess_energy < np.inf and self._matches(
+            u, self._guess, self._guess_stiffness, stiffness
+        )
         if self.domain.max(0.0 if same else 1.0) > 0.0:
             return False
         np.copyto(out, self._k_guess)
@@ -151,8 +153,9 @@ class StepProblem:
         self.domain.fill_halo(gap_ext)
         lo = hi = p = q = 0
         if self._n:
-            lo, hi, p, q = kernels.spans(first, last, self._n, gap_ext[0] < level,
-                                         gap_ext[-1] < level)
+            lo, hi, p, q = kernels.spans(
+                first, last, self._n, gap_ext[0] < level, gap_ext[-1] < level
+            )
         out[:p] = 0.0
         out[q:] = 0.0
         if law.sigma_a > 0.0:
@@ -175,37 +178,43 @@ class StepProblem:
         """
         if self._measure is None:
             n = self._n
-            self._measure = (np.empty(n), np.empty(n), aligned_empty(n), Point(n),
-                             PointEvaluator(self.domain, self.law), ActiveSet(self.domain))
+            self._measure = (
+                np.empty(n),
+                np.empty(n),
+                aligned_empty(n),
+                Point(n),
+                PointEvaluator(self.domain, self.law),
+                ActiveSet(self.domain),
+            )
         start, linear_buffer, k_u, point, evaluator, active = self._measure
         dom = self.domain
         wall_scale = dom.max_abs(wall)
         project_feasible(dom, u, wall, start, wall_scale=wall_scale)
         np.copyto(u, start)
-        linear = history if applied is None else np.subtract(history, applied,
-                                                             out=linear_buffer)
+        linear = history if applied is None else np.subtract(history, applied, out=linear_buffer)
         if not self.recall(u, ops.stiffness, k_u):
             self.fft.apply_diagonal(u, ops.stiffness, k_u)
         self.forget()
         load = np.add(k_u, linear)
         tolerance = 1e-14 * wall_scale
-        evaluator.level = max(self.law.dmax if self.law.sigma_a > 0.0 else 0.0,
-                              np.nextafter(tolerance, np.inf))
+        evaluator.level = max(
+            self.law.dmax if self.law.sigma_a > 0.0 else 0.0, np.nextafter(tolerance, np.inf)
+        )
         np.subtract(wall, u, out=point.gap)
         evaluator.evaluate(point)
         active.begin()
         r = start  # (the projection is in u now)
-        total, high, low = kernels.residual(load, point.traction, *point.traction_span,
-                                            *point.near, r)
+        total, high, low = kernels.residual(
+            load, point.traction, *point.traction_span, *point.near, r
+        )
         lo, hi = point.near
         mu, _, _, _, pressed = active.multiplier(r, total, point.gap, lo, hi, tolerance, 0.0)
         span_high, span_low, _ = active.settle(r, lo, hi, pressed, mu)
         local = max(max(high, span_high) - mu, mu - min(low, span_low)) if self._n else 0.0
         residual = dom.max(local) / self.traction_scale
-        np.copyto(u[lo:hi], wall[lo:hi], where=active.on_wall[:hi - lo])
+        np.copyto(u[lo:hi], wall[lo:hi], where=active.on_wall[: hi - lo])
         np.subtract(load, linear, out=k_u)
-        return SolveResult(iterations=0, residual=residual, converged=True,
-                           mean_traction=mu), k_u
+        return SolveResult(iterations=0, residual=residual, converged=True, mean_traction=mu), k_u
 
 
 def _keep(kept, stiffness):

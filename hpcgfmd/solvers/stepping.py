@@ -18,8 +18,9 @@ Where the time discretisation errs (docs/model.md, "Substrate" and "Protocol"):
   / 2, to ``load_tolerance`` load scales (R dgamma0^2 E0)^(1/3): the sampled minimum is then
   within about load_tolerance / 8 load scales of the curve's.
 - The history's own errors: the smooth part's, estimated from the change of the curvature in
-  time of u (:class:`~.history_error.HistoryError`), and the tip's lag, the rate error the step's history
-  gives the nodes a moving edge passes (:func:`~.tip_lag.tip_lag_error`), both bounded through
+  time of u (:class:`~.history_error.HistoryError`), and the tip's lag, the rate error the
+  step's history gives the nodes a moving edge passes (:func:`~.tip_lag.tip_lag_error`), both
+  bounded through
   ``time_tolerance``.
 
 Controller. After each step the error ratios e_edge = |da|max / (edge_fraction w) and e_lag
@@ -41,6 +42,7 @@ This matters past the fold of the attached branch near the snap-off: such a step
 descends through the whole snap-off, thousands of CG iterations at 2^17, only to be
 repeated (docs/results.md has the iterations it saves).
 """
+
 from __future__ import annotations
 
 import math
@@ -51,16 +53,16 @@ from ..model.accuracy import PULL_OFF_SCALE
 from ..state import State
 from .tip_lag import LAG_PER_LOAD, LAG_PER_LOAD_SPECTRUM, tip_lag_error
 
-GROWTH_LIMIT = 2.0     # largest factor between consecutive steps
-SHRINK_LIMIT = 0.25    # smallest factor (also the retry factor bound after a rejection)
-SAFETY = 0.9           # aim below the error target
-REJECT_EDGE = 2.0      # reject when the edge moved more than twice its allowance
-REJECT_LOAD = 4.0      # ... or the load deviates more than four times its tolerance
-REJECT_HISTORY = 4.0   # ... or the history's estimated error is four times its allowance
-REJECT_LAG = 4.0       # ... or the tip's lag error four times its allowance (jumps at crossings)
-GRID_PER_OCTAVE = 4    # steps are dt_min 2^(j/4): see AdaptiveSteps._on_grid
+GROWTH_LIMIT = 2.0  # largest factor between consecutive steps
+SHRINK_LIMIT = 0.25  # smallest factor (also the retry factor bound after a rejection)
+SAFETY = 0.9  # aim below the error target
+REJECT_EDGE = 2.0  # reject when the edge moved more than twice its allowance
+REJECT_LOAD = 4.0  # ... or the load deviates more than four times its tolerance
+REJECT_HISTORY = 4.0  # ... or the history's estimated error is four times its allowance
+REJECT_LAG = 4.0  # ... or the tip's lag error four times its allowance (jumps at crossings)
+GRID_PER_OCTAVE = 4  # steps are dt_min 2^(j/4): see AdaptiveSteps._on_grid
 ABANDON_EDGE = REJECT_EDGE  # edge ratio at which a solve is abandoned (module docstring)
-KEPT_SHARE = 0.5       # the kept errors' signed sum: held to this share of the allowance
+KEPT_SHARE = 0.5  # the kept errors' signed sum: held to this share of the allowance
 
 
 @dataclass
@@ -102,8 +104,8 @@ class StepDecision:
 
     accepted: bool
     next_dt: float
-    edge_error: float = 0.0   # |da| / (edge_fraction w)
-    load_error: float = 0.0   # |L - L_pred| / (load_tolerance load_scale)
+    edge_error: float = 0.0  # |da| / (edge_fraction w)
+    load_error: float = 0.0  # |L - L_pred| / (load_tolerance load_scale)
     history_error: float = 0.0  # the history's load error / its allowance for this step
     lag_error: float = 0.0  # the tip's lag error / its allowance (tip_lag_error)
 
@@ -177,8 +179,8 @@ class AdaptiveSteps(StepControl):
     history_allowance : float
         Largest load error of the history integration, time_tolerance * load scale (load per
         unit length): a step's own, and KEPT_SHARE of it for the signed sum of the errors kept
-        in the history over ``memory_time`` (:class:`~.history_error.HistoryError`, :meth:`judge`); inf: not
-        controlled (the elastic solid).
+        in the history over ``memory_time`` (:class:`~.history_error.HistoryError`,
+        :meth:`judge`); inf: not controlled (the elastic solid).
     memory_time : float
         Time over which a history error persists, the retardation time tau/k (internal units;
         for a Prony series the slowest of its retardation times).
@@ -195,9 +197,20 @@ class AdaptiveSteps(StepControl):
 
     adaptive = True
 
-    def __init__(self, first_dt, dt_min, dt_max, edge_allowance, load_allowance,
-                 history_allowance=math.inf, memory_time=1.0, lag_allowance=math.inf,
-                 zone_width=1.0, modulus_ratio=1.0, branches=None):
+    def __init__(
+        self,
+        first_dt,
+        dt_min,
+        dt_max,
+        edge_allowance,
+        load_allowance,
+        history_allowance=math.inf,
+        memory_time=1.0,
+        lag_allowance=math.inf,
+        zone_width=1.0,
+        modulus_ratio=1.0,
+        branches=None,
+    ):
         self.dt_min, self.dt_max = dt_min, dt_max
         self.branches = branches
         self.lag_allowance = lag_allowance
@@ -234,21 +247,28 @@ class AdaptiveSteps(StepControl):
         edge_error = self._edge_ratio(outcome.edge_motion)
         load_error = self._load_ratio(outcome)
         history_ratio, sizing_ratio = self._history_ratios(outcome)
-        zone = (outcome.zone_width if outcome.zone_width > 0.0
-                and math.isfinite(outcome.zone_width) else self.zone_width)
-        lag_error = tip_lag_error(dt, outcome.edge_motion, zone, self.modulus_ratio,
-                                  self.branches) / self.lag_allowance
+        zone = (
+            outcome.zone_width
+            if outcome.zone_width > 0.0 and math.isfinite(outcome.zone_width)
+            else self.zone_width
+        )
+        lag_error = (
+            tip_lag_error(dt, outcome.edge_motion, zone, self.modulus_ratio, self.branches)
+            / self.lag_allowance
+        )
         # (the load's and the history's errors are of higher order in dt: square roots)
         worst = max(edge_error, math.sqrt(load_error), math.sqrt(sizing_ratio), lag_error)
         factor = SAFETY / worst if worst > 0.0 else GROWTH_LIMIT
         factor = min(max(factor, SHRINK_LIMIT), GROWTH_LIMIT)
         next_dt = self._on_grid(dt * factor)
-        rejected = ((edge_error > REJECT_EDGE or load_error > REJECT_LOAD
-                     or history_ratio > REJECT_HISTORY or lag_error > REJECT_LAG)
-                    and dt > self.dt_min)
+        rejected = (
+            edge_error > REJECT_EDGE
+            or load_error > REJECT_LOAD
+            or history_ratio > REJECT_HISTORY
+            or lag_error > REJECT_LAG
+        ) and dt > self.dt_min
         self.dt = next_dt
-        return StepDecision(not rejected, next_dt, edge_error, load_error, history_ratio,
-                            lag_error)
+        return StepDecision(not rejected, next_dt, edge_error, load_error, history_ratio, lag_error)
 
     def _edge_ratio(self, edge_motion):
         """|da| over the edge allowance (0 with nothing to compare, inf for a contact that
@@ -260,8 +280,11 @@ class AdaptiveSteps(StepControl):
     def _load_ratio(self, outcome):
         """The load's deviation from the line through the two loads before, over its
         allowance (0 without two points or a load)."""
-        if outcome.load is None or len(self.points) < 2 or not (
-                self.points[1][0] > self.points[0][0]):
+        if (
+            outcome.load is None
+            or len(self.points) < 2
+            or not (self.points[1][0] > self.points[0][0])
+        ):
             return 0.0
         (t0, l0), (t1, l1) = self.points
         predicted = l1 + (l1 - l0) * (outcome.time - t1) / (t1 - t0)
@@ -289,8 +312,9 @@ class AdaptiveSteps(StepControl):
         share = -math.expm1(-outcome.dt / self.memory_time)
         decayed = self.kept_history * (1.0 - share)
         self._kept_pending = decayed + kept
-        spent = (abs(self._kept_pending) - abs(decayed)) / max(allowance - abs(decayed),
-                                                               allowance * share)
+        spent = (abs(self._kept_pending) - abs(decayed)) / max(
+            allowance - abs(decayed), allowance * share
+        )
         room = max(allowance - abs(self._kept_pending) * (1.0 - share), allowance * share)
         own = abs(error) / self.history_allowance
         return max(own, spent), max(own, abs(kept) / room)
@@ -321,8 +345,13 @@ class AdaptiveSteps(StepControl):
 
     def state(self) -> State:
         flat = [v for point in self.points for v in point]
-        return State(scalars={"dt": self.dt, "points": flat + [math.nan] * (4 - len(flat)),
-                              "kept_history": self.kept_history})
+        return State(
+            scalars={
+                "dt": self.dt,
+                "points": flat + [math.nan] * (4 - len(flat)),
+                "kept_history": self.kept_history,
+            }
+        )
 
     def restore(self, state: State):
         s = state.scalars
@@ -347,12 +376,18 @@ def make_step_control(case) -> StepControl:
     # two-branch series of docs/beyond-the-paper.md was 1.1e-2 off at accuracy 1e-2)
     one_time = len(set(material.branch_times)) == 1
     lag = numerics.time_tolerance / (
-        PULL_OFF_SCALE * (LAG_PER_LOAD if one_time else LAG_PER_LOAD_SPECTRUM))
-    return AdaptiveSteps(numerics.dt, numerics.dt_min, numerics.dt_max,
-                         numerics.edge_fraction * case.zone_width,
-                         numerics.load_tolerance * case.load_scale,
-                         numerics.time_tolerance * case.load_scale if viscous else math.inf,
-                         material.retardation_time,  # tau / k for the SLS, tau = 1
-                         lag if viscous else math.inf, case.zone_width, case.modulus_ratio,
-                         (material.branch_moduli, material.branch_times)
-                         if material.branches > 1 else None)
+        PULL_OFF_SCALE * (LAG_PER_LOAD if one_time else LAG_PER_LOAD_SPECTRUM)
+    )
+    return AdaptiveSteps(
+        numerics.dt,
+        numerics.dt_min,
+        numerics.dt_max,
+        numerics.edge_fraction * case.zone_width,
+        numerics.load_tolerance * case.load_scale,
+        numerics.time_tolerance * case.load_scale if viscous else math.inf,
+        material.retardation_time,  # tau / k for the SLS, tau = 1
+        lag if viscous else math.inf,
+        case.zone_width,
+        case.modulus_ratio,
+        (material.branch_moduli, material.branch_times) if material.branches > 1 else None,
+    )

@@ -2,11 +2,12 @@
 contact edge passes, as a relative error of the cohesive zone's traction
 (docs/numerics.md, "Time steps", the tip-lag criterion).
 """
+
 from __future__ import annotations
 
 import math
 
-LAG_PER_LOAD = 1.0     # pull-off error / tip lag bound, measured (tip_lag_error, M46 steps)
+LAG_PER_LOAD = 1.0  # pull-off error / tip lag bound, measured (tip_lag_error, M46 steps)
 LAG_PER_LOAD_SPECTRUM = 4.0  # ... for relaxation times of several lengths (make_step_control)
 
 

@@ -136,6 +136,7 @@ the transform's layout; the only communication is the transform pair, one ghost 
 (adhesion) and one reduction of two numbers per pseudo step, so all ranks take the same
 branches.
 """
+
 from __future__ import annotations
 
 import math
@@ -248,9 +249,18 @@ class DampedVerletGFMD(EquilibriumSolver):
         Eeff / E0 of the last solve.
     """
 
-    def __init__(self, domain, fft, law: DugdaleMaugis, half_q, relaxed_modulus,
-                 equilibration_steps: int, traction_scale: float, time_step_fraction=1.0,
-                 preload=None):
+    def __init__(
+        self,
+        domain,
+        fft,
+        law: DugdaleMaugis,
+        half_q,
+        relaxed_modulus,
+        equilibration_steps: int,
+        traction_scale: float,
+        time_step_fraction=1.0,
+        preload=None,
+    ):
         if equilibration_steps < 0:
             raise ValueError(f"equilibration_steps must be >= 0, got {equilibration_steps}")
         if not time_step_fraction > 0.0:
@@ -260,8 +270,9 @@ class DampedVerletGFMD(EquilibriumSolver):
         self.law = law
         self.half_q = np.ascontiguousarray(half_q, dtype=np.float64)
         if self.half_q.shape != tuple(fft.spectrum_shape):
-            raise ValueError(f"half_q has shape {self.half_q.shape}, the transform's modes "
-                             f"{fft.spectrum_shape}")
+            raise ValueError(
+                f"half_q has shape {self.half_q.shape}, the transform's modes {fft.spectrum_shape}"
+            )
         self.relaxed_modulus = float(relaxed_modulus)
         self.equilibration_steps = int(equilibration_steps)
         self.traction_scale = traction_scale
@@ -302,23 +313,37 @@ class DampedVerletGFMD(EquilibriumSolver):
         self.shift_traction = np.nan  # s / h^2 of the last solve (= mean_traction at rest)
         self._preload = preload
 
-    KEYS = (SolverKey("equilibration_steps", 1,
-                      lambda nx: round(EQUILIBRATION_PER_ROOT_N * math.sqrt(nx)),
-                      "pseudo steps per time step, the paper's fixed equilibration time;"
-                      " default 1024 sqrt(nx)"),)
+    KEYS = (
+        SolverKey(
+            "equilibration_steps",
+            1,
+            lambda nx: round(EQUILIBRATION_PER_ROOT_N * math.sqrt(nx)),
+            "pseudo steps per time step, the paper's fixed equilibration time;"
+            " default 1024 sqrt(nx)",
+        ),
+    )
 
     @classmethod
     def from_case(cls, case, domain, fft, law, half_q):
         """The paper's method with the case's equilibration_steps; relaxed damping with
         E0 = 1 (internal units). Its preload is solved by CG to the case's tolerance."""
-        return cls(domain, fft, law, half_q, 1.0,
-                   case.numerics.setting("equilibration_steps"), case.sigma_a,
-                   preload=ConstrainedCG.from_case(case, domain, fft, law, half_q))
+        return cls(
+            domain,
+            fft,
+            law,
+            half_q,
+            1.0,
+            case.numerics.setting("equilibration_steps"),
+            case.sigma_a,
+            preload=ConstrainedCG.from_case(case, domain, fft, law, half_q),
+        )
 
     @classmethod
     def describe(cls, numerics):
-        return (f"the paper's damped Verlet GFMD,"
-                f" {numerics.setting('equilibration_steps')} pseudo steps per step")
+        return (
+            f"the paper's damped Verlet GFMD,"
+            f" {numerics.setting('equilibration_steps')} pseudo steps per step"
+        )
 
     @classmethod
     def iterations_per_step(cls, numerics) -> float:
@@ -437,8 +462,9 @@ class DampedVerletGFMD(EquilibriumSolver):
                 np.less(u, wall, out=free)
                 total, count = dom.sums(u.sum(), np.count_nonzero(free))
                 if count == 0:
-                    raise FloatingPointError("the wall leaves no free node for zero mean "
-                                             "displacement")
+                    raise FloatingPointError(
+                        "the wall leaves no free node for zero mean displacement"
+                    )
                 s += total / count  # Newton on the mean, used by the next step
             if monitor is not None:
                 monitor(k + 1, u)
@@ -459,8 +485,12 @@ class DampedVerletGFMD(EquilibriumSolver):
         check, self._k_u = self.problem.measure(u, wall, ops, history, applied)
         self.shift_traction = s / self.step_length**2
         self._mean_traction = check.mean_traction
-        return SolveResult(iterations=self.equilibration_steps, residual=check.residual,
-                           converged=True, mean_traction=check.mean_traction)
+        return SolveResult(
+            iterations=self.equilibration_steps,
+            residual=check.residual,
+            converged=True,
+            mean_traction=check.mean_traction,
+        )
 
     # --- the rest of the solver interface -----------------------------------------------
     def elastic_traction(self):

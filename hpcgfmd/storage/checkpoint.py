@@ -20,6 +20,7 @@ short, with flipped bytes or otherwise altered fails :func:`checkpoint_problem` 
 resumed from (:func:`usable_checkpoint` then takes the previous generation). A checkpoint of
 another format (written by another version of hpcgfmd) is refused: the case starts again.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -95,8 +96,10 @@ def checkpoint_problem(path) -> str | None:
 
 def format_problem(version: int) -> str:
     """The one phrase refusing a checkpoint of another format."""
-    return (f"checkpoint format {version}, written by another version of hpcgfmd (this one"
-            f" reads format {FORMAT_VERSION}): start the case again")
+    return (
+        f"checkpoint format {version}, written by another version of hpcgfmd (this one"
+        f" reads format {FORMAT_VERSION}): start the case again"
+    )
 
 
 def usable_checkpoint(path) -> tuple[str | None, list[str]]:
@@ -178,8 +181,11 @@ def write_checkpoint(path, comm, n, x_start, fields: dict, attrs: dict):
     need = checkpoint_bytes(n, len(blocks)) + MARGIN
     free = comm.bcast(free_bytes(path) if comm.Get_rank() == 0 else None, root=0)
     if free < need:
-        raise OSError(errno.ENOSPC, f"no space for checkpoint {path}: {free} bytes free,"
-                      f" {need} needed; the checkpoint before it is kept")
+        raise OSError(
+            errno.ENOSPC,
+            f"no space for checkpoint {path}: {free} bytes free,"
+            f" {need} needed; the checkpoint before it is kept",
+        )
     with open_file(tmp, "w", comm) as f:  # "w": a stale .tmp of a crashed write is overwritten
         f.attrs[_MARK] = FORMAT_VERSION
         f.attrs["hpcgfmd_version"] = __version__
@@ -188,8 +194,7 @@ def write_checkpoint(path, comm, n, x_start, fields: dict, attrs: dict):
         group = f.create_group("fields")
         group.attrs["n"] = n
         for name in sorted(blocks):  # same creation order on every rank
-            write_block(group.create_dataset(name, shape=(n,), dtype="f8"), x_start,
-                        blocks[name])
+            write_block(group.create_dataset(name, shape=(n,), dtype="f8"), x_start, blocks[name])
     comm.Barrier()  # every rank has closed (so written) the file before it is sealed
     _on_root(comm, lambda: _seal(tmp, path))
 
@@ -236,8 +241,11 @@ def read_checkpoint(path, comm, x_start, x_stop) -> tuple[dict, dict]:
         if not 0 <= x_start <= x_stop <= n:
             raise ValueError(f"block [{x_start}, {x_stop}) outside the checkpoint's {n} nodes")
         fields = {name: read_block(ds, x_start, x_stop) for name, ds in f["fields"].items()}
-        attrs = {key: (value.item() if isinstance(value, np.generic) else value)
-                 for key, value in f.attrs.items() if key not in _RESERVED}
+        attrs = {
+            key: (value.item() if isinstance(value, np.generic) else value)
+            for key, value in f.attrs.items()
+            if key not in _RESERVED
+        }
     return fields, attrs
 
 
@@ -249,8 +257,11 @@ def read_checkpoint_attrs(path) -> dict:
     with h5py.File(os.fspath(path), "r") as f:
         if f.attrs.get(_MARK) is None:
             raise ValueError(f"{path} is not an hpcgfmd checkpoint")
-        return {key: (value.item() if isinstance(value, np.generic) else value)
-                for key, value in f.attrs.items() if key not in _RESERVED}
+        return {
+            key: (value.item() if isinstance(value, np.generic) else value)
+            for key, value in f.attrs.items()
+            if key not in _RESERVED
+        }
 
 
 def remove_checkpoint(path, comm):

@@ -4,6 +4,7 @@ Each rank owns a contiguous block of a global array and reads or writes only tha
 rank takes part in every call, also with an empty block, because H5Dwrite/H5Dread under
 ``mpio`` are collective. Used by the result file and the checkpoints.
 """
+
 from __future__ import annotations
 
 import h5py

@@ -16,6 +16,7 @@ Network file systems: Lustre and NFSv4 honour ``flock`` across nodes when mounte
 (Lustre ``-o flock``); where ``flock`` is not supported at all (ENOSYS, ENOLCK, EOPNOTSUPP) the
 run warns once and goes on unlocked.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -63,8 +64,9 @@ def _lock_or_refuse(output) -> OutputLock:
         try:
             fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         except OSError as err:
-            raise UsageError(f"-o {output}: cannot write in {directory}"
-                             f" ({os.strerror(err.errno)})") from None
+            raise UsageError(
+                f"-o {output}: cannot write in {directory} ({os.strerror(err.errno)})"
+            ) from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as err:
@@ -76,15 +78,19 @@ def _lock_or_refuse(output) -> OutputLock:
             if err.errno in UNSUPPORTED:
                 with contextlib.suppress(OSError):  # locks nothing: not left behind
                     os.unlink(path)
-                logger.warning(f"-o {output}: this file system does not support flock"
-                               f" ({os.strerror(err.errno)}); running without the output lock")
+                logger.warning(
+                    f"-o {output}: this file system does not support flock"
+                    f" ({os.strerror(err.errno)}); running without the output lock"
+                )
                 return OutputLock(path, None)
             if err.errno in (errno.EWOULDBLOCK, errno.EACCES):
-                raise UsageError(f"-o {output}: being written by {holder or 'another process'}"
-                                 f" (lock {path}); wait for it to end or choose another -o"
-                                 ) from None
-            raise UsageError(f"-o {output}: cannot lock {path} ({os.strerror(err.errno)})"
-                             ) from None
+                raise UsageError(
+                    f"-o {output}: being written by {holder or 'another process'}"
+                    f" (lock {path}); wait for it to end or choose another -o"
+                ) from None
+            raise UsageError(
+                f"-o {output}: cannot lock {path} ({os.strerror(err.errno)})"
+            ) from None
         try:
             same = os.stat(path).st_ino == os.fstat(fd).st_ino
         except OSError:
@@ -140,5 +146,7 @@ def check_output_path(path, overwrite):
     if os.path.isdir(path):
         raise UsageError(f"-o {path}: is a directory; give a file name")
     if os.path.exists(path) and not overwrite:
-        raise OutputExistsError(f"-o {path}: file exists; choose another name or pass"
-                                " --overwrite (overwrite=True from Python)")
+        raise OutputExistsError(
+            f"-o {path}: file exists; choose another name or pass"
+            " --overwrite (overwrite=True from Python)"
+        )

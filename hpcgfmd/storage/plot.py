@@ -1,4 +1,5 @@
 """PNG of a case in the paper's scaling (Fig. 5a) and of load against indenter position."""
+
 from __future__ import annotations
 
 import matplotlib
@@ -29,8 +30,10 @@ def plot_case(path, output):
     ax1.set_ylim(0, 1.1 * y.max() if y.size else 1)
     ax1.set_xlim(xs[0], x.max() * 1.05 + 1 if x.size else 1)
     ax1.legend(fontsize=8)
-    ax1.set_title(rf"$\lambda_0$ = {s.attrs['lambda0']:g}, k = {k:g}, "
-                  rf"$\chi_{{ve}}$ = {s.attrs['chi_ve']:.3g}")
+    ax1.set_title(
+        rf"$\lambda_0$ = {s.attrs['lambda0']:g}, k = {k:g}, "
+        rf"$\chi_{{ve}}$ = {s.attrs['chi_ve']:.3g}"
+    )
     ax2.plot(s.indenter, s.load, "C0-")
     i = s.pull_off()
     ax2.plot(s.indenter[i], s.load[i], "rv", label=f"pull-off {s.load[i]:.4g}")

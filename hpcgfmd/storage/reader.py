@@ -11,6 +11,7 @@ dataset), and series or snapshots shorter than ``steps_complete`` (``complete``)
 between two appends leaves some series one entry *longer* than ``steps_complete``
 (:mod:`hpcgfmd.storage.result_file`); such files are legitimate and read as before.
 """
+
 from __future__ import annotations
 
 import math
@@ -24,8 +25,16 @@ from ..errors import ResultFileError
 from ..model import theory
 from ..model.loading import cycle_of
 
-SERIES = ("time", "indenter", "load", "contact_half_width", "cohesive_half_width",
-          "iterations", "residual", "dt")
+SERIES = (
+    "time",
+    "indenter",
+    "load",
+    "contact_half_width",
+    "cohesive_half_width",
+    "iterations",
+    "residual",
+    "dt",
+)
 OPTIONAL_SERIES = ("drive", "applied_load", "segment")
 
 
@@ -81,8 +90,7 @@ class Series:
         length when the cycle starts and ends detached (the hysteresis loop's area). Under
         load control the work is NaN (a load lets the indenter fly off)."""
         kinds = self.attrs.get("protocol_kinds", ["retract"])
-        segment = (self.segment if self.segment is not None
-                   else np.zeros(self.time.size, dtype=int))
+        segment = self.segment if self.segment is not None else np.zeros(self.time.size, dtype=int)
         cycle = np.array([cycle_of(kinds, int(i)) for i in segment], dtype=int)
         position = self.drive if self.drive is not None else self.indenter
         work = -0.5 * (self.load[1:] + self.load[:-1]) * np.diff(position)
@@ -90,12 +98,23 @@ class Series:
         for c in np.unique(cycle):
             steps = np.flatnonzero(cycle == c)
             i = steps[np.argmin(self.load[steps])]
-            area = (math.nan if self.applied_load is not None
-                    else float(math.fsum(work[steps[steps > 0] - 1])))
-            summaries.append(Cycle(index=int(c), first=int(steps[0]), last=int(steps[-1]),
-                                   pull_off=float(self.load[i]), lbar=float(self.lbar[i]),
-                                   indenter=float(self.indenter[i]), time=float(self.time[i]),
-                                   work=area))
+            area = (
+                math.nan
+                if self.applied_load is not None
+                else float(math.fsum(work[steps[steps > 0] - 1]))
+            )
+            summaries.append(
+                Cycle(
+                    index=int(c),
+                    first=int(steps[0]),
+                    last=int(steps[-1]),
+                    pull_off=float(self.load[i]),
+                    lbar=float(self.lbar[i]),
+                    indenter=float(self.indenter[i]),
+                    time=float(self.time[i]),
+                    work=area,
+                )
+            )
         return summaries
 
 
@@ -169,11 +188,24 @@ class Result:
     def groups(self) -> dict:
         """The dimensionless groups stored with the case: the keys of
         :meth:`hpcgfmd.case.Case.groups` found in the file."""
-        return {key: self.attrs[key] for key in ("lambda0", "lambda_inf", "k", "Vz", "chi_ve",
-                                                 "alpha", "depth", "cell", "zone_points",
-                                                 "relaxation_moduli", "relaxation_times",
-                                                 "drive_stiffness")
-                if key in self.attrs}
+        return {
+            key: self.attrs[key]
+            for key in (
+                "lambda0",
+                "lambda_inf",
+                "k",
+                "Vz",
+                "chi_ve",
+                "alpha",
+                "depth",
+                "cell",
+                "zone_points",
+                "relaxation_moduli",
+                "relaxation_times",
+                "drive_stiffness",
+            )
+            if key in self.attrs
+        }
 
     def pull_off(self) -> PullOff:
         """The pull-off point: the most tensile load of the series."""
@@ -181,10 +213,15 @@ class Result:
         if not s.load.size:
             raise ValueError(f"{self.path}: no step written yet")
         i = s.pull_off()
-        return PullOff(index=i, load=float(s.load[i]), lbar=float(s.lbar[i]),
-                       contact_half_width=float(s.contact_half_width[i]),
-                       abar=float(s.abar[i]), indenter=float(s.indenter[i]),
-                       time=float(s.time[i]))
+        return PullOff(
+            index=i,
+            load=float(s.load[i]),
+            lbar=float(s.lbar[i]),
+            contact_half_width=float(s.contact_half_width[i]),
+            abar=float(s.abar[i]),
+            indenter=float(s.indenter[i]),
+            time=float(s.time[i]),
+        )
 
 
 EXPECTED = "expected an hpcgfmd output file (the HDF5 file `python -m hpcgfmd run` writes)"
@@ -212,8 +249,11 @@ def _check_file(path) -> str:
         with open(name, "rb") as raw:
             empty = not raw.read(1)
     except OSError as err:
-        raise _bad(name, f"cannot be opened: {err.strerror or _reason(err)}",
-                   "expected a readable hpcgfmd output file") from None
+        raise _bad(
+            name,
+            f"cannot be opened: {err.strerror or _reason(err)}",
+            "expected a readable hpcgfmd output file",
+        ) from None
     if empty:
         raise _bad(name, "empty file (0 bytes), not an HDF5 file")
     try:
@@ -231,8 +271,11 @@ def _read(path, snapshots: bool):
     try:
         f = h5py.File(name, "r")
     except OSError as err:
-        raise _bad(name, f"an HDF5 file that HDF5 cannot open (cut short or damaged?):"
-                         f" {_reason(err)}", "expected a complete hpcgfmd output file") from None
+        raise _bad(
+            name,
+            f"an HDF5 file that HDF5 cannot open (cut short or damaged?): {_reason(err)}",
+            "expected a complete hpcgfmd output file",
+        ) from None
     try:
         with f:
             series = _series(f, name)
@@ -241,8 +284,11 @@ def _read(path, snapshots: bool):
         raise
     except (OSError, KeyError, ValueError, TypeError, RuntimeError) as err:
         # metadata that HDF5 cannot read (a file cut short or damaged)
-        raise _bad(name, f"cannot be read (cut short or damaged?): {_reason(err)}",
-                   "expected a complete hpcgfmd output file") from None
+        raise _bad(
+            name,
+            f"cannot be read (cut short or damaged?): {_reason(err)}",
+            "expected a complete hpcgfmd output file",
+        ) from None
 
 
 # a Prony series' and a protocol's lists, any length
@@ -251,15 +297,18 @@ LIST_ATTRS = ("relaxation_moduli", "relaxation_times", "protocol_kinds")
 
 def _attrs(f):
     """The file's attributes: numbers as Python scalars, a Prony series' lists as lists."""
-    return {k: (np.atleast_1d(v).tolist() if k in LIST_ATTRS
-                else v.item() if hasattr(v, "item") else v) for k, v in f.attrs.items()}
+    return {
+        k: (np.atleast_1d(v).tolist() if k in LIST_ATTRS else v.item() if hasattr(v, "item") else v)
+        for k, v in f.attrs.items()
+    }
 
 
 def _dataset(f, path, name, ndim):
     """The dataset ``name`` of ``f``, checked to exist with ``ndim`` dimensions."""
     if not isinstance(f.get(name), h5py.Dataset):
-        raise _bad(path, f"hpcgfmd output without dataset /{name} (damaged, or written by"
-                         " another program)")
+        raise _bad(
+            path, f"hpcgfmd output without dataset /{name} (damaged, or written by another program)"
+        )
     ds = f[name]
     if ds.ndim != ndim:
         raise _bad(path, f"dataset /{name} has {ds.ndim} dimensions, not {ndim}")
@@ -270,17 +319,23 @@ def _count(path, attrs, key, datasets, owner):
     """Entries complete: the attribute ``key`` (every dataset must hold that many)."""
     lengths = {name: ds.shape[0] for name, ds in datasets.items()}
     if key not in attrs:
-        raise _bad(path, f"no attribute {owner}{key} (written by another program or an"
-                         " earlier version)", "expected an hpcgfmd result file")
+        raise _bad(
+            path,
+            f"no attribute {owner}{key} (written by another program or an earlier version)",
+            "expected an hpcgfmd result file",
+        )
     n = attrs[key]
     if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 0:
         raise _bad(path, f"attribute {owner}{key} = {n!r} is not a count")
     for name, length in lengths.items():
         if length < n:
             # a kill between two appends leaves datasets one entry longer, never shorter
-            raise _bad(path, f"dataset {name} is shorter than {key} ({length} < {n} entries;"
-                             " truncated)", f"expected at least {key} entries in every"
-                             " dataset of a complete hpcgfmd output file")
+            raise _bad(
+                path,
+                f"dataset {name} is shorter than {key} ({length} < {n} entries; truncated)",
+                f"expected at least {key} entries in every"
+                " dataset of a complete hpcgfmd output file",
+            )
     return int(n)
 
 
@@ -289,15 +344,22 @@ def _values(path, ds, selection):
     try:
         return ds[selection]
     except (OSError, ValueError, TypeError, RuntimeError) as err:
-        raise _bad(path, f"dataset {ds.name} cannot be read (cut short or damaged?):"
-                         f" {_reason(err)}", "expected a complete hpcgfmd output file") from None
+        raise _bad(
+            path,
+            f"dataset {ds.name} cannot be read (cut short or damaged?): {_reason(err)}",
+            "expected a complete hpcgfmd output file",
+        ) from None
 
 
 def _series(f, path) -> Series:
-    missing = [what for what, absent in (("no /series group",
-                                          not isinstance(f.get("series"), h5py.Group)),
-                                         ("no config attribute", "config" not in f.attrs))
-               if absent]
+    missing = [
+        what
+        for what, absent in (
+            ("no /series group", not isinstance(f.get("series"), h5py.Group)),
+            ("no config attribute", "config" not in f.attrs),
+        )
+        if absent
+    ]
     if missing:
         raise _bad(path, f"an HDF5 file but not hpcgfmd output: {' and '.join(missing)}")
     attrs = _attrs(f)
@@ -307,28 +369,42 @@ def _series(f, path) -> Series:
     names = SERIES + tuple(name for name in OPTIONAL_SERIES if name in f["series"])
     datasets = {f"/series/{name}": _dataset(f, path, f"series/{name}", 1) for name in names}
     n = _count(path, attrs, "steps_complete", datasets, "/")
-    return Series(attrs=attrs, **{name: _values(path, ds, slice(0, n))
-                                  for name, ds in zip(names, datasets.values())})
+    return Series(
+        attrs=attrs,
+        **{name: _values(path, ds, slice(0, n)) for name, ds in zip(names, datasets.values())},
+    )
 
 
 def _snapshots(f, path) -> Snapshots:
     if not isinstance(f.get("snapshots"), h5py.Group):
-        raise _bad(path, "hpcgfmd output without the /snapshots group (damaged, or written by"
-                         " another program)")
+        raise _bad(
+            path,
+            "hpcgfmd output without the /snapshots group (damaged, or written by another program)",
+        )
     snaps = f["snapshots"]
     x = _dataset(f, path, "snapshots/x", 1)
     rows = {"/snapshots/time": _dataset(f, path, "snapshots/time", 1)}
-    rows.update({f"/snapshots/{name}": _dataset(f, path, f"snapshots/{name}", 2)
-                 for name in SNAPSHOT_FIELDS})
+    rows.update(
+        {
+            f"/snapshots/{name}": _dataset(f, path, f"snapshots/{name}", 2)
+            for name in SNAPSHOT_FIELDS
+        }
+    )
     for name in SNAPSHOT_FIELDS:
         columns = rows[f"/snapshots/{name}"].shape[1]
         if columns != x.shape[0]:
-            raise _bad(path, f"dataset /snapshots/{name} has {columns} columns but /snapshots/x"
-                             f" {x.shape[0]} nodes")
+            raise _bad(
+                path,
+                f"dataset /snapshots/{name} has {columns} columns but /snapshots/x"
+                f" {x.shape[0]} nodes",
+            )
     count = _count(path, _attrs(snaps), "complete", rows, "/snapshots ")
     values = {name: _values(path, ds, slice(0, count)) for name, ds in rows.items()}
-    return Snapshots(time=values["/snapshots/time"], x=_values(path, x, slice(None)),
-                     **{name: values[f"/snapshots/{name}"] for name in SNAPSHOT_FIELDS})
+    return Snapshots(
+        time=values["/snapshots/time"],
+        x=_values(path, x, slice(None)),
+        **{name: values[f"/snapshots/{name}"] for name in SNAPSHOT_FIELDS},
+    )
 
 
 def read_series(path: str | os.PathLike) -> Series:

@@ -41,6 +41,7 @@ damage the file, which is why the checkpoint (written aside and renamed) is the 
 point, not this file. ``finished`` is set last.
 :meth:`ResultFile.reopen` resumes such a file from a checkpoint's step and snapshot counts.
 """
+
 from __future__ import annotations
 
 import os
@@ -50,12 +51,29 @@ import numpy as np
 from .. import __version__
 from .hdf5 import check_blocks, open_file, write_block
 
-SERIES = ("time", "indenter", "load", "contact_half_width", "cohesive_half_width",
-          "iterations", "residual", "dt")
-SERIES_UNITS = {"time": "time", "indenter": "length", "load": "load",
-                "contact_half_width": "length", "cohesive_half_width": "length",
-                "iterations": None, "residual": None, "dt": "time", "drive": "length",
-                "applied_load": "load", "segment": None}
+SERIES = (
+    "time",
+    "indenter",
+    "load",
+    "contact_half_width",
+    "cohesive_half_width",
+    "iterations",
+    "residual",
+    "dt",
+)
+SERIES_UNITS = {
+    "time": "time",
+    "indenter": "length",
+    "load": "load",
+    "contact_half_width": "length",
+    "cohesive_half_width": "length",
+    "iterations": None,
+    "residual": None,
+    "dt": "time",
+    "drive": "length",
+    "applied_load": "load",
+    "segment": None,
+}
 _INT_SERIES = ("iterations", "segment")
 FIELDS = ("surface", "pressure", "gap")
 AXES = ("x", "y")  # the names of the grid's axes, the first axis first (its dimension scales)
@@ -70,12 +88,14 @@ def series_names(case):
 
 FIELD_UNITS = {"surface": "length", "pressure": "stress", "gap": "length"}
 # The ``units`` attribute of each dimension, by input form.
-UNIT_NAMES = {"case": {"time": "tau", "length": "R", "load": "E0 R", "stress": "E0", None: "1"},
-              "physical": {"time": "s", "length": "m", "load": "N/m", "stress": "Pa",
-                           None: "1"}}
+UNIT_NAMES = {
+    "case": {"time": "tau", "length": "R", "load": "E0 R", "stress": "E0", None: "1"},
+    "physical": {"time": "s", "length": "m", "load": "N/m", "stress": "Pa", None: "1"},
+}
 
 
 # --- the result file --------------------------------------------------------------------------
+
 
 class ResultFile:
     """Writer of one case's HDF5 file; every method is collective over ``comm``.
@@ -100,18 +120,17 @@ class ResultFile:
         check_blocks(comm, grid.shape[0], grid.x_start, grid.x_stop)
         if not overwrite and os.path.exists(path):  # mpio's "w-" raises a bare OSError
             raise FileExistsError(f"{path}: file exists")
-        self._setup(open_file(path, "w" if overwrite else "w-", comm), case, comm,
-                    grid.x_start)
+        self._setup(open_file(path, "w" if overwrite else "w-", comm), case, comm, grid.x_start)
         self._write_attributes(case)
         names = UNIT_NAMES[case.form]
         series = self.file.create_group("series")
         for name in series_names(case):
             dtype = "i8" if name in _INT_SERIES else "f8"
-            ds = series.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dtype,
-                                       chunks=(1024,))
+            ds = series.create_dataset(
+                name, shape=(0,), maxshape=(None,), dtype=dtype, chunks=(1024,)
+            )
             ds.attrs["units"] = names[SERIES_UNITS[name]]
-        _attach(series["time"], [series[name] for name in series_names(case)
-                                 if name != "time"], 0)
+        _attach(series["time"], [series[name] for name in series_names(case) if name != "time"], 0)
         self._create_snapshots(grid, names)
         self.file.flush()
 
@@ -141,8 +160,10 @@ class ResultFile:
         attrs["length_unit"] = units.length
         attrs["stress_unit"] = units.stress
         attrs["time_unit"] = units.time
-        attrs["vbar_convention"] = ("vbar = 2 pi rhodot tau / (k c0): retardation time tau/k,"
-                                    " see hpcgfmd.model.theory.persson_brener")
+        attrs["vbar_convention"] = (
+            "vbar = 2 pi rhodot tau / (k c0): retardation time tau/k,"
+            " see hpcgfmd.model.theory.persson_brener"
+        )
         if case.protocol:
             attrs["protocol_kinds"] = [segment.kind for segment in case.protocol]
         attrs["finished"] = False
@@ -155,20 +176,21 @@ class ResultFile:
         for name, values in zip(AXES, grid.axes()):
             axis = snaps.create_dataset(name, shape=values.shape, dtype="f8")
             axis.attrs["units"] = names["length"]
-            write_block(axis, 0, values * self.units.length if self.comm.rank == 0
-                        else np.empty(0))
+            write_block(axis, 0, values * self.units.length if self.comm.rank == 0 else np.empty(0))
             axes.append(axis)
-        times = snaps.create_dataset("time", shape=(0,), maxshape=(None,), dtype="f8",
-                                     chunks=(64,))
+        times = snaps.create_dataset("time", shape=(0,), maxshape=(None,), dtype="f8", chunks=(64,))
         times.attrs["units"] = names["time"]
-        meaning = {"surface": "displacement u, upward positive (length)",
-                   "pressure": "traction on the substrate, attractive positive (stress)",
-                   "gap": "g = h + u_z - u (length)"}
+        meaning = {
+            "surface": "displacement u, upward positive (length)",
+            "pressure": "traction on the substrate, attractive positive (stress)",
+            "gap": "g = h + u_z - u (length)",
+        }
         shape = tuple(grid.shape)
         profiles = []
         for name in FIELDS:
-            ds = snaps.create_dataset(name, shape=(0,) + shape, maxshape=(None,) + shape,
-                                      dtype="f8", chunks=(1,) + shape)
+            ds = snaps.create_dataset(
+                name, shape=(0,) + shape, maxshape=(None,) + shape, dtype="f8", chunks=(1,) + shape
+            )
             ds.attrs["meaning"] = meaning[name]
             ds.attrs["units"] = names[FIELD_UNITS[name]]
             profiles.append(ds)
@@ -181,8 +203,12 @@ class ResultFile:
         self.file, self.comm, self.x_start = file, comm, x_start
         self.series_names = series_names(case)
         self.units = case.units
-        self._scale = {"time": case.units.time, "length": case.units.length,
-                       "load": case.units.load, None: 1.0}
+        self._scale = {
+            "time": case.units.time,
+            "length": case.units.length,
+            "load": case.units.load,
+            None: 1.0,
+        }
 
     @classmethod
     def reopen(cls, path, case, grid, comm, steps, snapshots):
@@ -216,8 +242,10 @@ class ResultFile:
             if shape != tuple(grid.shape):
                 raise ValueError(f"{path}: has a grid of {shape} nodes, not {tuple(grid.shape)}")
             if not (0 <= steps <= have[0] and 0 <= snapshots <= have[1]):
-                raise ValueError(f"{path}: cannot resume at {steps} steps and {snapshots}"
-                                 f" snapshots, the file holds {have[0]} and {have[1]}")
+                raise ValueError(
+                    f"{path}: cannot resume at {steps} steps and {snapshots}"
+                    f" snapshots, the file holds {have[0]} and {have[1]}"
+                )
         except BaseException:
             file.close()
             raise
@@ -274,9 +302,11 @@ class ResultFile:
         shape = snaps["surface"].shape[1:]
         snaps["time"].resize((i + 1,))
         write_block(snaps["time"], i, [time * self.units.time] if self.comm.rank == 0 else [])
-        for name, field, scale in (("surface", surface, self.units.length),
-                                   ("pressure", pressure, self.units.stress),
-                                   ("gap", gap, self.units.length)):
+        for name, field, scale in (
+            ("surface", surface, self.units.length),
+            ("pressure", pressure, self.units.stress),
+            ("gap", gap, self.units.length),
+        ):
             snaps[name].resize((i + 1,) + shape)
             block = np.asarray(field).reshape((-1,) + shape[1:])  # whole but the first axis
             write_block(snaps[name], self.x_start, block * scale, row=i)

@@ -11,6 +11,7 @@ when they do not, it writes that checkpoint while it still can and stops with on
 from it. The check is a guard, not a reservation: another process filling the disk between
 the check and the write is not covered.
 """
+
 from __future__ import annotations
 
 import os

@@ -18,6 +18,7 @@ writes PREFIX.csv and PREFIX.md: the table between the header of
 :func:`hpcgfmd.studies.report.header` and the verdict on the runs outside their accuracy, as
 it prints them.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -37,9 +38,22 @@ from . import benchmark, report
 ACCURACIES = (1e-2, 5e-3, 1e-3)
 REFERENCE_ACCURACY = 2e-4
 CELL_PER_CONTACT = 8.0  # L = 8 sqrt(2 R h0): the periodic images change the load by < 3 %
-COLUMNS = ("lambda0", "k", "Vz", "depth", "accuracy", "nx", "steps", "iterations",
-           "iterations_per_step", "cpu_s", "pulloff_Lbar", "pulloff_error", "curve_error",
-           "within")
+COLUMNS = (
+    "lambda0",
+    "k",
+    "Vz",
+    "depth",
+    "accuracy",
+    "nx",
+    "steps",
+    "iterations",
+    "iterations_per_step",
+    "cpu_s",
+    "pulloff_Lbar",
+    "pulloff_error",
+    "curve_error",
+    "within",
+)
 
 
 def case_text(spec, accuracy, cell, alpha):
@@ -77,41 +91,73 @@ def _row(spec, accuracy, result, reference):
     converged = float(reference["lbar"].min())
     error = abs(pull_off - converged) / abs(converged)
     curve = benchmark.curve_error(reference, result)
-    return {"lambda0": lambda0, "k": k, "Vz": vz, "depth": depth, "accuracy": accuracy,
-            "nx": result["case"].numerics.nx, "steps": int(result["steps"]),
-            "iterations": int(result["iterations"]),
-            "iterations_per_step": result["iterations"] / max(result["steps"], 1),
-            "cpu_s": result["cpu_s"], "pulloff_Lbar": pull_off, "pulloff_error": error,
-            "curve_error": curve, "within": bool(error <= accuracy and curve <= accuracy)}
+    return {
+        "lambda0": lambda0,
+        "k": k,
+        "Vz": vz,
+        "depth": depth,
+        "accuracy": accuracy,
+        "nx": result["case"].numerics.nx,
+        "steps": int(result["steps"]),
+        "iterations": int(result["iterations"]),
+        "iterations_per_step": result["iterations"] / max(result["steps"], 1),
+        "cpu_s": result["cpu_s"],
+        "pulloff_Lbar": pull_off,
+        "pulloff_error": error,
+        "curve_error": curve,
+        "within": bool(error <= accuracy and curve <= accuracy),
+    }
 
 
 def markdown(rows):
     """The table of docs/results.md ("The accuracy knob")."""
-    lines = [("| lambda0 | k | V_z | h0/R | accuracy | nx | steps | it/step | CPU s |"
-              " pull-off Lbar | pull-off error | curve error | within |"),
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        (
+            "| lambda0 | k | V_z | h0/R | accuracy | nx | steps | it/step | CPU s |"
+            " pull-off Lbar | pull-off error | curve error | within |"
+        ),
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
-        lines.append(f"| {r['lambda0']:g} | {r['k']:g} | {r['Vz']:g} | {r['depth']:g} |"
-                     f" {r['accuracy']:g} | {grid_label(int(r['nx']))} | {r['steps']} |"
-                     f" {r['iterations_per_step']:.1f} | {r['cpu_s']:.1f} |"
-                     f" {r['pulloff_Lbar']:.5f} | {r['pulloff_error']:.1e} |"
-                     f" {r['curve_error']:.1e} | {'yes' if r['within'] else 'NO'} |")
+        lines.append(
+            f"| {r['lambda0']:g} | {r['k']:g} | {r['Vz']:g} | {r['depth']:g} |"
+            f" {r['accuracy']:g} | {grid_label(int(r['nx']))} | {r['steps']} |"
+            f" {r['iterations_per_step']:.1f} | {r['cpu_s']:.1f} |"
+            f" {r['pulloff_Lbar']:.5f} | {r['pulloff_error']:.1e} |"
+            f" {r['curve_error']:.1e} | {'yes' if r['within'] else 'NO'} |"
+        )
     return "\n".join(lines) + "\n"
 
 
 def _parser():
-    parser = argparse.ArgumentParser(prog="python -m hpcgfmd bench accuracy",
-                                     description=__doc__.split("\n")[0])
-    parser.add_argument("--cases", nargs="+", required=True, metavar="L:K:V:H",
-                        help="lambda0:k:V_z:h0/R, e.g. 3.5:0.2:0.01:0.1")
+    parser = argparse.ArgumentParser(
+        prog="python -m hpcgfmd bench accuracy", description=__doc__.split("\n")[0]
+    )
+    parser.add_argument(
+        "--cases",
+        nargs="+",
+        required=True,
+        metavar="L:K:V:H",
+        help="lambda0:k:V_z:h0/R, e.g. 3.5:0.2:0.01:0.1",
+    )
     parser.add_argument("--accuracies", nargs="+", type=float, default=list(ACCURACIES))
-    parser.add_argument("--reference-accuracy", type=float, default=REFERENCE_ACCURACY,
-                        help=f"the accuracy of the converged runs (default {REFERENCE_ACCURACY:g})")
-    parser.add_argument("--cell", type=float, help=(
-        f"L/R (default {CELL_PER_CONTACT:g} sqrt(2 h0/R), the contact's width 8 times)"))
+    parser.add_argument(
+        "--reference-accuracy",
+        type=float,
+        default=REFERENCE_ACCURACY,
+        help=f"the accuracy of the converged runs (default {REFERENCE_ACCURACY:g})",
+    )
+    parser.add_argument(
+        "--cell",
+        type=float,
+        help=(f"L/R (default {CELL_PER_CONTACT:g} sqrt(2 h0/R), the contact's width 8 times)"),
+    )
     parser.add_argument("--alpha", type=float, default=5e-5, help="alpha (default 5e-5)")
-    parser.add_argument("--out", default="accuracy", help="prefix of PREFIX.csv, PREFIX.md"
-                        " and the saved runs PREFIX-runs/")
+    parser.add_argument(
+        "--out",
+        default="accuracy",
+        help="prefix of PREFIX.csv, PREFIX.md and the saved runs PREFIX-runs/",
+    )
     return parser
 
 
@@ -132,8 +178,10 @@ def _specs(args):
                 return None, f"--cases {key} (accuracy {accuracy:g}): {err}"
         specs.append(spec)
     if not all(args.reference_accuracy < a for a in args.accuracies):
-        return None, (f"--reference-accuracy {args.reference_accuracy:g}: must be finer than"
-                      " every --accuracies value")
+        return None, (
+            f"--reference-accuracy {args.reference_accuracy:g}: must be finer than"
+            " every --accuracies value"
+        )
     return specs, None
 
 
@@ -151,8 +199,11 @@ def main(comm, argv=None):
             print(f"accuracy_study: error: {error}", file=sys.stderr)
         return 2
     folder = f"{args.out}-runs"
-    head = report.header("The accuracy knob's validation (python -m hpcgfmd bench accuracy)"
-                         ) if comm.Get_rank() == 0 else ""
+    head = (
+        report.header("The accuracy knob's validation (python -m hpcgfmd bench accuracy)")
+        if comm.Get_rank() == 0
+        else ""
+    )
     if comm.Get_rank() == 0:
         print(head, flush=True)
         os.makedirs(folder, exist_ok=True)
@@ -161,19 +212,27 @@ def main(comm, argv=None):
     identity = comm.bcast(benchmark.code_identity() if comm.Get_rank() == 0 else None, root=0)
     runs = [(spec, a) for spec in specs for a in (args.reference_accuracy, *args.accuracies)]
     # references first, so that the ranks share them out too; each run on one rank
-    mine = runs[comm.Get_rank()::comm.Get_size()]
+    mine = runs[comm.Get_rank() :: comm.Get_size()]
     for spec, accuracy in mine:
-        text = (reference_text if accuracy == args.reference_accuracy else case_text)
+        text = reference_text if accuracy == args.reference_accuracy else case_text
         _cached(text(spec, accuracy, args.cell, args.alpha), MPI.COMM_SELF, folder, identity)
     comm.Barrier()
     rows = []
     if comm.Get_rank() == 0:
         for spec in specs:
-            reference = _cached(reference_text(spec, args.reference_accuracy, args.cell,
-                                               args.alpha), MPI.COMM_SELF, folder, identity)
+            reference = _cached(
+                reference_text(spec, args.reference_accuracy, args.cell, args.alpha),
+                MPI.COMM_SELF,
+                folder,
+                identity,
+            )
             for accuracy in args.accuracies:
-                result = _cached(case_text(spec, accuracy, args.cell, args.alpha),
-                                 MPI.COMM_SELF, folder, identity)
+                result = _cached(
+                    case_text(spec, accuracy, args.cell, args.alpha),
+                    MPI.COMM_SELF,
+                    folder,
+                    identity,
+                )
                 rows.append(_row(spec, accuracy, result, reference))
         benchmark.write_csv(rows, f"{args.out}.csv", COLUMNS)
         table = markdown(rows) + "\n".join(verdicts(rows)) + "\n"
@@ -186,12 +245,22 @@ def verdicts(rows):
     """The knob's target on the rows: how many runs are outside their accuracy, and the
     largest share of its accuracy a run's pull-off and curve errors reach."""
     bad = [r for r in rows if not r["within"]]
-    share = max((error / r["accuracy"] for r in rows
-                 for error in (r["pulloff_error"], r["curve_error"]) if not math.isnan(error)),
-                default=math.nan)
-    return [(f"{len(rows) - len(bad)} of {len(rows)} runs within their accuracy; the largest"
-             f" error {share:.2f} of its accuracy"),
-            report.verdict("knob", len(bad))]
+    share = max(
+        (
+            error / r["accuracy"]
+            for r in rows
+            for error in (r["pulloff_error"], r["curve_error"])
+            if not math.isnan(error)
+        ),
+        default=math.nan,
+    )
+    return [
+        (
+            f"{len(rows) - len(bad)} of {len(rows)} runs within their accuracy; the largest"
+            f" error {share:.2f} of its accuracy"
+        ),
+        report.verdict("knob", len(bad)),
+    ]
 
 
 def read_rows(path):
@@ -200,6 +269,7 @@ def read_rows(path):
         rows = list(csv.DictReader(fh))
     for row in rows:
         for key in COLUMNS:
-            row[key] = (row[key] == "True" if key == "within"
-                        else float(row[key]) if row[key] else math.nan)
+            row[key] = (
+                row[key] == "True" if key == "within" else float(row[key]) if row[key] else math.nan
+            )
     return rows

@@ -17,6 +17,7 @@ The table is followed by the verdicts on the speed targets (:data:`report.TARGET
 to a core to keep other work off it: ``taskset -c 0 python -m hpcgfmd bench cases`` (the
 paper's cases inherit the core). Runs on one rank.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -66,19 +67,40 @@ def key_values(items):
 
 def _parser():
     parser = argparse.ArgumentParser(
-        prog="python -m hpcgfmd bench cases", description=__doc__.split("\n")[0],
+        prog="python -m hpcgfmd bench cases",
+        description=__doc__.split("\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog=__doc__.split("\n\n", 1)[1])
-    parser.add_argument("--cases", nargs="*", default=list(CASES), metavar="L:V",
-                        help="lambda0:V_z pairs, none for the default case alone (default:"
-                        " the paper's four, " + " ".join(CASES) + ")")
-    parser.add_argument("--numerics", nargs="+", default=[], metavar="KEY=VALUE",
-                        help="[numerics] keys of every case (default: none, accuracy 5e-3)")
-    parser.add_argument("--geometry", nargs=3, type=float, metavar=("DEPTH", "CELL", "ALPHA"),
-                        help="h0/R, L/R, alpha instead of 0.1 10 5e-5 (quick checks only)")
-    parser.add_argument("--default-ranks", type=int, default=2, metavar="P",
-                        help="ranks of the default case's run (default 2, as scripts/main.sh;"
-                        " 0: not run)")
+        epilog=__doc__.split("\n\n", 1)[1],
+    )
+    parser.add_argument(
+        "--cases",
+        nargs="*",
+        default=list(CASES),
+        metavar="L:V",
+        help="lambda0:V_z pairs, none for the default case alone (default:"
+        " the paper's four, " + " ".join(CASES) + ")",
+    )
+    parser.add_argument(
+        "--numerics",
+        nargs="+",
+        default=[],
+        metavar="KEY=VALUE",
+        help="[numerics] keys of every case (default: none, accuracy 5e-3)",
+    )
+    parser.add_argument(
+        "--geometry",
+        nargs=3,
+        type=float,
+        metavar=("DEPTH", "CELL", "ALPHA"),
+        help="h0/R, L/R, alpha instead of 0.1 10 5e-5 (quick checks only)",
+    )
+    parser.add_argument(
+        "--default-ranks",
+        type=int,
+        default=2,
+        metavar="P",
+        help="ranks of the default case's run (default 2, as scripts/main.sh; 0: not run)",
+    )
     parser.add_argument("--out", help="also write the printed text to OUT.md")
     parser.add_argument("--child", metavar="L:V", help=argparse.SUPPRESS)
     return parser
@@ -98,12 +120,18 @@ def _run_child(comm, key, numerics, geometry):
         record = sim.step()
         loads.append(record.load)
         accepted, last = accepted + record.iterations, record.iterations
-    result = {"nx": case.numerics.nx, "steps": sim.surface.step_index, "rejected": sim.rejected_steps,
-              "iterations": sim.equilibrium.iterations, "preload": sim.preload_iterations,
-              "attempts": sim.equilibrium.iterations - sim.preload_iterations - accepted,
-              "last": last, "fft_pairs": sim.fft.pairs,
-              "pull_off": min(loads) / case.load_scale,
-              "run_s": time.perf_counter() - start}
+    result = {
+        "nx": case.numerics.nx,
+        "steps": sim.surface.step_index,
+        "rejected": sim.rejected_steps,
+        "iterations": sim.equilibrium.iterations,
+        "preload": sim.preload_iterations,
+        "attempts": sim.equilibrium.iterations - sim.preload_iterations - accepted,
+        "last": last,
+        "fft_pairs": sim.fft.pairs,
+        "pull_off": min(loads) / case.load_scale,
+        "run_s": time.perf_counter() - start,
+    }
     sim.close()
     if comm.Get_rank() == 0:
         print("RESULT " + json.dumps(result), flush=True)
@@ -120,9 +148,15 @@ def _measure(command, cwd=None, pinned=True):
     process, its CPU seconds, its wall seconds."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    done = subprocess.run(command, capture_output=True, text=True, cwd=cwd, check=False,
-                          env=report.child_environment(),
-                          preexec_fn=None if pinned else _every_core)
+    done = subprocess.run(
+        command,
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        check=False,
+        env=report.child_environment(),
+        preexec_fn=None if pinned else _every_core,
+    )
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -159,25 +193,50 @@ def _default_case(ranks):
             return None, f"the default case failed (status {done.returncode}): {done.stderr[-500:]}"
         series = read_series(files[0])
         attrs = series.attrs
-        return {"nx": int(attrs["nx"]) if "nx" in attrs else None,
-                "steps": int(attrs["steps"]), "iterations": int(attrs["iterations"]),
-                "fft_pairs": int(attrs["fft_pairs"]), "pull_off": float(series.lbar.min()),
-                "run_s": float(attrs["wall_time"]), "cpu_s": cpu, "wall_s": wall}, None
+        return {
+            "nx": int(attrs["nx"]) if "nx" in attrs else None,
+            "steps": int(attrs["steps"]),
+            "iterations": int(attrs["iterations"]),
+            "fft_pairs": int(attrs["fft_pairs"]),
+            "pull_off": float(series.lbar.min()),
+            "run_s": float(attrs["wall_time"]),
+            "cpu_s": cpu,
+            "wall_s": wall,
+        }, None
 
 
 def _cells(label, r, reference):
     error = abs(r["pull_off"] / reference - 1) if reference else math.nan
     steps = max(r["steps"], 1)
-    split = (f"{r['preload']}, {r['attempts']}, {r['last']}" if "preload" in r else "")
-    return [label, grid_label(r["nx"]) if r.get("nx") else "", r["steps"], r.get("rejected", ""),
-            f"{r['iterations']} ({r['iterations'] / steps:.2f})", split, r["fft_pairs"],
-            f"{r['cpu_s']:.2f}", f"{r['run_s']:.2f}", f"{r['pull_off']:.5f}",
-            f"{error:.1e}" if reference else ""]
+    split = f"{r['preload']}, {r['attempts']}, {r['last']}" if "preload" in r else ""
+    return [
+        label,
+        grid_label(r["nx"]) if r.get("nx") else "",
+        r["steps"],
+        r.get("rejected", ""),
+        f"{r['iterations']} ({r['iterations'] / steps:.2f})",
+        split,
+        r["fft_pairs"],
+        f"{r['cpu_s']:.2f}",
+        f"{r['run_s']:.2f}",
+        f"{r['pull_off']:.5f}",
+        f"{error:.1e}" if reference else "",
+    ]
 
 
-HEAD = ("case (lambda0, V_z)", "nodes", "steps", "rejected", "iterations (per step)",
-        "preload, rejected attempts, last step", "FFT pairs", "CPU s", "run s",
-        "pull-off Lbar", "error")
+HEAD = (
+    "case (lambda0, V_z)",
+    "nodes",
+    "steps",
+    "rejected",
+    "iterations (per step)",
+    "preload, rejected attempts, last step",
+    "FFT pairs",
+    "CPU s",
+    "run s",
+    "pull-off Lbar",
+    "error",
+)
 
 
 def main(comm, argv=None):
@@ -207,11 +266,14 @@ def main(comm, argv=None):
         return _run_child(comm, args.child, numerics, geometry)
     if comm.Get_size() > 1:
         if comm.Get_rank() == 0:
-            print("bench cases: runs each case in a process of its own; start it on one rank",
-                  file=sys.stderr)
+            print(
+                "bench cases: runs each case in a process of its own; start it on one rank",
+                file=sys.stderr,
+            )
         return 2
-    head = report.header("The paper's four cases at the default accuracy"
-                         " (python -m hpcgfmd bench cases)")
+    head = report.header(
+        "The paper's four cases at the default accuracy (python -m hpcgfmd bench cases)"
+    )
     print(head, flush=True)
     rows, judged, status = [], {}, 0
     paper = not args.geometry
@@ -228,9 +290,11 @@ def main(comm, argv=None):
         judged.setdefault("case_cpu", []).append((subject, result["cpu_s"]))
         if reference:
             judged.setdefault("pull_off", []).append(
-                (subject, abs(result["pull_off"] / reference - 1)))
+                (subject, abs(result["pull_off"] / reference - 1))
+            )
         judged.setdefault("iterations_per_step", []).append(
-            (subject, result["iterations"] / max(result["steps"], 1)))
+            (subject, result["iterations"] / max(result["steps"], 1))
+        )
         if key == CREEPING:
             judged.setdefault("creeping_steps", []).append((subject, result["steps"]))
     if args.default_ranks > 0:
@@ -243,10 +307,12 @@ def main(comm, argv=None):
             rows.append(_cells(label, result, None))
             judged["default_wall"] = [(label, result["run_s"])]
     lines = [report.verdict(key, items) for key, items in judged.items()]
-    text = (report.markdown_table(HEAD, rows) + "\n\n"
-            "CPU s: the whole command, all its processes; run s: the run's own wall time (set-up,"
-            " preload, retraction)."
-            "\n" + "\n".join(lines))
+    text = (
+        report.markdown_table(HEAD, rows) + "\n\n"
+        "CPU s: the whole command, all its processes; run s: the run's own wall time (set-up,"
+        " preload, retraction)."
+        "\n" + "\n".join(lines)
+    )
     print(text, flush=True)
     if args.out:
         atomic.write_text(args.out + ".md", f"{head}\n{text}\n")

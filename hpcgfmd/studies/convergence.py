@@ -20,6 +20,7 @@ fixed grid ``--nx``, several step settings (``--runs``, each its [numerics] keys
 commas) against a reference setting on the same grid (the grid's error cancels): steps, CPU
 seconds, the pull-off, its relative error and the curve error.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -34,7 +35,7 @@ from .cases import key_values
 
 PAPER = {"modulus_ratio": 0.1, "depth": 0.1, "cell": 10.0, "adhesion": 5e-5}
 POINTS = (1, 2, 4, 8, 16)
-LARGEST = 2 ** 17
+LARGEST = 2**17
 COMPARED_FROM = 8  # points across w from which the nearly relaxed case's steps are compared
 
 
@@ -52,21 +53,35 @@ def _error(mode, message):
 
 def _self():
     from mpi4py import MPI
+
     return MPI.COMM_SELF
 
 
 def convergence(comm, argv=None):
     """``bench convergence`` (rank 0 runs it); the exit status."""
-    parser = argparse.ArgumentParser(prog="python -m hpcgfmd bench convergence",
-                                     description=__doc__.split("\n\n")[1])
-    parser.add_argument("--cases", nargs="+", required=True, metavar="L:V",
-                        help="lambda0:V_z pairs, e.g. 7:0.45")
-    parser.add_argument("--nx", type=int, nargs="*", default=[],
-                        help="grids run at the fixed default step (may be empty)")
-    parser.add_argument("--dt-factors", type=float, nargs="+", default=[],
-                        help="multiples of the fixed default step run on --dt-nx")
-    parser.add_argument("--dt-nx", type=int, help="grid of the --dt-factors runs"
-                        " (default: the largest --nx)")
+    parser = argparse.ArgumentParser(
+        prog="python -m hpcgfmd bench convergence", description=__doc__.split("\n\n")[1]
+    )
+    parser.add_argument(
+        "--cases", nargs="+", required=True, metavar="L:V", help="lambda0:V_z pairs, e.g. 7:0.45"
+    )
+    parser.add_argument(
+        "--nx",
+        type=int,
+        nargs="*",
+        default=[],
+        help="grids run at the fixed default step (may be empty)",
+    )
+    parser.add_argument(
+        "--dt-factors",
+        type=float,
+        nargs="+",
+        default=[],
+        help="multiples of the fixed default step run on --dt-nx",
+    )
+    parser.add_argument(
+        "--dt-nx", type=int, help="grid of the --dt-factors runs (default: the largest --nx)"
+    )
     args, status = _parse(parser, argv)
     if args is None:
         return status
@@ -96,21 +111,29 @@ def convergence(comm, argv=None):
                 skipped.append(f"  {key} nx {grid_label(nx)} dt x {factor:g}: skipped, {err}")
                 continue
             texts[key, nx, factor] = text
-    print(report.header("Grid and time-step convergence (python -m hpcgfmd bench convergence)"),
-          flush=True)
+    print(
+        report.header("Grid and time-step convergence (python -m hpcgfmd bench convergence)"),
+        flush=True,
+    )
     print("\n".join(skipped), flush=True)
     loads = {}
     for (key, nx, factor), text in texts.items():
         result = benchmark.run(text, _self())
         loads[key, nx, factor] = float(result["lbar"].min())
-        print(f"  {key} nx {grid_label(nx)} dt x {factor:g}: {result['steps']} steps,"
-              f" {result['cpu_s']:.0f} CPU s, pull-off {loads[key, nx, factor]:.5f}",
-              flush=True)
-    head = (["lambda0, V_z", *(grid_label(nx) for nx in sorted(args.nx)),
-             *(f"dt x {f:g} ({grid_label(dt_nx)})" for f in args.dt_factors if f != 1.0),
-             "change at the last refinement"])
+        print(
+            f"  {key} nx {grid_label(nx)} dt x {factor:g}: {result['steps']} steps,"
+            f" {result['cpu_s']:.0f} CPU s, pull-off {loads[key, nx, factor]:.5f}",
+            flush=True,
+        )
+    head = [
+        "lambda0, V_z",
+        *(grid_label(nx) for nx in sorted(args.nx)),
+        *(f"dt x {f:g} ({grid_label(dt_nx)})" for f in args.dt_factors if f != 1.0),
+        "change at the last refinement",
+    ]
     rows = []
     for key in args.cases:
+
         def cell(nx, factor, key=key):
             value = loads.get((key, nx, factor))
             return "" if value is None else f"{value:.4f}"
@@ -152,10 +175,12 @@ def _pull_off(groups, nx):
 
 def grid_error(comm, argv=None):
     """``bench grid`` (rank 0 runs it); the exit status."""
-    parser = argparse.ArgumentParser(prog="python -m hpcgfmd bench grid",
-                                     description=__doc__.split("\n\n")[2])
-    parser.add_argument("cases", nargs="+", metavar="L:K:V:H[:CELL]",
-                        help="lambda0:k:V_z:h0/R, optionally :L/R")
+    parser = argparse.ArgumentParser(
+        prog="python -m hpcgfmd bench grid", description=__doc__.split("\n\n")[2]
+    )
+    parser.add_argument(
+        "cases", nargs="+", metavar="L:K:V:H[:CELL]", help="lambda0:k:V_z:h0/R, optionally :L/R"
+    )
     args, status = _parse(parser, argv)
     if args is None:
         return status
@@ -169,58 +194,92 @@ def grid_error(comm, argv=None):
                 raise ValueError
             lambda0, k, vz, depth = fields[:4]
             cell = fields[4] if len(fields) > 4 else round(8.0 * math.sqrt(2.0 * depth), 3)
-            groups = {"maugis": lambda0, "modulus_ratio": k, "velocity": vz,
-                      "depth": depth, "cell": cell, "adhesion": 5e-5}
+            groups = {
+                "maugis": lambda0,
+                "modulus_ratio": k,
+                "velocity": vz,
+                "depth": depth,
+                "cell": cell,
+                "adhesion": 5e-5,
+            }
             case = parse_case(case_file_text(groups, {}))
         except CaseError as err:
             return _error("grid", f"{spec}: {err}")
         except ValueError:
             return _error("grid", f"{spec}: expected lambda0:k:V_z:h0/R[:L/R]")
         specs.append((spec, groups, case))
-    print(report.header("Grid error of the pull-off (python -m hpcgfmd bench grid)"),
-          flush=True)
+    print(report.header("Grid error of the pull-off (python -m hpcgfmd bench grid)"), flush=True)
     rows, steps = [], {}
     for spec, groups, case in specs:
         width, cell = case.zone_width, groups["cell"]
         grids = sorted({2 ** max(6, math.ceil(math.log2(p * cell / width))) for p in POINTS})
         runs = [(nx, *_pull_off(groups, nx)) for nx in grids if nx <= LARGEST]
         finest = runs[-1][1]
-        cells = [f"{width / (cell / nx):.2f}: {abs(load / finest - 1):.1e} ({count}, {cpu:.0f} s,"
-                 f" z{zone:.1f})" for nx, load, count, cpu, zone in runs]
-        rows.append([spec, f"{case.chi_ve / groups['modulus_ratio']:.3g}",
-                     *cells, *[""] * (len(POINTS) - len(cells))])
+        cells = [
+            f"{width / (cell / nx):.2f}: {abs(load / finest - 1):.1e} ({count}, {cpu:.0f} s,"
+            f" z{zone:.1f})"
+            for nx, load, count, cpu, zone in runs
+        ]
+        rows.append(
+            [
+                spec,
+                f"{case.chi_ve / groups['modulus_ratio']:.3g}",
+                *cells,
+                *[""] * (len(POINTS) - len(cells)),
+            ]
+        )
         steps[spec] = {round(width / (cell / nx), 2): count for nx, _, count, _, _ in runs}
         print(f"  {spec} done", flush=True)
-    head = ["case", "chi_ve/k",
-            *(f"grid {i + 1}: w/dx: error (steps, CPU s, zone/w)" for i in range(len(POINTS)))]
+    head = [
+        "case",
+        "chi_ve/k",
+        *(f"grid {i + 1}: w/dx: error (steps, CPU s, zone/w)" for i in range(len(POINTS))),
+    ]
     lines = []
     for spec, groups, _ in specs:
         if groups["modulus_ratio"] >= 1.0:
             continue
-        elastic = next((s for s, g, _ in specs if g["modulus_ratio"] == 1.0
-                        and all(g[k] == groups[k] for k in g if k != "modulus_ratio")), None)
+        elastic = next(
+            (
+                s
+                for s, g, _ in specs
+                if g["modulus_ratio"] == 1.0
+                and all(g[k] == groups[k] for k in g if k != "modulus_ratio")
+            ),
+            None,
+        )
         if elastic is None:
             continue
         shared = [p for p in steps[spec] if p in steps[elastic] and p >= COMPARED_FROM]
         if shared:
             ratio = max(steps[spec][p] / steps[elastic][p] for p in shared)
-            lines.append(report.verdict("relaxed_steps", ratio, f"{spec} against {elastic} (w/dx"
-                                        f" {', '.join(f'{p:g}' for p in shared)})"))
-    print(report.markdown_table(head, rows) + "\n\n"
-          + "\n".join(lines or [report.no_target("no case with its elastic counterpart")]),
-          flush=True)
+            lines.append(
+                report.verdict(
+                    "relaxed_steps",
+                    ratio,
+                    f"{spec} against {elastic} (w/dx {', '.join(f'{p:g}' for p in shared)})",
+                )
+            )
+    print(
+        report.markdown_table(head, rows)
+        + "\n\n"
+        + "\n".join(lines or [report.no_target("no case with its elastic counterpart")]),
+        flush=True,
+    )
     return 0
 
 
 def time_error(comm, argv=None):
     """``bench time-error`` (rank 0 runs it); the exit status."""
-    parser = argparse.ArgumentParser(prog="python -m hpcgfmd bench time-error",
-                                     description=__doc__.split("\n\n")[3])
+    parser = argparse.ArgumentParser(
+        prog="python -m hpcgfmd bench time-error", description=__doc__.split("\n\n")[3]
+    )
     parser.add_argument("case", nargs="+", help="[case] keys, key=value")
     parser.add_argument("--nx", type=int, required=True)
     parser.add_argument("--reference", nargs="+", required=True, help="numerics key=value")
-    parser.add_argument("--runs", nargs="+", required=True,
-                        help="one run each: numerics key=value joined by commas")
+    parser.add_argument(
+        "--runs", nargs="+", required=True, help="one run each: numerics key=value joined by commas"
+    )
     args, status = _parse(parser, argv)
     if args is None:
         return status
@@ -230,26 +289,50 @@ def time_error(comm, argv=None):
         groups = key_values(args.case)
         reference_keys = key_values(args.reference)
         runs = [(item, key_values(item.split(","))) for item in args.runs]
-        texts = [case_file_text(groups, {"nx": args.nx, **numerics})
-                 for numerics in (reference_keys, *(n for _, n in runs))]
+        texts = [
+            case_file_text(groups, {"nx": args.nx, **numerics})
+            for numerics in (reference_keys, *(n for _, n in runs))
+        ]
         for text in texts:
             parse_case(text)
     except ValueError as err:  # CaseError included
         return _error("time-error", str(err))
-    print(report.header("The time steps' error on one grid"
-                        " (python -m hpcgfmd bench time-error)"), flush=True)
+    print(
+        report.header("The time steps' error on one grid (python -m hpcgfmd bench time-error)"),
+        flush=True,
+    )
     reference = benchmark.run(texts[0], _self())
     converged = float(reference["lbar"].min())
-    rows = [[f"reference {' '.join(args.reference)}", reference["steps"],
-             f"{reference['cpu_s']:.1f}", f"{converged:.5f}", "", ""]]
+    rows = [
+        [
+            f"reference {' '.join(args.reference)}",
+            reference["steps"],
+            f"{reference['cpu_s']:.1f}",
+            f"{converged:.5f}",
+            "",
+            "",
+        ]
+    ]
     for (item, _), text in zip(runs, texts[1:]):
         result = benchmark.run(text, _self())
         pull_off = float(result["lbar"].min())
-        rows.append([item, result["steps"], f"{result['cpu_s']:.1f}", f"{pull_off:.5f}",
-                     f"{abs(pull_off / converged - 1):.1e}",
-                     f"{benchmark.curve_error(reference, result):.1e}"])
-    print(f"{' '.join(args.case)}, nx {grid_label(args.nx)}\n\n"
-          + report.markdown_table(("run", "steps", "CPU s", "pull-off Lbar", "pull-off error",
-                                   "curve error"), rows) + "\n\n" + report.no_target(),
-          flush=True)
+        rows.append(
+            [
+                item,
+                result["steps"],
+                f"{result['cpu_s']:.1f}",
+                f"{pull_off:.5f}",
+                f"{abs(pull_off / converged - 1):.1e}",
+                f"{benchmark.curve_error(reference, result):.1e}",
+            ]
+        )
+    print(
+        f"{' '.join(args.case)}, nx {grid_label(args.nx)}\n\n"
+        + report.markdown_table(
+            ("run", "steps", "CPU s", "pull-off Lbar", "pull-off error", "curve error"), rows
+        )
+        + "\n\n"
+        + report.no_target(),
+        flush=True,
+    )
     return 0

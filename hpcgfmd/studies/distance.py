@@ -1,5 +1,6 @@
 """Distance of computed points to a curve given as a polyline: the curve error of the
 accuracy knob, the benchmark and the paper's checks (docs/numerics.md, "The accuracy knob")."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -25,8 +26,9 @@ def polyline_distances(points: np.ndarray, line: np.ndarray) -> np.ndarray:
     for chunk in np.array_split(points, max(1, len(points) // 256)):
         rel = chunk[:, None, :] - start[None, :, :]
         s = np.clip((rel * seg[None]).sum(2) / length2[None], 0.0, 1.0)
-        out[done:done + len(chunk)] = np.sqrt(((rel - s[..., None] * seg[None]) ** 2)
-                                              .sum(2)).min(1)
+        out[done : done + len(chunk)] = np.sqrt(((rel - s[..., None] * seg[None]) ** 2).sum(2)).min(
+            1
+        )
         done += len(chunk)
     return out
 

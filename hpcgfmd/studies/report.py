@@ -9,6 +9,7 @@ met or missed, and by how much. The targets are :data:`TARGETS`, in one place.
 Nothing here imports MPI: ``scripts/bench_scaling.py`` prints a header before it starts
 mpirun.
 """
+
 from __future__ import annotations
 
 import datetime
@@ -40,16 +41,16 @@ TARGETS = {
     "pull_off": Target("pull-off error against the converged 2^17 value", 5e-3),
     "creeping_steps": Target("steps of (7, 0.045) at accuracy 5e-3", 700),
     "iterations_per_step": Target("CG iterations per step of a paper case at 5e-3", 8.0),
-    "default_wall": Target("the default case on 2 ranks (scripts/main.sh), the run's wall"
-                           " time", 15.0, unit=" s"),
+    "default_wall": Target(
+        "the default case on 2 ranks (scripts/main.sh), the run's wall time", 15.0, unit=" s"
+    ),
     "iteration_pairs": Target("bare FFT-pair times per CG iteration at 2^17", 3.0),
-    "two_ranks": Target("2 ranks against 1 per CG iteration at 2^22", 1.6, ceiling=False,
-                        unit="x"),
+    "two_ranks": Target("2 ranks against 1 per CG iteration at 2^22", 1.6, ceiling=False, unit="x"),
     "knob": Target("validation runs outside their accuracy (pull-off or curve)", 0),
-    "relaxed_steps": Target("steps of a nearly relaxed case against its elastic"
-                            " counterpart's", 2.0, unit="x"),
-    "farm_ratio": Target("farm of equal cases, time on 2 ranks over time on 1",
-                         1.0 / 1.9),
+    "relaxed_steps": Target(
+        "steps of a nearly relaxed case against its elastic counterpart's", 2.0, unit="x"
+    ),
+    "farm_ratio": Target("farm of equal cases, time on 2 ranks over time on 1", 1.0 / 1.9),
 }
 
 
@@ -69,9 +70,14 @@ def commit() -> str:
     if not ((root / ".git").exists() and (root / "pyproject.toml").exists()):
         return "no git checkout"
     try:
-        done = subprocess.run(["git", "-C", str(root), "describe", "--always", "--dirty"],
-                              capture_output=True, text=True, timeout=60, check=False,
-                              env=child_environment())
+        done = subprocess.run(
+            ["git", "-C", str(root), "describe", "--always", "--dirty"],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+            env=child_environment(),
+        )
     except (OSError, subprocess.SubprocessError):
         return "git not available"
     return done.stdout.strip() if done.returncode == 0 else "git describe failed"
@@ -82,8 +88,10 @@ def machine() -> str:
     model = "unknown CPU"
     try:
         with open("/proc/cpuinfo") as fh:
-            model = next((line.split(":", 1)[1].strip() for line in fh
-                          if line.startswith("model name")), model)
+            model = next(
+                (line.split(":", 1)[1].strip() for line in fh if line.startswith("model name")),
+                model,
+            )
     except OSError:
         pass
     return f"{socket.gethostname()} ({model}, {os.cpu_count()} cores)"
@@ -94,9 +102,11 @@ def header(title: str) -> str:
     empty line after them."""
     now = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     load = " ".join(f"{value:.2f}" for value in os.getloadavg())
-    return (f"{title}\n"
-            f"date {now}; machine {machine()}, load average {load};"
-            f" commit {commit()} (code {code_identity()})\n")
+    return (
+        f"{title}\n"
+        f"date {now}; machine {machine()}, load average {load};"
+        f" commit {commit()} (code {code_identity()})\n"
+    )
 
 
 def _number(value: float, unit: str) -> str:
@@ -124,8 +134,10 @@ def verdict(key: str, measured: float | list, subject: str = "") -> str:
     target = TARGETS[key]
     bound = "at most" if target.ceiling else "at least"
     items = measured if isinstance(measured, list) else [(subject, measured)]
-    judged = "; ".join(f"{what + ' ' if what else ''}{_number(value, target.unit)}"
-                       f" {_judged(target, value)}" for what, value in items)
+    judged = "; ".join(
+        f"{what + ' ' if what else ''}{_number(value, target.unit)} {_judged(target, value)}"
+        for what, value in items
+    )
     return f"target {target.text}, {bound} {_number(target.limit, target.unit)}: {judged}"
 
 
@@ -143,11 +155,18 @@ def child_environment(**extra) -> dict:
     """
     env = dict(os.environ)
     if "PMIX_RANK" in env or "OMPI_COMM_WORLD_SIZE" in env:  # this process is a rank
-        env = {key: value for key, value in env.items()
-               if not key.startswith(("PMIX_", "PRTE_", "OMPI_"))
-               or key.startswith("OMPI_ALLOW_RUN_AS_ROOT")}
-    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+        env = {
+            key: value
+            for key, value in env.items()
+            if not key.startswith(("PMIX_", "PRTE_", "OMPI_"))
+            or key.startswith("OMPI_ALLOW_RUN_AS_ROOT")
+        }
+    env.update(
+        OMPI_ALLOW_RUN_AS_ROOT="1",
+        OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+        OPENBLAS_NUM_THREADS="1",
+        OMP_NUM_THREADS="1",
+    )
     env.update(extra)
     return env
 

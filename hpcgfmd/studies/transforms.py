@@ -22,6 +22,7 @@ their synchronisations (``communication_time``, maximum over ranks, waiting for 
 ranks included) and the planning times in s. On a shared machine compare ratios from one run,
 not times across runs.
 """
+
 import argparse
 import sys
 import time
@@ -75,8 +76,10 @@ def bench(comm, n, rounds, calls, effort, transport):
     result = {"n": n}
     alone = {}
     if rank == 0:
-        for name, make in (("serial", lambda: SerialRealFFT(n, effort)),
-                           ("T x 1", lambda: TransposedRealFFT(MPI.COMM_SELF, n, effort))):
+        for name, make in (
+            ("serial", lambda: SerialRealFFT(n, effort)),
+            ("T x 1", lambda: TransposedRealFFT(MPI.COMM_SELF, n, effort)),
+        ):
             start = time.perf_counter()
             fft = make()
             result["plan " + name] = time.perf_counter() - start
@@ -130,19 +133,35 @@ def bench(comm, n, rounds, calls, effort, transport):
 
 def _parser():
     parser = argparse.ArgumentParser(
-        prog="python -m hpcgfmd bench fft", description=__doc__.split("\n\n")[0],
+        prog="python -m hpcgfmd bench fft",
+        description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog=__doc__.split("\n\n", 1)[1])
-    parser.add_argument("--n", type=int, nargs="+",
-                        help="exponents e of the lengths n = 2**e (default 17 20 without --sizes)")
-    parser.add_argument("--sizes", type=int, nargs="+", default=[],
-                        help="further lengths n, any even number (the automatic grids f 2^a)")
+        epilog=__doc__.split("\n\n", 1)[1],
+    )
+    parser.add_argument(
+        "--n",
+        type=int,
+        nargs="+",
+        help="exponents e of the lengths n = 2**e (default 17 20 without --sizes)",
+    )
+    parser.add_argument(
+        "--sizes",
+        type=int,
+        nargs="+",
+        default=[],
+        help="further lengths n, any even number (the automatic grids f 2^a)",
+    )
     parser.add_argument("--rounds", type=int, default=10, help="interleaved rounds")
-    parser.add_argument("--seconds", type=float, default=0.05,
-                        help="rough time of one block of calls (sets the calls per block)")
+    parser.add_argument(
+        "--seconds",
+        type=float,
+        default=0.05,
+        help="rough time of one block of calls (sets the calls per block)",
+    )
     parser.add_argument("--effort", default="FFTW_MEASURE", help="FFTW planner flag")
-    parser.add_argument("--transport", default="auto", choices=TRANSPORTS,
-                        help="transport of the P-rank transform")
+    parser.add_argument(
+        "--transport", default="auto", choices=TRANSPORTS, help="transport of the P-rank transform"
+    )
     return parser
 
 
@@ -154,15 +173,18 @@ def main(comm, argv=None):
         return int(exit_.code or 0)
     size = comm.Get_size()
     exponents = args.n if args.n or args.sizes else [17, 20]
-    lengths = sorted({2 ** e for e in exponents or []} | set(args.sizes))
+    lengths = sorted({2**e for e in exponents or []} | set(args.sizes))
     if any(n < 16 or n % 2 for n in lengths) or args.rounds < 1:
         if comm.Get_rank() == 0:
-            print("bench fft: expected even lengths of at least 16 and --rounds >= 1",
-                  file=sys.stderr)
+            print(
+                "bench fft: expected even lengths of at least 16 and --rounds >= 1", file=sys.stderr
+            )
         return 2
     if comm.Get_rank() == 0:
-        print(report.header(f"One FFT pair on {size} rank(s) (python -m hpcgfmd bench fft)"),
-              flush=True)
+        print(
+            report.header(f"One FFT pair on {size} rank(s) (python -m hpcgfmd bench fft)"),
+            flush=True,
+        )
     rows = []
     for n in lengths:
         calls = max(3, int(args.seconds / (6e-9 * n * np.log2(n))))  # ~6 ns n log2 n per pair
@@ -170,29 +192,38 @@ def main(comm, argv=None):
     if comm.Get_rank() != 0:
         return 0
     # the transforms over all ranks (none on one rank: "T x 1" is the column before them)
-    wides = [name for name in (f"T x {size}", "H x 2")
-             if size > 1 and any(name in r for r in rows)]
+    wides = [name for name in (f"T x {size}", "H x 2") if size > 1 and any(name in r for r in rows)]
     head = ["n", "serial ms", "ns/node", "T x 1 ms", "/serial"]
     for name in wides:
         head += [f"{name} ms", "/serial", "comm"]
     head.append("plan s (" + ", ".join(["serial", "T x 1", *wides]) + ")")
     table = []
     for r in rows:
-        cells = [grid_label(r["n"]), f"{1e3 * r['serial']:.3f}",
-                 f"{1e9 * r['serial'] / r['n']:.2f}", f"{1e3 * r['T x 1']:.3f}",
-                 f"{r['T x 1'] / r['serial']:.2f}"]
+        cells = [
+            grid_label(r["n"]),
+            f"{1e3 * r['serial']:.3f}",
+            f"{1e9 * r['serial'] / r['n']:.2f}",
+            f"{1e3 * r['T x 1']:.3f}",
+            f"{r['T x 1'] / r['serial']:.2f}",
+        ]
         plans = [r["plan serial"], r["plan T x 1"]]
         for name in wides:
             if name in r:
-                cells += [f"{1e3 * r[name]:.3f}", f"{r[name] / r['serial']:.2f}",
-                          f"{r['comm ' + name]:.0%}"]
+                cells += [
+                    f"{1e3 * r[name]:.3f}",
+                    f"{r[name] / r['serial']:.2f}",
+                    f"{r['comm ' + name]:.0%}",
+                ]
                 plans.append(r["plan " + name])
             else:
                 cells += ["-", "-", "-"]
         table.append(cells + [", ".join(f"{p:.2f}" for p in plans)])
     transport = f", transport {rows[0]['transport']}" if size > 1 else ""
-    print(f"{args.rounds} rounds, {args.effort}{transport}\n\n"
-          + report.markdown_table(head, table) + "\n\n"
-          + report.no_target("the two-rank target is per CG iteration:"
-                             " scripts/bench_scaling.py"), flush=True)
+    print(
+        f"{args.rounds} rounds, {args.effort}{transport}\n\n"
+        + report.markdown_table(head, table)
+        + "\n\n"
+        + report.no_target("the two-rank target is per CG iteration: scripts/bench_scaling.py"),
+        flush=True,
+    )
     return 0

@@ -7,19 +7,19 @@ against the globally computed content. Exit status 1 on any failure.
 
     mpirun --oversubscribe -n 3 python tests/mpi/check_checkpoint.py [directory]
 """
+
 import os
 import shutil
 import sys
 import tempfile
 import traceback
-
 from pathlib import Path
 
 import numpy as np
 from mpi4py import MPI
 
-from hpcgfmd.storage.checkpoint import read_checkpoint, write_checkpoint
 from hpcgfmd.case import parse_case
+from hpcgfmd.storage.checkpoint import read_checkpoint, write_checkpoint
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/: the case builder
 from cases import case_text  # noqa: E402
@@ -52,8 +52,13 @@ def main(directory):
     lo, hi = edges[comm.rank], edges[comm.rank + 1]
     rng = np.random.default_rng(7)
     state = {"u": rng.standard_normal(n), "traction": rng.standard_normal(n), "x": x}
-    attrs = {"step": 42, "time": 10.5, "config": case.text, "times": np.array([0.5, 2.0]),
-             "preloaded": True}
+    attrs = {
+        "step": 42,
+        "time": 10.5,
+        "config": case.text,
+        "times": np.array([0.5, 2.0]),
+        "preloaded": True,
+    }
     ckpt = os.path.join(directory, "case.checkpoint.h5")
     write_checkpoint(ckpt, comm, n, lo, {k: v[lo:hi] for k, v in state.items()}, attrs)
 
@@ -82,8 +87,9 @@ def same(got, want):
 if __name__ == "__main__":
     comm = MPI.COMM_WORLD
     own = len(sys.argv) < 2
-    directory = comm.bcast(tempfile.mkdtemp() if own and comm.rank == 0 else
-                           (None if own else sys.argv[1]), root=0)
+    directory = comm.bcast(
+        tempfile.mkdtemp() if own and comm.rank == 0 else (None if own else sys.argv[1]), root=0
+    )
     try:
         errors = main(directory)
     except Exception:  # one failing rank would leave the others blocked in a collective call
@@ -94,6 +100,8 @@ if __name__ == "__main__":
     if comm.rank == 0:
         if own:
             shutil.rmtree(directory)
-        print("\n".join(errors) if errors else f"check_checkpoint: OK on {comm.size} ranks",
-              flush=True)
+        print(
+            "\n".join(errors) if errors else f"check_checkpoint: OK on {comm.size} ranks",
+            flush=True,
+        )
     sys.exit(1 if errors else 0)

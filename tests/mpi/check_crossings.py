@@ -14,6 +14,7 @@ every changed node. The count of changed nodes must be the whole grid's on every
 Exit status 0 on every rank when all checks pass; on failure rank 0 prints the reasons and
 all ranks exit with 1.
 """
+
 import os
 import sys
 
@@ -61,8 +62,9 @@ def check(comm, cases=300):
         u = [rng.standard_normal(n) for _ in range(3)]
         out = np.empty(domain.local_n)
         local = [s[block].copy() for s in states]
-        kinks, first, last = curvature(u[0][block], u[1][block], u[2][block], 0.5, 0.25,
-                                       *local, out)
+        kinks, first, last = curvature(
+            u[0][block], u[1][block], u[2][block], 0.5, 0.25, *local, out
+        )
         count, left, right = domain.marks_around(kinks, first, last)
         if reach > 0:
             clear_near_crossings(*local, reach, left, right, out)
@@ -71,16 +73,20 @@ def check(comm, cases=300):
         if count != int(changed.sum()):
             errors.append(f"case {case}: {count} crossings counted, {changed.sum()} present")
         smooth = ((u[2] - u[1]) / 0.25 - (u[1] - u[0]) / 0.5) / 0.75
-        if not (np.array_equal(out == 0.0, expected)
-                and np.allclose(out[~expected], smooth[block][~expected], rtol=1e-12,
-                                atol=1e-12)):
-            errors.append(f"case {case} (n {n}, reach {reach}, blocks {blocks}): the mask "
-                          f"differs on rank {comm.Get_rank()}")
+        if not (
+            np.array_equal(out == 0.0, expected)
+            and np.allclose(out[~expected], smooth[block][~expected], rtol=1e-12, atol=1e-12)
+        ):
+            errors.append(
+                f"case {case} (n {n}, reach {reach}, blocks {blocks}): the mask "
+                f"differs on rank {comm.Get_rank()}"
+            )
     return errors
 
 
 def main():
     from report import abort, report  # (beside this script; check() runs without it)
+
     comm = MPI.COMM_WORLD
     try:
         errors = check(comm)

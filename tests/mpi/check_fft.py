@@ -15,6 +15,7 @@ inverse (those of the damped Verlet solver) are checked apart too, against numpy
 irfft, with each transport. Exit status 0 on every rank when all checks pass; on failure
 rank 0 prints the reasons and all ranks exit with 1.
 """
+
 import os
 import sys
 import time
@@ -23,11 +24,15 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
-
-from hpcgfmd.parallel.fft import (HalvedRealFFT, SerialRealFFT, TransposedRealFFT,  # noqa: E402
-                                  plan_real_fft)
-from hpcgfmd.parallel.fft_halved import fits  # noqa: E402
 from report import abort, report  # noqa: E402
+
+from hpcgfmd.parallel.fft import (
+    HalvedRealFFT,
+    SerialRealFFT,
+    TransposedRealFFT,  # noqa: E402
+    plan_real_fft,
+)
+from hpcgfmd.parallel.fft_halved import fits  # noqa: E402
 
 DEFAULT_SIZES = (2, 12, 16, 30, 36, 64, 96, 1000, 4096)  # 12, 36: n/4 odd
 TRANSPORTS = ("auto", "messages")
@@ -45,8 +50,12 @@ def check(comm, n, transport="auto", results=None, kind=TransposedRealFFT):
         errors.append(f"n={n}: transport {fft.transport!r}, asked for {transport!r}")
     starts = [a for a, _ in fft.x_blocks]
     stops = [b for _, b in fft.x_blocks]
-    if starts[0] != 0 or stops[-1] != n or starts[1:] != stops[:-1] or \
-            any(b < a for a, b in fft.x_blocks):
+    if (
+        starts[0] != 0
+        or stops[-1] != n
+        or starts[1:] != stops[:-1]
+        or any(b < a for a, b in fft.x_blocks)
+    ):
         errors.append(f"n={n}: x_blocks {fft.x_blocks} do not tile [0, {n})")
     if fft.x_blocks[comm.Get_rank()] != (fft.x_start, fft.x_stop):
         errors.append(f"n={n}: x_blocks disagrees with x_start, x_stop")
@@ -65,13 +74,15 @@ def check(comm, n, transport="auto", results=None, kind=TransposedRealFFT):
     fft.apply_diagonal(field[block], diagonal, out)
     error = np.abs(out - expected[block]).max(initial=0.0) / scale
     if error > 1e-12:
-        errors.append(f"n={n} {fft.transport}: relative error {error:.3e} on rank "
-                      f"{comm.Get_rank()}")
+        errors.append(
+            f"n={n} {fft.transport}: relative error {error:.3e} on rank {comm.Get_rank()}"
+        )
     if results is not None:
         for other, other_out in results.items():
             if not np.array_equal(out, other_out):
-                errors.append(f"n={n}: {fft.transport} and {other} differ on rank "
-                              f"{comm.Get_rank()}")
+                errors.append(
+                    f"n={n}: {fft.transport} and {other} differ on rank {comm.Get_rank()}"
+                )
         results[fft.transport] = out
 
     in_place = field[block].copy()
@@ -105,27 +116,26 @@ def check_split(comm, n, transport):
     fft.forward(field[block], spectrum)
     error = np.abs(spectrum - expected).max(initial=0.0) / np.abs(reference).max()
     if error > 1e-13:
-        errors.append(f"n={n} {fft.transport}: forward error {error:.2e} on rank "
-                      f"{comm.Get_rank()}")
+        errors.append(f"n={n} {fft.transport}: forward error {error:.2e} on rank {comm.Get_rank()}")
     out = np.empty(fft.x_stop - fft.x_start)
     fft.inverse(spectrum, out)  # unnormalised: n * irfft
     error = np.abs(out - n * field[block]).max(initial=0.0) / (n * np.abs(field).max())
     if error > 1e-13:
-        errors.append(f"n={n} {fft.transport}: inverse error {error:.2e} on rank "
-                      f"{comm.Get_rank()}")
+        errors.append(f"n={n} {fft.transport}: inverse error {error:.2e} on rank {comm.Get_rank()}")
     diagonal = multiplier[np.abs(m)]
     fft.forward(field[block], fft.spectrum)
     fft.spectrum *= diagonal
     fft.inverse(fft.spectrum, out)
     applied = fft.apply_diagonal(field[block], diagonal, np.empty_like(out))
     if not np.array_equal(out, applied):
-        errors.append(f"n={n} {fft.transport}: inverse(d * forward(f)) != apply_diagonal on "
-                      f"rank {comm.Get_rank()}")
+        errors.append(
+            f"n={n} {fft.transport}: inverse(d * forward(f)) != apply_diagonal on "
+            f"rank {comm.Get_rank()}"
+        )
     if fft.pairs != 3:
         errors.append(f"n={n}: pairs = {fft.pairs}, expected 3")
     fft.close()
     return errors
-
 
 
 def check_halves(fft, field, diagonal, applied, spectrum, n):
@@ -142,7 +152,7 @@ def check_halves(fft, field, diagonal, applied, spectrum, n):
     for slow in (0, 1):
         pause = 5e-3 if rank == slow else 0.0
 
-        def slowed(stage):
+        def slowed(stage, exchange=exchange, pause=pause):
             exchange(stage)
             time.sleep(pause)
 
@@ -150,19 +160,21 @@ def check_halves(fft, field, diagonal, applied, spectrum, n):
         # changes a result
         fft._exchange = slowed
         fft.forward(field, local)
-        fft.forward(-field, negated)                      # forward, forward
+        fft.forward(-field, negated)  # forward, forward
         fft.apply_diagonal(2.0 * field, diagonal, again)  # forward, apply
-        fft.inverse(diagonal * local, back)               # apply, inverse
-        fft.inverse(diagonal * negated, negated_back)     # inverse, inverse
+        fft.inverse(diagonal * local, back)  # apply, inverse
+        fft.inverse(diagonal * negated, negated_back)  # inverse, inverse
         scale = np.abs(spectrum).max()
         for name, result, sign in (("forward", local, 1.0), ("forward of -f", negated, -1.0)):
             error = np.abs(result - sign * spectrum[fft.wavenumber]).max() / scale
             if error > 1e-12:
                 errors.append(f"n={n}: {name} off numpy's by {error:.3e} on rank {rank}")
         scale = max(np.abs(applied).max(), 1e-300)
-        for name, result, factor in (("inverse(d forward)", back, 1.0),
-                                     ("inverse(d forward(-f))", negated_back, -1.0),
-                                     ("apply to 2 f after forward", again, 2.0)):
+        for name, result, factor in (
+            ("inverse(d forward)", back, 1.0),
+            ("inverse(d forward(-f))", negated_back, -1.0),
+            ("apply to 2 f after forward", again, 2.0),
+        ):
             error = np.abs(result - factor * applied).max() / scale
             if error > 1e-12:
                 errors.append(f"n={n}: {name} off apply_diagonal by {error:.3e} on rank {rank}")
@@ -194,8 +206,12 @@ def main():
                 errors += check_split(comm, n, transport)
         except Exception as exc:
             abort(comm, exc, f" n={n}")
-    return report(comm, errors, f"ok: {len(sizes)} sizes x {len(TRANSPORTS)} transports on "
-                  f"{comm.Get_size()} ranks ({halved} of the sizes halved too)")
+    return report(
+        comm,
+        errors,
+        f"ok: {len(sizes)} sizes x {len(TRANSPORTS)} transports on "
+        f"{comm.Get_size()} ranks ({halved} of the sizes halved too)",
+    )
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@ runs on different rank counts can be compared (tests/test_coarse_start.py).
 
     mpirun --oversubscribe -n 3 python tests/mpi/check_preload.py
 """
+
 import os
 import sys
 

@@ -7,21 +7,21 @@ failure.
 
     mpirun --oversubscribe -n 3 python tests/mpi/check_result_file.py [directory]
 """
+
 import os
 import shutil
 import sys
 import tempfile
 import traceback
-
 from pathlib import Path
 
 import h5py
 import numpy as np
 from mpi4py import MPI
 
-from hpcgfmd.storage.reader import read_series
 from hpcgfmd.case import parse_case
 from hpcgfmd.parallel.domain import Domain
+from hpcgfmd.storage.reader import read_series
 from hpcgfmd.storage.result_file import SERIES, SERIES_UNITS, ResultFile
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/: the case builder
@@ -40,8 +40,10 @@ def write_edges(n, size):
 
 
 def step_values(k):
-    return {name: (k + 1 if name == "iterations" else 0.1 * k + j + 0.5 ** k)
-            for j, name in enumerate(SERIES)}
+    return {
+        name: (k + 1 if name == "iterations" else 0.1 * k + j + 0.5**k)
+        for j, name in enumerate(SERIES)
+    }
 
 
 def snapshot(x, s):
@@ -87,8 +89,12 @@ def compare_result_file(path, case, x):
     errors = []
     steps = [step_values(k) for k in (0, 1, 2, 13, 14)]
     series = read_series(path)
-    scale = {"time": case.units.time, "length": case.units.length, "load": case.units.load,
-             None: 1.0}
+    scale = {
+        "time": case.units.time,
+        "length": case.units.length,
+        "load": case.units.load,
+        None: 1.0,
+    }
     for name in SERIES:
         want = np.array([v[name] * scale[SERIES_UNITS[name]] for v in steps])
         if not np.array_equal(getattr(series, name), want):
@@ -100,17 +106,20 @@ def compare_result_file(path, case, x):
     with h5py.File(path, "r") as f:
         snaps = f["snapshots"]
         if snaps.attrs["complete"] != 3 or snaps["surface"].shape != (3, x.size):
-            errors.append(f"snapshots complete {snaps.attrs['complete']} shape"
-                          f" {snaps['surface'].shape}")
+            errors.append(
+                f"snapshots complete {snaps.attrs['complete']} shape {snaps['surface'].shape}"
+            )
         if not np.array_equal(snaps["x"][()], x * case.units.length):
             errors.append("snapshots/x")
         for row, s in enumerate((0, 1, 7)):
             t, fields = snapshot(x, s)
             if snaps["time"][row] != t * case.units.time:
                 errors.append(f"snapshot time {row}")
-            for name, field, unit in zip(("surface", "pressure", "gap"), fields,
-                                         (case.units.length, case.units.stress,
-                                          case.units.length)):
+            for name, field, unit in zip(
+                ("surface", "pressure", "gap"),
+                fields,
+                (case.units.length, case.units.stress, case.units.length),
+            ):
                 if not np.array_equal(snaps[name][row], field * unit):
                     errors.append(f"snapshot {name} row {row}")
     return errors
@@ -119,8 +128,9 @@ def compare_result_file(path, case, x):
 if __name__ == "__main__":
     comm = MPI.COMM_WORLD
     own = len(sys.argv) < 2
-    directory = comm.bcast(tempfile.mkdtemp() if own and comm.rank == 0 else
-                           (None if own else sys.argv[1]), root=0)
+    directory = comm.bcast(
+        tempfile.mkdtemp() if own and comm.rank == 0 else (None if own else sys.argv[1]), root=0
+    )
     try:
         errors = main(directory)
     except Exception:  # one failing rank would leave the others blocked in a collective call
@@ -131,6 +141,8 @@ if __name__ == "__main__":
     if comm.rank == 0:
         if own:
             shutil.rmtree(directory)
-        print("\n".join(errors) if errors else f"check_result_file: OK on {comm.size} ranks",
-              flush=True)
+        print(
+            "\n".join(errors) if errors else f"check_result_file: OK on {comm.size} ranks",
+            flush=True,
+        )
     sys.exit(1 if errors else 0)

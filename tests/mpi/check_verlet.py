@@ -14,6 +14,7 @@ and inverse transforms it uses are checked by tests/mpi/check_fft.py.
 Exit status 0 on every rank when all checks pass; on failure rank 0 prints the reasons and
 all ranks exit with 1.
 """
+
 import math
 import os
 import sys
@@ -22,14 +23,14 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
+from report import abort, report  # noqa: E402
 
+from hpcgfmd.model.halfspace import StepOperators  # noqa: E402
+from hpcgfmd.model.interface import DugdaleMaugis  # noqa: E402
 from hpcgfmd.parallel.domain import Domain  # noqa: E402
 from hpcgfmd.parallel.fft import HalvedRealFFT, SerialRealFFT, TransposedRealFFT  # noqa: E402
 from hpcgfmd.parallel.fft_halved import fits  # noqa: E402
 from hpcgfmd.solvers.verlet import DampedVerletGFMD  # noqa: E402
-from hpcgfmd.model.interface import DugdaleMaugis  # noqa: E402
-from hpcgfmd.model.halfspace import StepOperators  # noqa: E402
-from report import abort, report  # noqa: E402
 
 
 def indentation(comm, fft, n, steps):
@@ -71,12 +72,12 @@ def main():
                 if h != h_ref:
                     errors.append(f"{name}: pseudo step {h!r} != serial {h_ref!r}")
                 if difference > 1e-10:
-                    errors.append(f"{name}: u differs from the serial solve by "
-                                  f"{difference:.2e}")
-                if abs(result.mean_traction - ref.mean_traction) > 1e-10 * abs(
-                        ref.mean_traction):
-                    errors.append(f"{name}: mean traction {result.mean_traction!r} != serial "
-                                  f"{ref.mean_traction!r}")
+                    errors.append(f"{name}: u differs from the serial solve by {difference:.2e}")
+                if abs(result.mean_traction - ref.mean_traction) > 1e-10 * abs(ref.mean_traction):
+                    errors.append(
+                        f"{name}: mean traction {result.mean_traction!r} != serial "
+                        f"{ref.mean_traction!r}"
+                    )
             h_all = comm.allgather(h)
             if len(set(h_all)) != 1:
                 errors.append(f"{name}: ranks disagree on the pseudo step: {h_all}")

@@ -1,6 +1,7 @@
 """The ending the MPI check scripts share: a failure on any rank aborts them all (the others
 may wait in a collective), and rank 0 prints every rank's failures; one exit status on
 every rank."""
+
 import sys
 
 from mpi4py import MPI
@@ -8,8 +9,11 @@ from mpi4py import MPI
 
 def abort(comm, exc, where=""):
     """Print ``exc`` with this rank and abort every rank of ``comm`` (status 2)."""
-    print(f"FAIL{where}: {type(exc).__name__}: {exc} on rank {comm.Get_rank()}",
-          file=sys.stderr, flush=True)
+    print(
+        f"FAIL{where}: {type(exc).__name__}: {exc} on rank {comm.Get_rank()}",
+        file=sys.stderr,
+        flush=True,
+    )
     comm.Abort(2)
 
 

@@ -4,6 +4,7 @@ The solve loop is :mod:`.solver`; its parts are the active set of the wall (:mod
 the line search (:mod:`.line_search`), the steps that reach the wall (:mod:`.wall_steps`), the
 evaluation of points along a line (:mod:`.points`) and the step's energy (:mod:`.energy`).
 """
+
 from .solver import ConstrainedCG
 
 __all__ = ["ConstrainedCG"]

@@ -11,6 +11,7 @@ gaps, the cohesive traction on its span and one reduction, no transform. A point
 wall ends the search at the point before. Every accepted length lowers E, so the solve still
 descends from its start (path following).
 """
+
 from __future__ import annotations
 
 import math

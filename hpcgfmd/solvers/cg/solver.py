@@ -31,8 +31,9 @@ direction pushes into the wall held), so K d is not K K^-1 r = r and needs its o
 whenever a node is pressed, i.e. while there is contact. One more pair per projected
 backtracking trial and for the residual direction when a step reaches the wall (rare). Per
 solve, one pair at the start unless the predictor evaluated the start
-(:meth:`~hpcgfmd.solvers.step_problem.StepProblem.recall`). K u is updated incrementally, through the running
-load K u + H - p_applied, also for the solution (its exact K u differs by round-off). The elementwise work is about 15 passes over the block: r = t - (K u + H -
+(:meth:`~hpcgfmd.solvers.step_problem.StepProblem.recall`). K u is updated incrementally,
+through the running load K u + H - p_applied, also for the solution (its exact K u differs by
+round-off). The elementwise work is about 15 passes over the block: r = t - (K u + H -
 p_applied), its sum and extrema, the mean of z, one pass for the three CG dot products (a
 2 x 2 matmul of the stacked r, r_old and z, d_old), one axpy for d, d.Kd, the trial point's
 gaps, the axpy on u and the one on K u + H - p_applied, plus the point's gaps and its span
@@ -51,6 +52,7 @@ the mean of z, the CG dot products, the hold test, d.K d, the trial point's slop
 line-search extension) and one ghost-node exchange per point evaluated; every branch is
 decided on those reduced values, so all ranks take it.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -109,8 +111,9 @@ class ConstrainedCG(EquilibriumSolver):
 
     starts_from_prediction = True
 
-    def __init__(self, domain, fft, law, tolerance: float, max_iterations: int,
-                 traction_scale: float):
+    def __init__(
+        self, domain, fft, law, tolerance: float, max_iterations: int, traction_scale: float
+    ):
         self.domain, self.fft, self.law = domain, fft, law
         self.tolerance = tolerance
         self.max_iterations = max_iterations
@@ -124,11 +127,11 @@ class ConstrainedCG(EquilibriumSolver):
         # Every buffer of a solve is made here: an iteration allocates nothing of size n.
         # (aligned: the serial transform reads and writes them in place)
         self._k_u = aligned_empty(n)  # K u at the start and the end of a solve (elastic_traction)
-        self._load = np.empty(n)      # K u + H - p_applied during a solve (updated by steps)
-        self._linear = np.empty(n)    # H - p_applied when a traction is applied
+        self._load = np.empty(n)  # K u + H - p_applied during a solve (updated by steps)
+        self._linear = np.empty(n)  # H - p_applied when a traction is applied
         self._k_d = aligned_empty(n)
         self._points = (Point(n), Point(n), Point(n))  # current, trial, line-search probe
-        self._residuals = aligned_empty((2, n))   # r and the previous r (rows swap roles)
+        self._residuals = aligned_empty((2, n))  # r and the previous r (rows swap roles)
         self._directions = aligned_empty((2, n))  # z and d (rows swap roles)
         self._residuals[...] = 0.0
         self._directions[...] = 0.0
@@ -137,14 +140,16 @@ class ConstrainedCG(EquilibriumSolver):
         self._wall_scale = 0.0
         # transforms saved by StepProblem.recall, solves stopped by their edge watch,
         # line-search points beyond the bound's minimiser, solves ended detached
-        self.count = dict.fromkeys(("recalled", "abandoned_solves", "extensions",
-                                    "detached_jumps"), 0)
+        self.count = dict.fromkeys(
+            ("recalled", "abandoned_solves", "extensions", "detached_jumps"), 0
+        )
 
     @classmethod
     def from_case(cls, case, domain, fft, law, half_q):
         """CG to the case's tolerance, residuals relative to sigma_a."""
-        return cls(domain, fft, law, case.numerics.tolerance, case.numerics.max_iterations,
-                   case.sigma_a)
+        return cls(
+            domain, fft, law, case.numerics.tolerance, case.numerics.max_iterations, case.sigma_a
+        )
 
     @classmethod
     def describe(cls, numerics):
@@ -153,8 +158,9 @@ class ConstrainedCG(EquilibriumSolver):
     def preload_solver(self):
         return self
 
-    def solve(self, u, wall, ops, history, applied=None,
-              edge_watch: EdgeWatch | None = None) -> SolveResult:
+    def solve(
+        self, u, wall, ops, history, applied=None, edge_watch: EdgeWatch | None = None
+    ) -> SolveResult:
         """Collective: relax ``u`` (this rank's block of the start, length) in place to the
         equilibrium of the step (module docstring; the arguments as in
         :meth:`EquilibriumSolver.solve`). With ``edge_watch`` the solve is abandoned once the
@@ -167,20 +173,27 @@ class ConstrainedCG(EquilibriumSolver):
         it = _Descent(*self._points)
         while True:
             r, lo, hi, count, n_free, on_s, pressed_s, local_max, joined = self._residual(
-                it, on_wall_tolerance)
+                it, on_wall_tolerance
+            )
             interacting = 1.0 if hi > lo else 0.0  # a node of this rank within the range
             if edge_watch is None:
                 r_max, joined_any, interacting = self.domain.maxes(
-                    local_max, 1.0 if joined else 0.0, interacting)
+                    local_max, 1.0 if joined else 0.0, interacting
+                )
             else:  # the iterate's contact edges in the same reduction
                 left, right = self._active.contact_nodes(on_s, lo)
                 r_max, joined_any, interacting, minus_left, right = self.domain.maxes(
-                    local_max, 1.0 if joined else 0.0, interacting, -left, right)
+                    local_max, 1.0 if joined else 0.0, interacting, -left, right
+                )
                 if self._active.strayed(edge_watch, -minus_left, right):
                     self.count["abandoned_solves"] += 1
-                    return SolveResult(iterations=it.iteration,
-                                       residual=r_max / self.traction_scale,
-                                       converged=False, mean_traction=it.mu, abandoned=True)
+                    return SolveResult(
+                        iterations=it.iteration,
+                        residual=r_max / self.traction_scale,
+                        converged=False,
+                        mean_traction=it.mu,
+                        abandoned=True,
+                    )
             it.residual = r_max / self.traction_scale
             if it.residual <= self.tolerance or it.iteration >= self.max_iterations:
                 break
@@ -200,14 +213,18 @@ class ConstrainedCG(EquilibriumSolver):
             it.iteration += 1
         # Put the nodes counted as contact exactly on the wall, so that every later use of
         # the state (reaction, load, contact width, predictor) sees the same contact set.
-        np.copyto(u[lo:hi], wall[lo:hi], where=self._active.on_wall[:hi - lo])
+        np.copyto(u[lo:hi], wall[lo:hi], where=self._active.on_wall[: hi - lo])
         self._points = (it.cur, it.trial, it.probe)
         # K u from the running load, without a transform: the steps added exact K d, and
         # the nodes just put on the wall moved by round-off of the wall (at most 1e-14 of
         # its magnitude), which changes K u by about 1e-9 of the traction scale (measured)
         np.subtract(self._load, linear, out=self._k_u)
-        return SolveResult(iterations=it.iteration, residual=it.residual,
-                           converged=it.residual <= self.tolerance, mean_traction=it.mu)
+        return SolveResult(
+            iterations=it.iteration,
+            residual=it.residual,
+            converged=it.residual <= self.tolerance,
+            mean_traction=it.mu,
+        )
 
     def _begin(self, u, wall, ops, history, applied):
         """Collective: the feasible start, K u and the running load K u + H - p_applied.
@@ -228,8 +245,10 @@ class ConstrainedCG(EquilibriumSolver):
         np.add(self._k_u, linear, out=self._load)
         on_wall_tolerance = 1e-14 * self._wall_scale
         # Nodes that matter for the wall and the law: gap < level (PointEvaluator).
-        self._evaluator.level = max(self.law.dmax if self.law.sigma_a > 0.0 else 0.0,
-                                    np.nextafter(on_wall_tolerance, np.inf))
+        self._evaluator.level = max(
+            self.law.dmax if self.law.sigma_a > 0.0 else 0.0,
+            np.nextafter(on_wall_tolerance, np.inf),
+        )
         cur = self._points[0]
         np.subtract(wall, u, out=cur.gap)
         cur.ready = False
@@ -277,16 +296,19 @@ class ConstrainedCG(EquilibriumSolver):
         if it.pending is None:
             if not cur.ready:
                 self._evaluator.evaluate(cur)
-            total, high, low = kernels.residual(self._load, cur.traction, *cur.traction_span,
-                                                *cur.near, r)
+            total, high, low = kernels.residual(
+                self._load, cur.traction, *cur.traction_span, *cur.near, r
+            )
         else:  # formed in the pass that took the last step (_step)
             (total, high, low), it.pending = it.pending, None
         lo, hi = cur.near
         it.mu, count, n_free, on_s, pressed_s = self._active.multiplier(
-            r, total, cur.gap, lo, hi, on_wall_tolerance, it.mu)
+            r, total, cur.gap, lo, hi, on_wall_tolerance, it.mu
+        )
         span_high, span_low, joined = self._active.settle(r, lo, hi, pressed_s, it.mu)
-        local_max = (max(max(high, span_high) - it.mu, it.mu - min(low, span_low))
-                     if self._n else 0.0)
+        local_max = (
+            max(max(high, span_high) - it.mu, it.mu - min(low, span_low)) if self._n else 0.0
+        )
         return r, lo, hi, count, n_free, on_s, pressed_s, local_max, joined
 
     def _direction(self, it, r, ops, lo, hi, count, n_free, on_s, pressed_s):
@@ -302,8 +324,9 @@ class ConstrainedCG(EquilibriumSolver):
         z = Z[iz]
         self.fft.apply_diagonal(r, ops.compliance, z)
         shift = dom.sum(-kernels.masked_sum(z, lo, hi, pressed_s) if count else 0.0) / n_free
-        rz, r_old_z, r_d = kernels.project_direction(z, shift, lo, hi, pressed_s, r, R[1 - ir],
-                                                     Z[1 - iz], it.restart)
+        rz, r_old_z, r_d = kernels.project_direction(
+            z, shift, lo, hi, pressed_s, r, R[1 - ir], Z[1 - iz], it.restart
+        )
         if it.restart:
             rz = rd = dom.sum(rz)
         else:
@@ -333,39 +356,60 @@ class ConstrainedCG(EquilibriumSolver):
         adhesive = self.law.sigma_a > 0.0
         self.fft.apply_diagonal(d, ops.stiffness, k_d)
         lo, hi = cur.near
-        d_kd, entry = kernels.dot_and_entry(d, k_d, cur.gap, lo, hi, self._evaluator.level,
-                                            max(hi - lo, 16))
+        d_kd, entry = kernels.dot_and_entry(
+            d, k_d, cur.gap, lo, hi, self._evaluator.level, max(hi - lo, 16)
+        )
         d_kd, entry = dom.sum(d_kd), dom.min(entry)
         alpha = rd / d_kd
         # Points along d are formed on a window around the near span while no node from
         # outside can enter the zone (length < entry), and only their gaps: u follows if
         # one is taken.
         window = (max(lo - 2, 0), min(hi + 2, self._n), entry)
-        smallest, t_trial_d = self._evaluator.evaluate_shifted(trial, cur.gap, d, alpha,
-                                                               window)
+        smallest, t_trial_d = self._evaluator.evaluate_shifted(trial, cur.gap, d, alpha, window)
         below = smallest < 0.0
         if adhesive:
             p, q = cur.traction_span
             t_trial_d, t_cur_d, reaching = dom.sums(
-                t_trial_d, kernels.span_dot(cur.traction, d, p, q), 1.0 if below else 0.0)
+                t_trial_d, kernels.span_dot(cur.traction, d, p, q), 1.0 if below else 0.0
+            )
         else:
             reaching = dom.max(1.0 if below else 0.0)
         if reaching == 0.0:
             length, best, spare = alpha, trial, it.probe
             if adhesive:  # the trial point becomes the line search's point
                 length, best, spare, taken = line_search.extend(
-                    self._evaluator, cur, trial, it.probe, d, alpha, rd, d_kd, rd - t_cur_d,
-                    t_trial_d, window)
+                    self._evaluator,
+                    cur,
+                    trial,
+                    it.probe,
+                    d,
+                    alpha,
+                    rd,
+                    d_kd,
+                    rd - t_cur_d,
+                    t_trial_d,
+                    window,
+                )
                 self.count["extensions"] += taken
             PointEvaluator.take(cur, best)
             it.trial, it.probe = best, spare
             it.pending = kernels.update_and_residual(
-                u, d, self._load, k_d, cur.gap, length, cur.traction, *cur.traction_span,
-                *cur.near, self._residuals[1 - it.ir])
+                u,
+                d,
+                self._load,
+                k_d,
+                cur.gap,
+                length,
+                cur.traction,
+                *cur.traction_span,
+                *cur.near,
+                self._residuals[1 - it.ir],
+            )
             it.restart = False
         else:
-            self._walls.take(u, cur, wall, self._wall_scale, self._load, linear, r, it.mu,
-                             d, k_d, alpha, ops)
+            self._walls.take(
+                u, cur, wall, self._wall_scale, self._load, linear, r, it.mu, d, k_d, alpha, ops
+            )
             it.restart = True
 
     # --- the rest of the solver interface ------------------------------------------------
@@ -376,13 +420,18 @@ class ConstrainedCG(EquilibriumSolver):
     def counters(self) -> dict:
         """The work counted (module docstring, :mod:`.wall_steps`, :mod:`..active_set`)."""
         walls = self._walls
-        return {"projections": walls.projections, "cut_steps": walls.cut_steps,
-                "residual_steps": walls.residual_steps, "held_steps": self._active.held_steps,
-                **self.count}
+        return {
+            "projections": walls.projections,
+            "cut_steps": walls.cut_steps,
+            "residual_steps": walls.residual_steps,
+            "held_steps": self._active.held_steps,
+            **self.count,
+        }
 
     def restore_counters(self, saved):
         walls = self._walls
         walls.projections, walls.cut_steps, walls.residual_steps = (
-            int(saved[k]) for k in ("projections", "cut_steps", "residual_steps"))
+            int(saved[k]) for k in ("projections", "cut_steps", "residual_steps")
+        )
         self._active.held_steps = int(saved["held_steps"])
         self.count = {key: int(saved[key]) for key in self.count}

@@ -9,6 +9,7 @@ on a node already on the wall (only round-off gets there, held nodes being exclu
 the step is taken along the projected residual instead, whose first contact is at a positive
 length. Every such step restarts CG.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -65,8 +66,10 @@ class WallSteps:
             spare += u
             project_feasible(dom, spare, wall, self._projected, wall_scale=wall_scale)
             fft.apply_diagonal(self._projected, ops.stiffness, self._k_projected)
-            if self.problem.energy_linear(self._projected, self._k_projected, wall,
-                                         linear) < energy:
+            if (
+                self.problem.energy_linear(self._projected, self._k_projected, wall, linear)
+                < energy
+            ):
                 np.copyto(u, self._projected)
                 np.subtract(wall, u, out=gap)
                 point.ready = False
