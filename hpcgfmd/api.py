@@ -62,20 +62,12 @@ def run(
 
     Raises
     ------
-    CaseError
-        Invalid case, or a contact too large for the cell.
-    CaseFailure
-        The run failed (e.g. the solver did not converge).
-    FileExistsError
-        ``path`` exists without a checkpoint to continue from and ``overwrite`` is false
-        (an :class:`~hpcgfmd.errors.OutputExistsError`).
-    UsageError
-        ``path`` cannot be written: another process writes it, its directory is missing or
-        read-only, it is a directory, or its checkpoint is of another case or damaged.
-    Interrupted
-        SIGTERM or SIGUSR1 stopped the run after a checkpoint: the same call continues it.
-    ValueError
-        An unknown ``planner_effort``.
+    CaseError, CaseFailure, FileExistsError, UsageError, Interrupted, ValueError
+        An invalid case or a contact too large for the cell; a failed run (no convergence);
+        ``path`` existing without a checkpoint and no ``overwrite``; ``path`` not writable
+        (another writer, a missing or read-only directory, another case's or a damaged
+        checkpoint); a stop by SIGTERM or SIGUSR1 after a checkpoint (the same call
+        continues); an unknown ``planner_effort`` (docs/api.md).
     """
     from mpi4py import MPI
 

@@ -248,7 +248,7 @@ def peak_temporaries(sim):
     return peaks[-1]
 
 
-def main():
+def _parser():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument(
         "--n",
@@ -282,8 +282,12 @@ def main():
     parser.add_argument(
         "--ranks", type=int, default=None, help="ignored (the rank count is mpirun's)"
     )
-    args = parser.parse_args()
+    return parser
 
+
+def main():
+    parser = _parser()
+    args = parser.parse_args()
     comm = MPI.COMM_WORLD
     rank = comm.Get_rank()
     n = 2**args.n
@@ -325,7 +329,27 @@ def main():
         iterations.append(record.iterations)
     profile.active = False
     temporaries = peak_temporaries(sim) if args.tracemalloc else None
+    times = (pair_applied, pair_applied_cpu, pair_raw, per_step, setup, start_pairs)
+    result = _result(comm, sim, profile, args, n, times, loads, iterations, temporaries)
+    if rank != 0:
+        return
+    _print(comm, sim, profile, args, n, result, loads, iterations, temporaries, pair_applied)
+    if args.out:
+        new = not os.path.exists(args.out)
+        with open(args.out, "a") as fh:
+            if new:
+                fh.write(",".join(result) + "\n")
+            fh.write(
+                ",".join(repr(v) if isinstance(v, float) else str(v) for v in result.values())
+                + "\n"
+            )
+    if args.record:
+        atomic.write_text(args.record, json.dumps({"loads": loads, "iterations": iterations}))
 
+
+def _result(comm, sim, profile, args, n, times, loads, iterations, temporaries):
+    """The measured figures (reduced over the ranks)."""
+    pair_applied, pair_applied_cpu, pair_raw, per_step, setup, start_pairs = times
     solve_time = comm.allreduce(profile.solve_time, op=MPI.MAX)
     replay_time = comm.allreduce(profile.replay_time, op=MPI.MAX)
     solve_cpu = comm.allreduce(profile.solve_cpu, op=MPI.MAX)
@@ -371,8 +395,13 @@ def main():
     }
     if temporaries is not None:
         result["temporaries_kib"] = temporaries[0] / 1024.0
-    if rank != 0:
-        return
+    return result
+
+
+def _print(comm, sim, profile, args, n, result, loads, iterations, temporaries, pair_applied):
+    """Rank 0: the report of :func:`_result`'s figures, the target's verdict."""
+    its, per_iteration = result["iterations"], result["ms_per_iteration"] / 1e3
+    pairs_per_it, pair = result["pairs_per_iteration"], result["pair_ms"] / 1e3
     print(
         f"n = 2^{args.n} = {n}, {comm.Get_size()} rank(s), {args.steps} retraction steps,"
         f" {its} CG iterations (preload {iterations[0]}); load average"
@@ -438,17 +467,6 @@ def main():
         if n == 2**17
         else report.no_target("the target is at n_x = 2^17: --n 17")
     )
-    if args.out:
-        new = not os.path.exists(args.out)
-        with open(args.out, "a") as fh:
-            if new:
-                fh.write(",".join(result) + "\n")
-            fh.write(
-                ",".join(repr(v) if isinstance(v, float) else str(v) for v in result.values())
-                + "\n"
-            )
-    if args.record:
-        atomic.write_text(args.record, json.dumps({"loads": loads, "iterations": iterations}))
 
 
 if __name__ == "__main__":

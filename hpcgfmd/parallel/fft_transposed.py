@@ -192,35 +192,7 @@ class TransposedRealFFT(RealFFT):
         k = np.arange(*modes[rank])[:, None] + n1 * np.arange(n2)[None, :]
         self.wavenumber = np.where(k <= n // 2, k, k - n).astype(np.int64)
 
-        # Outputs of step 1 and stages A, B, C of rank s, each split into one block per
-        # destination rank t (rows padded, see transport.padded_width), so that what t reads is one
-        # contiguous block: "pack" (R_s, C_t) field columns (none for t = s), "xt" (C_s, M_t)
-        # stage A, "z" (M_s, C_t) stage B, "h" (C_s, R_t) stage C, each [rows, columns].
-        nrows, ncols, nmodes = ([b - a for a, b in blocks] for blocks in (rows, cols, modes))
-
-        def outputs(s):
-            Rs, Cs, Ms = (b - a for a, b in (rows[s], cols[s], modes[s]))
-            return {
-                "pack": [(Rs if t != s else 0, padded_width(ncols[t], 8)) for t in range(size)],
-                "xt": [(Cs, padded_width(nmodes[t], 16)) for t in range(size)],
-                "z": [(Ms, padded_width(ncols[t], 16)) for t in range(size)],
-                "h": [(Cs, padded_width(nrows[t], 8)) for t in range(size)],
-            }
-
-        self._buffers = StageBuffers(
-            comm,
-            outputs,
-            {
-                stage: [(count[s] if s != rank else 0, width) for s in range(size)]
-                for stage, count, width in (
-                    ("pack", nrows, C),
-                    ("xt", ncols, M),
-                    ("z", nmodes, C),
-                    ("h", ncols, R),
-                )
-            },
-            transport,
-        )
+        self._buffers = _stage_buffers(comm, rows, cols, modes, (R, C, M), transport)
         self.transport = self._buffers.transport
         self._out, self._from = self._buffers.mine, self._buffers.read
 
@@ -437,6 +409,40 @@ def _plans(col_chunks, row_chunks, n1, n2, planner_effort):
     return work_real, work_half, work_rows, column_plans, row_plans
 
 
+def _stage_buffers(comm, rows, cols, modes, local, transport):
+    """The shared buffers of the stages (:class:`~.transport.StageBuffers`).
+
+    Outputs of step 1 and stages A, B, C of rank s, each split into one block per destination
+    rank t (rows padded, see transport.padded_width), so that what t reads is one contiguous
+    block: "pack" (R_s, C_t) field columns (none for t = s), "xt" (C_s, M_t) stage A, "z"
+    (M_s, C_t) stage B, "h" (C_s, R_t) stage C, each [rows, columns]. ``local``: this rank's
+    (R, C, M).
+    """
+    size, rank = comm.Get_size(), comm.Get_rank()
+    R, C, M = local
+    nrows, ncols, nmodes = ([b - a for a, b in blocks] for blocks in (rows, cols, modes))
+
+    def outputs(s):
+        Rs, Cs, Ms = (b - a for a, b in (rows[s], cols[s], modes[s]))
+        return {
+            "pack": [(Rs if t != s else 0, padded_width(ncols[t], 8)) for t in range(size)],
+            "xt": [(Cs, padded_width(nmodes[t], 16)) for t in range(size)],
+            "z": [(Ms, padded_width(ncols[t], 16)) for t in range(size)],
+            "h": [(Cs, padded_width(nrows[t], 8)) for t in range(size)],
+        }
+
+    incoming = {
+        stage: [(count[s] if s != rank else 0, width) for s in range(size)]
+        for stage, count, width in (
+            ("pack", nrows, C),
+            ("xt", ncols, M),
+            ("z", nmodes, C),
+            ("h", ncols, R),
+        )
+    }
+    return StageBuffers(comm, outputs, incoming, transport)
+
+
 def _stage_steps(
     self, col_chunks, row_chunks, column_plans, row_plans, work_real, work_half, work_rows
 ):
@@ -447,16 +453,37 @@ def _stage_steps(
     (destination, source) views, plans and twiddles that ``_to_rows``, ``apply_diagonal`` and
     ``_from_rows`` walk through.
     """
-    rank, size = self.comm.Get_rank(), self.comm.Get_size()
-    rows, cols, modes = self._rows, self._cols, self._modes
-    row0, col0, mode0 = rows[rank][0], cols[rank][0], modes[rank][0]
-    C, M, R = self._C, self._M, self._R
+    rank = self.comm.Get_rank()
+    cols = self._cols
+    col0 = cols[rank][0]
     out, read = self._out, self._from
     blocks = {stage: out[stage].blocks for stage in out}
     packs = [
         (blocks["pack"][s][:, : cols[s][1] - cols[s][0]], slice(*cols[s])) for s in self._peers
     ]
-    stage_a, stage_b, stage_c = [], [], []
+    stage_a, stage_c = _column_stages(self, col_chunks, column_plans, work_real, work_half, blocks)
+    stage_b = _row_stages(self, row_chunks, row_plans, work_rows, blocks)
+    # Final gather: this rank's rows from every rank's h (own part first, see
+    # apply_diagonal), as (rows slice, columns slice, source view).
+    own_h = blocks["h"][rank][:, : self._R]
+    final_own = [
+        (slice(p, q), slice(col0, col0 + self._C), own_h[:, p:q].T) for p, q in self._row_blocks
+    ]
+    final_peers = [
+        (slice(p, q), slice(*cols[s]), part[:, p:q].T)
+        for s, part in read["h"].items()
+        for p, q in self._row_blocks
+    ]
+    return packs, stage_a, stage_b, stage_c, final_own, final_peers
+
+
+def _column_stages(self, col_chunks, column_plans, work_real, work_half, blocks):
+    """Stages A and C of ``self`` (:func:`_stage_steps`), per chunk of columns."""
+    rank, size = self.comm.Get_rank(), self.comm.Get_size()
+    rows, modes = self._rows, self._modes
+    row0, col0, mode0 = rows[rank][0], self._cols[rank][0], modes[rank][0]
+    read = self._from
+    stage_a, stage_c = [], []
     for a, b in col_chunks:
         real, half = work_real[: b - a], work_half[: b - a]
         forward, backward = column_plans[b - a]
@@ -483,7 +510,7 @@ def _stage_steps(
         stage_c.append(
             (
                 [(half[:, slice(*modes[s])], part[:, a:b].T) for s, part in read["z"].items()]
-                + [(half[:, mode0 : mode0 + M], blocks["z"][rank][:, a:b].T)],
+                + [(half[:, mode0 : mode0 + self._M], blocks["z"][rank][:, a:b].T)],
                 half,
                 self._twiddle_conj[a:b],
                 backward,
@@ -493,6 +520,15 @@ def _stage_steps(
                 ],
             )
         )
+    return stage_a, stage_c
+
+
+def _row_stages(self, row_chunks, row_plans, work_rows, blocks):
+    """Stage B of ``self`` (:func:`_stage_steps`), per chunk of mode rows."""
+    rank, size = self.comm.Get_rank(), self.comm.Get_size()
+    cols = self._cols
+    col0 = cols[rank][0]
+    stage_b = []
     for a, b in row_chunks:
         work = work_rows[: b - a]
         forward, backward = row_plans[b - a]
@@ -500,8 +536,8 @@ def _stage_steps(
         # each destination's column block.
         stage_b.append(
             (
-                [(work[:, slice(*cols[s])], part[:, a:b].T) for s, part in read["xt"].items()]
-                + [(work[:, col0 : col0 + C], blocks["xt"][rank][:, a:b].T)],
+                [(work[:, slice(*cols[s])], part[:, a:b].T) for s, part in self._from["xt"].items()]
+                + [(work[:, col0 : col0 + self._C], blocks["xt"][rank][:, a:b].T)],
                 forward,
                 work,
                 slice(a, b),
@@ -512,13 +548,4 @@ def _stage_steps(
                 ],
             )
         )
-    # Final gather: this rank's rows from every rank's h (own part first, see
-    # apply_diagonal), as (rows slice, columns slice, source view).
-    own_h = blocks["h"][rank][:, :R]
-    final_own = [(slice(p, q), slice(col0, col0 + C), own_h[:, p:q].T) for p, q in self._row_blocks]
-    final_peers = [
-        (slice(p, q), slice(*cols[s]), part[:, p:q].T)
-        for s, part in read["h"].items()
-        for p, q in self._row_blocks
-    ]
-    return packs, stage_a, stage_b, stage_c, final_own, final_peers
+    return stage_b

@@ -468,9 +468,18 @@ def run_farm(
                 + ("" if queue.shared else "; this group's cases only")
             )
     queue.free()
+    status = _summarise(sweep, comm, out_dir, records, order)
+    if group is not comm:
+        group.Free()
+    return status
+
+
+def _summarise(sweep, comm, out_dir, records, order) -> int:
+    """Collective: the summary tables (rank 0 writes them from the result files and the
+    groups' records) and the farm's exit status, on every rank."""
     gathered = comm.gather(records, root=0)
     status = 0
-    if rank == 0:
+    if comm.Get_rank() == 0:
         done = {r["index"]: r for part in gathered for r in part}
         rows = write_summary(sweep, out_dir, done)
         counts = {
@@ -488,8 +497,6 @@ def run_farm(
             status = EXIT_RESUMABLE  # a signal, or cases another process is writing
         elif failed:
             status = EXIT_FAILED_BASE + min(failed, 99)
-    if group is not comm:
-        group.Free()
     return comm.bcast(status, root=0)
 
 

@@ -94,27 +94,7 @@ class Retraction:
         self.edges = ContactEdges()
         self.equilibrium = Equilibrium(self)
         self._k_u = aligned_empty(self.domain.local_n)  # K u_n under a step's stiffness
-        parts = {
-            "surface": self.surface,
-            "substrate": self.substrate,
-            "edges": self.edges,
-            "steps": self.steps,
-            "schedule": self.schedule,
-            "predictor": self.predictor,
-            "window": self.window,
-            "drive": self.spring,
-        }
-        counting = {
-            "run": self,
-            "solver": self.solver,
-            "predictor": self.predictor,
-            "fft": self.fft,
-            "drive": self.spring,
-        }
-        self.state = RunState(
-            {k: v for k, v in parts.items() if v is not None},
-            {k: v for k, v in counting.items() if v is not None},
-        )
+        self.state = _run_state(self)
         self.rejected_steps = 0  # adaptive steps repeated with a shorter dt
         self.preload_iterations = 0
         self.preload_levels = []  # (nx, iterations) of the coarser preload levels
@@ -305,3 +285,28 @@ class Retraction:
     def summary(self) -> dict:
         """Counters of the run so far (rank-independent), for the output file's summary."""
         return {"steps": self.surface.step_index, "spring_solves": 0, **self.state.counters()}
+
+
+def _run_state(run) -> RunState:
+    """The parts of ``run`` whose states make the run's, and the parts that count work."""
+    parts = {
+        "surface": run.surface,
+        "substrate": run.substrate,
+        "edges": run.edges,
+        "steps": run.steps,
+        "schedule": run.schedule,
+        "predictor": run.predictor,
+        "window": run.window,
+        "drive": run.spring,
+    }
+    counting = {
+        "run": run,
+        "solver": run.solver,
+        "predictor": run.predictor,
+        "fft": run.fft,
+        "drive": run.spring,
+    }
+    return RunState(
+        {k: v for k, v in parts.items() if v is not None},
+        {k: v for k, v in counting.items() if v is not None},
+    )

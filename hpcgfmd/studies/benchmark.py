@@ -201,74 +201,20 @@ def paper_dt(vz):
 def measure_paper(lambda0, vz, nx, reference, comm, geometry, equilibrations, steps):
     """Shortened retractions of the paper's method (module docstring, item 3): rows."""
     dt = paper_dt(vz)
+    numerics = {"nx": nx, "step_control": "fixed", "dt": dt, "tolerance": 1e-10}
     exact = run(
-        case_text(
-            lambda0,
-            vz,
-            {"nx": nx, "solver": "cg", "step_control": "fixed", "dt": dt, "tolerance": 1e-10},
-            geometry,
-        ),
-        comm,
-        max_steps=steps,
+        case_text(lambda0, vz, {**numerics, "solver": "cg"}, geometry), comm, max_steps=steps
     )
-    duration = reference["time"][-1]
-    total_steps = math.ceil(duration / dt)
+    total_steps = math.ceil(reference["time"][-1] / dt)
     l_scale = abs(reference["lbar"].min())
     rows = []
     for equilibration in equilibrations:
         # its CG preload as converged as the exact run's, so that the error is the lag alone
         # (at the knob's tolerance the preload's own error, 9e-5 at 2.5e-3, stands in for it)
-        text = case_text(
-            lambda0,
-            vz,
-            {
-                "nx": nx,
-                "solver": "paper",
-                "step_control": "fixed",
-                "dt": dt,
-                "equilibration_steps": equilibration,
-                "tolerance": 1e-10,
-            },
-            geometry,
-        )
-        result = run(text, comm, max_steps=steps)
-        # cost of one pseudo step: the retraction's time (the preload is CG's) per pseudo step
-        per_pseudo = result["retraction_s"] / max(result["retraction_iterations"], 1)
-        per_pseudo_cpu = result["retraction_cpu_s"] / max(result["retraction_iterations"], 1)
+        paper = {**numerics, "solver": "paper", "equilibration_steps": equilibration}
+        result = run(case_text(lambda0, vz, paper, geometry), comm, max_steps=steps)
         error = float(np.abs(result["lbar"][1:] - exact["lbar"][1:]).max()) / l_scale
-        rows.append(
-            {
-                "solver": "paper",
-                "label": f"E={equilibration} (shortened: {steps} of"
-                f" {total_steps} steps, extrapolated; error: its equilibration lag alone)",
-                "nx": nx,
-                "tolerance": math.nan,
-                "step_control": "fixed",
-                "edge_fraction": math.nan,
-                "equilibration_steps": equilibration,
-                "dt": dt,
-                "steps": total_steps,
-                "iterations": total_steps * equilibration,
-                "iterations_per_step": float(equilibration),
-                "fft_pairs": total_steps * equilibration,
-                "wall_s": (
-                    result["wall_s"]
-                    - result["retraction_s"]
-                    + per_pseudo * total_steps * equilibration
-                ),
-                "cpu_s": (
-                    result["cpu_s"]
-                    - result["retraction_cpu_s"]
-                    + per_pseudo_cpu * total_steps * equilibration
-                ),
-                "setup_s": result["setup_s"],
-                "ms_per_iteration": 1e3 * per_pseudo,
-                "pulloff_Lbar": math.nan,
-                "pulloff_error": error,
-                "curve_error": error,
-                "extrapolated": True,
-            }
-        )
+        rows.append(_paper_row(result, error, nx, dt, equilibration, steps, total_steps))
     # The paper authors' own setting, E = 1024 sqrt(n_x) (the default of
     # [numerics] equilibration_steps): far too long to run even shortened; its error is at
     # most that of the largest E measured (the lag only shrinks with E).
@@ -293,6 +239,38 @@ def measure_paper(lambda0, vz, nx, reference, comm, geometry, equilibrations, st
             )
         )
     return rows
+
+
+def _paper_row(result, error, nx, dt, equilibration, steps, total_steps):
+    """The row of the paper's method with ``equilibration`` pseudo steps per step: its
+    shortened run's cost extrapolated to the whole retraction's ``total_steps``."""
+    # cost of one pseudo step: the retraction's time (the preload is CG's) per pseudo step
+    per_pseudo = result["retraction_s"] / max(result["retraction_iterations"], 1)
+    per_pseudo_cpu = result["retraction_cpu_s"] / max(result["retraction_iterations"], 1)
+    pseudo_steps = total_steps * equilibration
+    return {
+        "solver": "paper",
+        "label": f"E={equilibration} (shortened: {steps} of"
+        f" {total_steps} steps, extrapolated; error: its equilibration lag alone)",
+        "nx": nx,
+        "tolerance": math.nan,
+        "step_control": "fixed",
+        "edge_fraction": math.nan,
+        "equilibration_steps": equilibration,
+        "dt": dt,
+        "steps": total_steps,
+        "iterations": pseudo_steps,
+        "iterations_per_step": float(equilibration),
+        "fft_pairs": pseudo_steps,
+        "wall_s": result["wall_s"] - result["retraction_s"] + per_pseudo * pseudo_steps,
+        "cpu_s": result["cpu_s"] - result["retraction_cpu_s"] + per_pseudo_cpu * pseudo_steps,
+        "setup_s": result["setup_s"],
+        "ms_per_iteration": 1e3 * per_pseudo,
+        "pulloff_Lbar": math.nan,
+        "pulloff_error": error,
+        "curve_error": error,
+        "extrapolated": True,
+    }
 
 
 def measure_paper_time_error(lambda0, vz, nx, reference, comm, geometry, budget, say):
@@ -631,6 +609,12 @@ def _parser():
         ),
     )
     parser.add_argument("--no-fixed", action="store_true", help="skip the fixed-step run")
+    _output_options(parser)
+    return parser
+
+
+def _output_options(parser):
+    """The second half of :func:`_parser`'s options: which rows run, where they are written."""
     parser.add_argument(
         "--no-auto",
         action="store_true",
@@ -681,7 +665,6 @@ def _parser():
     parser.add_argument(
         "--reference-only", action="store_true", help="compute (or check) the reference runs only"
     )
-    return parser
 
 
 def _settings(args, geometry):

@@ -92,25 +92,9 @@ def convergence(comm, argv=None):
     dt_nx = args.dt_nx or max(args.nx)
     runs = [(nx, 1.0) for nx in sorted(args.nx)]
     runs += [(dt_nx, f) for f in args.dt_factors if f != 1.0]
-    texts, skipped = {}, []
-    for key in args.cases:
-        try:
-            lambda0, vz = (float(v) for v in key.split(":"))
-        except ValueError:
-            return _error("convergence", f"--cases {key}: expected lambda0:V_z, e.g. 7:0.45")
-        for nx, factor in runs:
-            numerics = {"nx": nx, "step_control": "fixed", "tolerance": 1e-7}
-            try:
-                text = benchmark.case_text(lambda0, vz, numerics, PAPER)
-                if factor != 1.0:  # the fixed default step (dmax/4 of travel) times factor
-                    case = parse_case(text)
-                    numerics["dt"] = factor * case.numerics.dt * case.units.time
-                    text = benchmark.case_text(lambda0, vz, numerics, PAPER)
-                parse_case(text)
-            except CaseError as err:  # a grid too coarse for the case: its cell stays empty
-                skipped.append(f"  {key} nx {grid_label(nx)} dt x {factor:g}: skipped, {err}")
-                continue
-            texts[key, nx, factor] = text
+    texts, skipped = _convergence_cases(args.cases, runs)
+    if isinstance(texts, int):  # a bad --cases entry: its status
+        return texts
     print(
         report.header("Grid and time-step convergence (python -m hpcgfmd bench convergence)"),
         flush=True,
@@ -131,28 +115,58 @@ def convergence(comm, argv=None):
         *(f"dt x {f:g} ({grid_label(dt_nx)})" for f in args.dt_factors if f != 1.0),
         "change at the last refinement",
     ]
-    rows = []
-    for key in args.cases:
-
-        def cell(nx, factor, key=key):
-            value = loads.get((key, nx, factor))
-            return "" if value is None else f"{value:.4f}"
-
-        cells = [key.replace(":", ", ")]
-        cells += [cell(nx, 1.0) for nx in sorted(args.nx)]
-        cells += [cell(dt_nx, f) for f in args.dt_factors if f != 1.0]
-        changes = []
-        grids = [nx for nx in sorted(args.nx) if (key, nx, 1.0) in loads]
-        if len(grids) > 1:
-            fine, coarse = loads[key, grids[-1], 1.0], loads[key, grids[-2], 1.0]
-            changes.append(f"nx {100 * abs(fine / coarse - 1):.2g} %")
-        finest = min((f for f in args.dt_factors if f != 1.0), default=None)
-        if finest is not None and {(key, dt_nx, 1.0), (key, dt_nx, finest)} <= set(loads):
-            change = abs(loads[key, dt_nx, finest] / loads[key, dt_nx, 1.0] - 1)
-            changes.append(f"dt {100 * change:.2g} %")
-        rows.append(cells + [", ".join(changes)])
+    rows = [_convergence_row(key, loads, args, dt_nx) for key in args.cases]
     print(report.markdown_table(head, rows) + "\n\n" + report.no_target(), flush=True)
     return 0
+
+
+def _convergence_cases(cases, runs):
+    """The case files of each lambda0:V_z of ``cases`` at each (nx, dt factor) of ``runs``,
+    and the lines of those a grid too coarse for the case left out; (status, None) for a
+    bad entry of ``cases``."""
+    texts, skipped = {}, []
+    for key in cases:
+        try:
+            lambda0, vz = (float(v) for v in key.split(":"))
+        except ValueError:
+            return _error("convergence", f"--cases {key}: expected lambda0:V_z, e.g. 7:0.45"), None
+        for nx, factor in runs:
+            numerics = {"nx": nx, "step_control": "fixed", "tolerance": 1e-7}
+            try:
+                text = benchmark.case_text(lambda0, vz, numerics, PAPER)
+                if factor != 1.0:  # the fixed default step (dmax/4 of travel) times factor
+                    case = parse_case(text)
+                    numerics["dt"] = factor * case.numerics.dt * case.units.time
+                    text = benchmark.case_text(lambda0, vz, numerics, PAPER)
+                parse_case(text)
+            except CaseError as err:  # a grid too coarse for the case: its cell stays empty
+                skipped.append(f"  {key} nx {grid_label(nx)} dt x {factor:g}: skipped, {err}")
+                continue
+            texts[key, nx, factor] = text
+    return texts, skipped
+
+
+def _convergence_row(key, loads, args, dt_nx):
+    """The table row of one lambda0:V_z: its pull-offs and the change at the last
+    refinement of the grid and of the step."""
+
+    def cell(nx, factor):
+        value = loads.get((key, nx, factor))
+        return "" if value is None else f"{value:.4f}"
+
+    cells = [key.replace(":", ", ")]
+    cells += [cell(nx, 1.0) for nx in sorted(args.nx)]
+    cells += [cell(dt_nx, f) for f in args.dt_factors if f != 1.0]
+    changes = []
+    grids = [nx for nx in sorted(args.nx) if (key, nx, 1.0) in loads]
+    if len(grids) > 1:
+        fine, coarse = loads[key, grids[-1], 1.0], loads[key, grids[-2], 1.0]
+        changes.append(f"nx {100 * abs(fine / coarse - 1):.2g} %")
+    finest = min((f for f in args.dt_factors if f != 1.0), default=None)
+    if finest is not None and {(key, dt_nx, 1.0), (key, dt_nx, finest)} <= set(loads):
+        change = abs(loads[key, dt_nx, finest] / loads[key, dt_nx, 1.0] - 1)
+        changes.append(f"dt {100 * change:.2g} %")
+    return cells + [", ".join(changes)]
 
 
 def _pull_off(groups, nx):
@@ -235,6 +249,19 @@ def grid_error(comm, argv=None):
         "chi_ve/k",
         *(f"grid {i + 1}: w/dx: error (steps, CPU s, zone/w)" for i in range(len(POINTS))),
     ]
+    lines = _relaxed_verdicts(specs, steps)
+    print(
+        report.markdown_table(head, rows)
+        + "\n\n"
+        + "\n".join(lines or [report.no_target("no case with its elastic counterpart")]),
+        flush=True,
+    )
+    return 0
+
+
+def _relaxed_verdicts(specs, steps) -> list:
+    """The verdicts of the viscous cases against their elastic counterparts (the same groups
+    with k = 1): the largest ratio of their steps on the grids both ran."""
     lines = []
     for spec, groups, _ in specs:
         if groups["modulus_ratio"] >= 1.0:
@@ -260,13 +287,7 @@ def grid_error(comm, argv=None):
                     f"{spec} against {elastic} (w/dx {', '.join(f'{p:g}' for p in shared)})",
                 )
             )
-    print(
-        report.markdown_table(head, rows)
-        + "\n\n"
-        + "\n".join(lines or [report.no_target("no case with its elastic counterpart")]),
-        flush=True,
-    )
-    return 0
+    return lines
 
 
 def time_error(comm, argv=None):

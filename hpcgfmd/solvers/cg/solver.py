@@ -66,7 +66,7 @@ from ..base import EdgeWatch, EquilibriumSolver, SolveResult, register
 from ..points import Point, PointEvaluator
 from ..projection import project_feasible
 from ..step_problem import StepProblem
-from . import line_search
+from .moves import Moves
 from .wall_steps import WallSteps
 
 
@@ -129,20 +129,28 @@ class ConstrainedCG(EquilibriumSolver):
         self._k_u = aligned_empty(n)  # K u at the start and the end of a solve (elastic_traction)
         self._load = np.empty(n)  # K u + H - p_applied during a solve (updated by steps)
         self._linear = np.empty(n)  # H - p_applied when a traction is applied
-        self._k_d = aligned_empty(n)
         self._points = (Point(n), Point(n), Point(n))  # current, trial, line-search probe
         self._residuals = aligned_empty((2, n))  # r and the previous r (rows swap roles)
         self._directions = aligned_empty((2, n))  # z and d (rows swap roles)
         self._residuals[...] = 0.0
         self._directions[...] = 0.0
+        self._moves = Moves(
+            domain,
+            fft,
+            law,
+            self._evaluator,
+            self._active,
+            self._walls,
+            self._residuals,
+            self._directions,
+            self._load,
+        )
         self._start = np.empty(n)
         self._scratch = np.empty(n)
         self._wall_scale = 0.0
         # transforms saved by StepProblem.recall, solves stopped by their edge watch,
         # line-search points beyond the bound's minimiser, solves ended detached
-        self.count = dict.fromkeys(
-            ("recalled", "abandoned_solves", "extensions", "detached_jumps"), 0
-        )
+        self.count = dict.fromkeys(("recalled", "abandoned_solves", "detached_jumps"), 0)
 
     @classmethod
     def from_case(cls, case, domain, fft, law, half_q):
@@ -206,8 +214,8 @@ class ConstrainedCG(EquilibriumSolver):
                 it.restart = True
             it.first_pass = False
             self._active.remember(lo, hi, pressed_s)
-            d, rd, rz = self._direction(it, r, ops, lo, hi, count, n_free, on_s, pressed_s)
-            self._step(it, u, wall, r, d, rd, ops, linear)
+            d, rd, rz = self._moves.direction(it, r, ops, lo, hi, count, n_free, on_s, pressed_s)
+            self._moves.step(it, u, wall, r, d, rd, ops, linear, self._wall_scale)
             it.ir = 1 - it.ir
             it.rz_old = rz
             it.iteration += 1
@@ -299,7 +307,7 @@ class ConstrainedCG(EquilibriumSolver):
             total, high, low = kernels.residual(
                 self._load, cur.traction, *cur.traction_span, *cur.near, r
             )
-        else:  # formed in the pass that took the last step (_step)
+        else:  # formed in the pass that took the last step (Moves.step)
             (total, high, low), it.pending = it.pending, None
         lo, hi = cur.near
         it.mu, count, n_free, on_s, pressed_s = self._active.multiplier(
@@ -310,107 +318,6 @@ class ConstrainedCG(EquilibriumSolver):
             max(max(high, span_high) - it.mu, it.mu - min(low, span_low)) if self._n else 0.0
         )
         return r, lo, hi, count, n_free, on_s, pressed_s, local_max, joined
-
-    def _direction(self, it, r, ops, lo, hi, count, n_free, on_s, pressed_s):
-        """Collective: the search direction d (row iz) and r.d, r.z.
-
-        z = K^-1 r projected on the free nodes with zero mean (z has zero sum: K^-1 has no
-        q = 0 mode); d = z + beta d_old (Polak-Ribiere+), formed in z's row by one axpy once
-        r.d = r.z + beta r.d_old says it descends, else d = z. On-wall nodes that d pushes
-        into the wall are held (:meth:`ActiveSet.hold`).
-        """
-        dom, R, Z = self.domain, self._residuals, self._directions
-        ir, iz = it.ir, it.iz
-        z = Z[iz]
-        self.fft.apply_diagonal(r, ops.compliance, z)
-        shift = dom.sum(-kernels.masked_sum(z, lo, hi, pressed_s) if count else 0.0) / n_free
-        rz, r_old_z, r_d = kernels.project_direction(
-            z, shift, lo, hi, pressed_s, r, R[1 - ir], Z[1 - iz], it.restart
-        )
-        if it.restart:
-            rz = rd = dom.sum(rz)
-        else:
-            rz, r_old_z, r_d = dom.sums(rz, r_old_z, r_d)
-            # r.z = 0 (z = K^-1 r, K^-1 positive definite: r = 0 on the free nodes) ends
-            # the conjugacy: steepest descent
-            beta = max(0.0, (rz - r_old_z) / it.rz_old) if it.rz_old > 0.0 else 0.0
-            rd = beta * r_d + rz
-            if rd <= 0.0 or beta == 0.0:  # not a descent direction any more: steepest
-                rd = rz
-            else:
-                kernels.axpy(z, Z[1 - iz], beta)
-        it.iz = 1 - it.iz
-        held = self._active.hold(r, it.mu, z, lo, hi, pressed_s, on_s)
-        return z, (rd if held is None else held), rz
-
-    def _step(self, it, u, wall, r, d, rd, ops, linear):
-        """Collective: move u along d to the trial point, on by the line search, or to the wall.
-
-        The trial point u + alpha d (alpha = r.d / d.K d, the quadratic bound's minimiser)
-        is evaluated; with adhesion phi'(alpha) = -((t(u + alpha d) - t(u)).d + r.d - alpha
-        d.K d) needs two dots on the spans of the tractions. Off the wall the line search
-        goes on from it and the point reached becomes the current one; a trial point
-        beyond the wall hands the step to :class:`WallSteps` (CG restarts).
-        """
-        dom, k_d, cur, trial = self.domain, self._k_d, it.cur, it.trial
-        adhesive = self.law.sigma_a > 0.0
-        self.fft.apply_diagonal(d, ops.stiffness, k_d)
-        lo, hi = cur.near
-        d_kd, entry = kernels.dot_and_entry(
-            d, k_d, cur.gap, lo, hi, self._evaluator.level, max(hi - lo, 16)
-        )
-        d_kd, entry = dom.sum(d_kd), dom.min(entry)
-        alpha = rd / d_kd
-        # Points along d are formed on a window around the near span while no node from
-        # outside can enter the zone (length < entry), and only their gaps: u follows if
-        # one is taken.
-        window = (max(lo - 2, 0), min(hi + 2, self._n), entry)
-        smallest, t_trial_d = self._evaluator.evaluate_shifted(trial, cur.gap, d, alpha, window)
-        below = smallest < 0.0
-        if adhesive:
-            p, q = cur.traction_span
-            t_trial_d, t_cur_d, reaching = dom.sums(
-                t_trial_d, kernels.span_dot(cur.traction, d, p, q), 1.0 if below else 0.0
-            )
-        else:
-            reaching = dom.max(1.0 if below else 0.0)
-        if reaching == 0.0:
-            length, best, spare = alpha, trial, it.probe
-            if adhesive:  # the trial point becomes the line search's point
-                length, best, spare, taken = line_search.extend(
-                    self._evaluator,
-                    cur,
-                    trial,
-                    it.probe,
-                    d,
-                    alpha,
-                    rd,
-                    d_kd,
-                    rd - t_cur_d,
-                    t_trial_d,
-                    window,
-                )
-                self.count["extensions"] += taken
-            PointEvaluator.take(cur, best)
-            it.trial, it.probe = best, spare
-            it.pending = kernels.update_and_residual(
-                u,
-                d,
-                self._load,
-                k_d,
-                cur.gap,
-                length,
-                cur.traction,
-                *cur.traction_span,
-                *cur.near,
-                self._residuals[1 - it.ir],
-            )
-            it.restart = False
-        else:
-            self._walls.take(
-                u, cur, wall, self._wall_scale, self._load, linear, r, it.mu, d, k_d, alpha, ops
-            )
-            it.restart = True
 
     # --- the rest of the solver interface ------------------------------------------------
     def elastic_traction(self):
@@ -425,6 +332,7 @@ class ConstrainedCG(EquilibriumSolver):
             "cut_steps": walls.cut_steps,
             "residual_steps": walls.residual_steps,
             "held_steps": self._active.held_steps,
+            "extensions": self._moves.extensions,
             **self.count,
         }
 
@@ -434,4 +342,5 @@ class ConstrainedCG(EquilibriumSolver):
             int(saved[k]) for k in ("projections", "cut_steps", "residual_steps")
         )
         self._active.held_steps = int(saved["held_steps"])
+        self._moves.extensions = int(saved["extensions"])
         self.count = {key: int(saved[key]) for key in self.count}
