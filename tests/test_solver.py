@@ -138,6 +138,6 @@ def test_line_search_extensions_same_branch_fewer_iterations(monkeypatch, k, vel
     monkeypatch.setattr(solver_module, "MAX_EXTENSIONS", 0)
     capped, capped_run = _retraction(k, velocity)
     assert extended == pytest.approx(capped, rel=1e-8)
-    assert run.step_index == capped_run.step_index
+    assert run.surface.step_index == capped_run.surface.step_index
     assert run.solver.extensions > capped_run.solver.extensions
-    assert run.total_iterations < 0.7 * capped_run.total_iterations
+    assert run.equilibrium.iterations < 0.7 * capped_run.equilibrium.iterations
