@@ -139,5 +139,5 @@ def test_line_search_extensions_same_branch_fewer_iterations(monkeypatch, k, vel
     capped, capped_run = _retraction(k, velocity)
     assert extended == pytest.approx(capped, rel=1e-8)
     assert run.surface.step_index == capped_run.surface.step_index
-    assert run.solver.extensions > capped_run.solver.extensions
+    assert run.solver.counters()["extensions"] > capped_run.solver.counters()["extensions"]
     assert run.equilibrium.iterations < 0.7 * capped_run.equilibrium.iterations
