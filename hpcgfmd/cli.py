@@ -2,7 +2,8 @@
 mpirun/srun.
 
 Exit statuses are those of :mod:`hpcgfmd.errors` (0 finished, 1 failure, 2 bad input with one
-line on stderr and nothing written, 75 stopped by SIGTERM/SIGUSR1 after a checkpoint). With no
+line on stderr and nothing written, 75 stopped by SIGTERM/SIGUSR1 after a checkpoint, 130
+after SIGINT, with a checkpoint when a run had one to write). With no
 command the embedded default case runs into a new time-stamped file.
 
 Every command is called on all ranks of ``comm`` with the same arguments and takes the same
@@ -57,7 +58,7 @@ def _run(comm, case, output, overwrite, dry_run, restart=False, stop=None):
         raise UsageError(str(err)) from None
     except Interrupted as err:
         logger.info(f"hpcgfmd: {err}; run the same command again to continue")
-        return EXIT_RESUMABLE
+        return err.status
     finally:
         if lock is not None:
             lock.release()

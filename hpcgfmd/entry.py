@@ -10,7 +10,9 @@ of them (COMM_WORLD.Abort, non-zero status) instead of leaving the others waitin
 collective; SystemExit passes through. Output to a reader that has gone away
 (``info out.h5 | head -1``) ends the process quietly with status 1. SIGTERM and SIGUSR1 are
 recorded from the first moment (:mod:`hpcgfmd.signals`) and handed to the run or the farm,
-which stop cleanly.
+which stop cleanly; so is SIGINT while a run or a farm is under way. SIGINT anywhere else
+(start-up, ``info``, ``plot``, a benchmark) ends the process with one line, "hpcgfmd:
+interrupted", and status 130 (all ranks aborted with 130 when there are several).
 """
 
 import os
@@ -22,7 +24,22 @@ def main():
     from .signals import StopSignals
 
     with StopSignals() as stop:  # first: a signal during start-up asks for a clean stop
-        return _main(stop)
+        try:
+            return _main(stop)
+        except KeyboardInterrupt:  # SIGINT outside a run (one rank: nothing to abort)
+            return _interrupted()
+
+
+def _interrupted():
+    """One line instead of a traceback after SIGINT; the shell's status of a Ctrl-C."""
+    from .signals import EXIT_INTERRUPTED
+
+    try:
+        sys.stderr.write("hpcgfmd: interrupted\n")
+        sys.stderr.flush()
+    except OSError:
+        pass
+    return EXIT_INTERRUPTED
 
 
 def _main(stop):
@@ -48,6 +65,10 @@ def _main(stop):
         # flush does not raise again
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_FAILURE
+    except KeyboardInterrupt:
+        if comm.Get_size() > 1:  # the other ranks may wait in a collective
+            comm.Abort(_interrupted())
+        raise
     except BaseException:
         if comm.Get_size() > 1:
             _abort(comm)

@@ -11,6 +11,8 @@ name                   value  meaning
                               accepted; nothing was computed and no file was touched
 ``EXIT_RESUMABLE``     75     stopped by SIGTERM/SIGUSR1 after a checkpoint (EX_TEMPFAIL):
                               the same command continues
+``EXIT_INTERRUPTED``   130    stopped by SIGINT (Ctrl-C): one line; a run wrote a checkpoint
+                              as for SIGTERM, and the same command continues
 ``EXIT_FAILED_BASE``   100    a farm in which N cases failed exits with 100 + min(N, 99)
 =====================  =====  ============================================================
 
@@ -24,6 +26,7 @@ EXIT_OK = 0
 EXIT_FAILURE = 1
 EXIT_USAGE = 2
 EXIT_RESUMABLE = 75
+EXIT_INTERRUPTED = 130
 EXIT_FAILED_BASE = 100
 
 
@@ -67,4 +70,15 @@ class NonConvergenceError(CaseFailure):
 
 
 class Interrupted(Exception):
-    """The run stopped on a signal after writing a checkpoint; it can be resumed (exit 75)."""
+    """The run stopped on a signal, after writing a checkpoint when it had a state worth
+    keeping; the same command continues it (exit 75, or 130 after SIGINT).
+
+    Attributes
+    ----------
+    status : int
+        The exit status: ``EXIT_INTERRUPTED`` after SIGINT, else ``EXIT_RESUMABLE``.
+    """
+
+    def __init__(self, message: str, status: int = EXIT_RESUMABLE):
+        super().__init__(message)
+        self.status = status

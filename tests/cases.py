@@ -1,10 +1,16 @@
 """The builders of case files for the tests (the [case] and the [physical] form), the small
-fast case they share, and a stop flag that interrupts a run after a given step.
+fast case they share, and real stop signals sent in a given phase of a run.
 
 :data:`GROUPS`: lambda0 = 3.5, k = 0.1, V_z = 1 on a cell of L/R = 2 at h0/R = 0.03
 (alpha = 1e-4): about 217 steps, 1-6 s on one core for nx = 2048-8192, with a real
 viscoelastic retraction (pull-off, jumps) to compare between runs.
 """
+
+import os
+import signal
+
+from hpcgfmd.signals import StopSignals
+from hpcgfmd.storage.result_file import ResultFile
 
 GROUPS = {
     "maugis": 3.5,
@@ -33,18 +39,76 @@ PHYSICAL_VALUES = {
 FIXED_STEPS = 'step_control = "fixed"\n'
 
 
-class StopAtStep:
-    """A stop flag in place of the run's StopSignals, raised once the run has looked at it k
-    times: it looks once after the preload and once after each step, so the run stops (with
-    a checkpoint) after step k."""
+class StopAtStep(StopSignals):
+    """The process's real stop signals, and a real signal sent to this process while the run
+    writes step k's entry of the result file (the output phase): the run then stops with the
+    checkpoint of step k. A context manager, as :class:`~hpcgfmd.signals.StopSignals`."""
 
-    def __init__(self, k):
-        self.k, self.looks = k, 0
+    def __init__(self, k, signum=signal.SIGUSR1):
+        self.k, self.signum = k, signum
 
-    @property
-    def received(self):
-        self.looks += 1
-        return 10 if self.looks > self.k else None
+    def __enter__(self):
+        original = self._original = ResultFile.append_step
+        k, signum = self.k, self.signum
+
+        def append_step(result_file, values):
+            original(result_file, values)
+            if result_file.file["series"]["time"].shape[0] == k + 1:  # entry k: step k
+                os.kill(os.getpid(), signum)
+
+        ResultFile.append_step = append_step
+        return super().__enter__()
+
+    def __exit__(self, *exc):
+        ResultFile.append_step = self._original
+        return super().__exit__(*exc)
+
+
+class SignalInPhase(StopSignals):
+    """The process's real stop signals, and a real signal sent to this process once, from the
+    first solver iteration of the first phase whose name starts with ``phase``
+    (:class:`hpcgfmd.runs.watch.Watch`: "preload, level 1 of 2 ...", "solve of step 5"), or
+    while the transforms are planned (``phase = "planning"``)."""
+
+    def __init__(self, phase, signum=signal.SIGUSR1):
+        self.phase, self.signum = phase, signum
+
+    def __enter__(self):
+        import hpcgfmd.runs.protocol as protocol
+        from hpcgfmd.runs.watch import Watch
+
+        self._restore = [
+            (Watch, "beat", Watch.beat),
+            (protocol, "plan_real_fft", protocol.plan_real_fft),
+        ]
+        phase, signum, sent = self.phase, self.signum, []
+
+        def send():
+            if not sent:
+                sent.append(True)
+                os.kill(os.getpid(), signum)
+
+        beat, plan = Watch.beat, protocol.plan_real_fft
+
+        def beat_and_signal(watch, iteration, residual=None):
+            if watch.phase.startswith(phase):
+                send()
+            beat(watch, iteration, residual)
+
+        def plan_and_signal(*args, **kwargs):
+            fft = plan(*args, **kwargs)
+            if phase == "planning":
+                send()
+            return fft
+
+        Watch.beat, protocol.plan_real_fft = beat_and_signal, plan_and_signal
+        self.sent = sent
+        return super().__enter__()
+
+    def __exit__(self, *exc):
+        for owner, name, value in self._restore:
+            setattr(owner, name, value)
+        return super().__exit__(*exc)
 
 
 def case_text(numerics="nx = 2048", output="", prefix="", **groups):

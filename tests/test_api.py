@@ -323,8 +323,8 @@ def test_run_continues_an_interrupted_case_bitwise(tmp_path):
     case = hpcgfmd.Case(**GROUPS, numerics={"nx": 1024})
     quick = {"planner_effort": "FFTW_ESTIMATE"}
     whole = hpcgfmd.run(case, tmp_path / "whole.h5", **quick)
-    with pytest.raises(Interrupted):
-        run_case(case, tmp_path / "parts.h5", MPI.COMM_SELF, stop=StopAtStep(20), **quick)
+    with StopAtStep(20) as signals, pytest.raises(Interrupted):
+        run_case(case, tmp_path / "parts.h5", MPI.COMM_SELF, stop=signals, **quick)
     parts = hpcgfmd.run(case, tmp_path / "parts.h5", **quick)
     assert parts.attrs["finished"] and parts.attrs["steps"] == whole.attrs["steps"] > 20
     for name in ("time", "load", "contact_half_width", "iterations"):

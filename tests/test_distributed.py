@@ -202,20 +202,27 @@ def interrupt(tmp_path, ranks, signum):
 
 @pytest.mark.parametrize(
     "first, second, signum",
-    [(0, 0, signal.SIGTERM), (2, 3, signal.SIGUSR1), (0, 2, signal.SIGUSR1)],
+    [
+        (0, 0, signal.SIGTERM),
+        (2, 3, signal.SIGUSR1),
+        (0, 2, signal.SIGUSR1),
+        (0, 2, signal.SIGINT),  # Ctrl-C on a run in a terminal
+    ],
 )
 def test_interrupted_run_resumes_to_the_uninterrupted_series(
     serial_run, tmp_path, first, second, signum
 ):
     cwd, reference = serial_run
     status, stdout, stderr = interrupt(tmp_path, first, signum)
-    assert status == 75, (stdout, stderr)
+    assert status == (130 if signum == signal.SIGINT else 75), (stdout, stderr)
     assert "run the same command again to continue" in stdout
+    assert "Traceback" not in stderr
     with h5py.File(tmp_path / "out.h5", "r") as f:
         assert not f.attrs["finished"]
         stopped_at = int(f.attrs["steps_complete"]) - 1  # the preload is entry 0
     assert stopped_at < reference[0]["time"].size - 1  # interrupted mid-run
-    assert f"stopped by a signal at step {stopped_at} " in stdout
+    # "at step k (t = ...)" after a step, "... holds step k (t = ...)" in the next one's solve
+    assert "stopped by a signal" in stdout and f"step {stopped_at} (t = " in stdout
     # the same command continues (automatic resume), here on another rank count, from the
     # checkpoint the signal wrote (not the last scheduled one)
     done = run(second, "run", "case.toml", "-o", "out.h5", cwd=tmp_path)
@@ -278,6 +285,43 @@ def test_failure_on_one_rank_stops_all_ranks(tmp_path):
     assert time.monotonic() - started < 30
 
 
+@pytest.mark.parametrize("ranks", [0, 2])
+def test_sigint_outside_a_run_ends_every_rank_with_one_line_and_130(tmp_path, ranks):
+    # Ctrl-C while no run listens (start-up, info, plot): KeyboardInterrupt, which the entry
+    # point turns into one line and status 130; with two ranks it aborts both with 130
+    # while the other waits in a collective. A stand-in for the command line sends the real
+    # signal on the last rank.
+    script = tmp_path / "interrupted.py"
+    script.write_text(
+        "import os, signal, time\n"
+        "import hpcgfmd.entry as entry, hpcgfmd.cli as cli\n"
+        "def interrupted(comm, argv=None, stop=None):\n"
+        "    if comm.Get_rank() == comm.Get_size() - 1:\n"
+        "        os.kill(os.getpid(), signal.SIGINT)\n"
+        "        time.sleep(30)\n"
+        "    comm.Barrier()\n"
+        "    return 0\n"
+        "cli.main = interrupted\n"
+        "raise SystemExit(entry.main())\n"
+    )
+    launcher = [] if ranks == 0 else [MPIRUN, "-n", str(ranks)]
+    started = time.monotonic()
+    done = subprocess.run(
+        [*launcher, sys.executable, str(script)],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=environment(),
+    )
+    assert done.returncode == 130, done.stderr
+    assert "Traceback" not in done.stderr
+    assert [line for line in done.stderr.splitlines() if line.startswith("hpcgfmd:")] == [
+        "hpcgfmd: interrupted"
+    ]
+    assert time.monotonic() - started < 20
+
+
 def test_non_convergence_stops_every_rank_with_status_1(tmp_path):
     # A failure every rank detects alike (from reduced values): status 1 from all ranks and
     # one line from rank 0, no hang. Here the preload fails, before the file is created.
@@ -321,5 +365,5 @@ def test_signal_during_set_up_exits_75_with_nothing_written(tmp_path):
     process.send_signal(signal.SIGUSR1)
     stdout, stderr = process.communicate(timeout=120)
     assert process.returncode == 75, stdout + stderr
-    assert "before the first step" in stdout
+    assert "stopped by a signal during the " in stdout and "nothing was written" in stdout
     assert not (tmp_path / "out.h5").exists() and not (tmp_path / "out.checkpoint.h5").exists()

@@ -195,6 +195,42 @@ def test_farm_records_failures_goes_on_and_resumes(tmp_path):
 
 
 @pytest.mark.slow
+def test_ctrl_c_stops_a_farm_with_130_and_the_same_command_finishes(tmp_path):
+    # SIGINT on a farm in a terminal (one process): the running case checkpoints, no new
+    # case starts, one line per case and no traceback, status 130; the same command
+    # resumes the interrupted case and runs the rest.
+    (tmp_path / "sweep.toml").write_text(
+        case_text("nx = 1024", "checkpoint_steps = 5", prefix="base.")
+        + "[grid]\nvelocity = [0.6, 0.8]\n"
+    )
+    command = [sys.executable, "-m", "hpcgfmd", "farm", "sweep.toml", "-o", "out"]
+    process = subprocess.Popen(
+        command,
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=environment(),
+    )
+    out = tmp_path / "out"
+    deadline = time.monotonic() + 120
+    while not (out.exists() and any(p.endswith(".checkpoint.h5") for p in os.listdir(out))):
+        assert process.poll() is None and time.monotonic() < deadline, process.communicate()
+        time.sleep(0.02)
+    process.send_signal(signal.SIGINT)
+    stdout, stderr = process.communicate(timeout=120)
+    assert process.returncode == 130, stdout + stderr
+    assert "Traceback" not in stderr and "interrupted, checkpointed" in stdout
+    rows = summary(out / "summary.csv")
+    assert [r["status"] for r in rows.values()].count("interrupted") == 1, rows
+    done = subprocess.run(
+        command, cwd=tmp_path, capture_output=True, text=True, timeout=300, env=environment()
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert all(r["status"] == "finished" for r in summary(out / "summary.csv").values())
+
+
+@pytest.mark.slow
 @pytest.mark.mpi
 def test_farm_signal_checkpoints_and_the_same_command_finishes(tmp_path):
     # Three cases on two single-rank groups; SIGUSR1 (forwarded by mpirun) stops them with

@@ -102,15 +102,15 @@ def test_both_generations_damaged_leaves_none(tmp_path):
 def interrupted_run(directory, stop=12):
     case = parse_case(TEXT)
     out = directory / "case.h5"
-    with pytest.raises(Interrupted):
-        run_case(case, out, COMM, planner_effort="FFTW_ESTIMATE", stop=StopAtStep(stop))
+    with StopAtStep(stop) as signals, pytest.raises(Interrupted):
+        run_case(case, out, COMM, planner_effort="FFTW_ESTIMATE", stop=signals)
     return case, out
 
 
 @pytest.fixture(scope="module")
 def whole(tmp_path_factory):
     out = tmp_path_factory.mktemp("whole") / "whole.h5"
-    run_case(parse_case(TEXT), out, COMM, planner_effort="FFTW_ESTIMATE", stop=StopAtStep(10**9))
+    run_case(parse_case(TEXT), out, COMM, planner_effort="FFTW_ESTIMATE")
     return read_series(out)
 
 
@@ -291,7 +291,7 @@ FILLING = case_text(
 @pytest.fixture(scope="module")
 def filling_whole(tmp_path_factory):
     out = tmp_path_factory.mktemp("filling") / "whole.h5"
-    run_case(parse_case(FILLING), out, COMM, stop=StopAtStep(10**9))
+    run_case(parse_case(FILLING), out, COMM)
     return read_series(out)
 
 
@@ -379,13 +379,7 @@ def poison(monkeypatch, at_step, velocity=None):
 def test_non_finite_value_fails_the_case_naming_step_and_quantity(tmp_path, monkeypatch):
     poison(monkeypatch, at_step=7)
     with pytest.raises(FloatingPointError) as err:
-        run_case(
-            parse_case(TEXT),
-            tmp_path / "case.h5",
-            COMM,
-            planner_effort="FFTW_ESTIMATE",
-            stop=StopAtStep(10**9),
-        )
+        run_case(parse_case(TEXT), tmp_path / "case.h5", COMM, planner_effort="FFTW_ESTIMATE")
     message = str(err.value)
     assert "\n" not in message and message.startswith("step 7 (t = 0.35 tau)")
     assert "non-finite values in: u, history, substrate traction" in message
@@ -678,8 +672,8 @@ def test_farm_passes_over_a_damaged_checkpoint_and_refuses_when_none_is_usable(t
     out.mkdir()
     paths = [case_file(str(out), item) for item in sweep.cases]
     for item, path in zip(sweep.cases, paths):  # both cases interrupted after step 12
-        with pytest.raises(Interrupted):
-            run_case(item.case, path, COMM, planner_effort="FFTW_ESTIMATE", stop=StopAtStep(12))
+        with StopAtStep(12) as signals, pytest.raises(Interrupted):
+            run_case(item.case, path, COMM, planner_effort="FFTW_ESTIMATE", stop=signals)
     flip_bytes(checkpoint_path(paths[0]))  # the first: its previous generation is usable
     flip_bytes(checkpoint_path(paths[1]))  # the second: none is
     truncate(previous_path(checkpoint_path(paths[1])))

@@ -86,15 +86,12 @@ load_rate = 1e-3
 def test_interrupted_and_resumed_equals_uninterrupted_bitwise(tmp_path, text, stop):
     case = parse_case(text)
     quiet = {"planner_effort": "FFTW_ESTIMATE"}
-    run_case(case, tmp_path / "whole.h5", MPI.COMM_SELF, **quiet, stop=StopAtStep(10**9))
-    try:  # one look after the preload, then one per step: stops after step ``stop``
-        run_case(case, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, stop=StopAtStep(stop))
-        raise AssertionError("the run was not interrupted")
-    except Interrupted as err:
-        assert f"at step {stop} " in str(err)
-    run_case(
-        case, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, resume=True, stop=StopAtStep(10**9)
-    )
+    run_case(case, tmp_path / "whole.h5", MPI.COMM_SELF, **quiet)
+    # a signal while step ``stop`` is written: the run stops after it, with its checkpoint
+    with StopAtStep(stop) as signals, pytest.raises(Interrupted) as err:
+        run_case(case, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, stop=signals)
+    assert f"at step {stop} " in str(err.value)
+    run_case(case, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, resume=True)
     whole, parts = read_series(tmp_path / "whole.h5"), read_series(tmp_path / "parts.h5")
     for name in (
         "time",
@@ -139,16 +136,14 @@ def test_a_run_stopped_at_its_iteration_cap_resumes_with_a_higher_cap(tmp_path):
     capped = parse_case(case_text("nx = 1024\nmax_iterations = 30", velocity=9.0))
     assert capped.identity() == uncapped.identity()
     quiet = {"planner_effort": "FFTW_ESTIMATE"}
-    run_case(uncapped, tmp_path / "whole.h5", MPI.COMM_SELF, **quiet, stop=StopAtStep(10**9))
+    run_case(uncapped, tmp_path / "whole.h5", MPI.COMM_SELF, **quiet)
     with pytest.raises(NonConvergenceError, match="after 30 iterations; raise.*checkpoint"):
-        run_case(capped, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, stop=StopAtStep(10**9))
+        run_case(capped, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet)
     stopped = read_series(tmp_path / "parts.h5").load.size
     assert stopped > 100  # stopped late, not at once
     checkpoint = read_checkpoint_attrs(checkpoint_path(tmp_path / "parts.h5"))
     assert checkpoint["surface.step_index"] == stopped - 1
-    run_case(
-        uncapped, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, resume=True, stop=StopAtStep(10**9)
-    )
+    run_case(uncapped, tmp_path / "parts.h5", MPI.COMM_SELF, **quiet, resume=True)
     whole, parts = read_series(tmp_path / "whole.h5"), read_series(tmp_path / "parts.h5")
     for name in ("time", "load", "contact_half_width", "iterations"):
         np.testing.assert_array_equal(getattr(parts, name), getattr(whole, name), err_msg=name)
@@ -182,8 +177,8 @@ def test_a_checkpoint_of_another_format_is_refused_in_one_line(tmp_path):
 
     case = parse_case(case_text("nx = 1024"))
     out = tmp_path / "case.h5"
-    with pytest.raises(Interrupted):
-        run_case(case, out, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE", stop=StopAtStep(3))
+    with StopAtStep(3) as signals, pytest.raises(Interrupted):
+        run_case(case, out, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE", stop=signals)
     with h5py.File(checkpoint_path(out), "r+") as f:
         f.attrs["hpcgfmd_checkpoint"] = FORMAT_VERSION - 1
     with pytest.raises(UsageError) as err:

@@ -17,7 +17,7 @@ from . import wisdom
 from .fft_halved import HalvedRealFFT, fits
 from .fft_serial import SerialRealFFT, aligned_empty
 from .fft_transposed import TransposedRealFFT
-from .real_fft import RealFFT
+from .real_fft import PLANNING_TIMELIMIT, RealFFT
 
 
 def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
@@ -65,6 +65,7 @@ def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
 
 
 __all__ = [
+    "PLANNING_TIMELIMIT",
     "HalvedRealFFT",
     "RealFFT",
     "SerialRealFFT",

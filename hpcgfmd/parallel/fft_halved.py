@@ -67,7 +67,7 @@ from .fft_kernels import (
     scale,
     twist_difference,
 )
-from .real_fft import RealFFT
+from .real_fft import RealFFT, fftw_plan
 from .transport import StageBuffers, padded_width
 
 _STAGES = ("pack", "h")  # the field (step 1) and this rank's part of the result (step 2)
@@ -155,23 +155,21 @@ class HalvedRealFFT(RealFFT):
         if rank == 0:  # p is transformed straight into the block the peer reads
             self._real = pyfftw.empty_aligned(half, dtype="float64")
             self.spectrum = pyfftw.empty_aligned(quarter + 1, dtype="complex128")
-            self._forward = pyfftw.FFTW(self._real, self.spectrum, flags=flags, threads=1)
-            self._backward = pyfftw.FFTW(
+            self._forward = fftw_plan(self._real, self.spectrum, flags=flags)
+            self._backward = fftw_plan(
                 self.spectrum,
                 self._send["h"],
                 direction="FFTW_BACKWARD",
                 flags=flags + ("FFTW_DESTROY_INPUT",),
-                threads=1,
             )
         else:  # ifft_L(W) too, untwisted by both ranks as they combine (step 3)
             self.spectrum = pyfftw.empty_aligned(quarter, dtype="complex128")
-            self._forward = pyfftw.FFTW(self.spectrum, self.spectrum, flags=flags, threads=1)
-            self._backward = pyfftw.FFTW(
+            self._forward = fftw_plan(self.spectrum, self.spectrum, flags=flags)
+            self._backward = fftw_plan(
                 self.spectrum,
                 self._send["h"].view(np.complex128),
                 direction="FFTW_BACKWARD",
                 flags=flags + ("FFTW_DESTROY_INPUT",),
-                threads=1,
             )
             self._odd = np.exp((-2j * np.pi / n) * (2 * m + 1))  # t_k = w^(2k+1)
         self.pairs = 0

@@ -16,7 +16,7 @@ import pyfftw
 from mpi4py import MPI
 
 from .fft_kernels import scale
-from .real_fft import RealFFT
+from .real_fft import RealFFT, fftw_plan
 
 DIRECT_MEMORY = 8  # arrays remembered as aligned by SerialRealFFT._direct
 
@@ -73,13 +73,12 @@ class SerialRealFFT(RealFFT):
         self.spectrum = pyfftw.empty_aligned(n // 2 + 1, dtype="complex128")
         # The forward transform keeps its input (it may be the caller's field); the backward
         # one may overwrite the spectrum, which is the transform's own.
-        self._forward = pyfftw.FFTW(self.real, self.spectrum, flags=(planner_effort,), threads=1)
-        self._backward = pyfftw.FFTW(
+        self._forward = fftw_plan(self.real, self.spectrum, flags=(planner_effort,))
+        self._backward = fftw_plan(
             self.spectrum,
             self.real,
             direction="FFTW_BACKWARD",
             flags=(planner_effort, "FFTW_DESTROY_INPUT"),
-            threads=1,
         )
         self._alignment = self._forward.input_alignment
         self._direct_arrays = ()  # arrays found aligned, newest first (see _direct)

@@ -79,7 +79,7 @@ import numpy as np
 import pyfftw
 
 from .blocks import block_range
-from .real_fft import RealFFT
+from .real_fft import RealFFT, fftw_plan
 from .transport import TRANSPORTS, StageBuffers, padded_width
 
 # Work-array sizes of the chunked stages, in elements: a stage-A/C chunk of columns holds
@@ -397,14 +397,14 @@ def _plans(col_chunks, row_chunks, n1, n2, planner_effort):
     for h in {b - a for a, b in col_chunks}:
         real, half = work_real[:h], work_half[:h]
         column_plans[h] = (
-            pyfftw.FFTW(real, half, axes=(1,), flags=flags, threads=1),
-            pyfftw.FFTW(half, real, axes=(1,), direction="FFTW_BACKWARD", flags=flags, threads=1),
+            fftw_plan(real, half, axes=(1,), flags=flags),
+            fftw_plan(half, real, axes=(1,), direction="FFTW_BACKWARD", flags=flags),
         )
     for h in {b - a for a, b in row_chunks}:
         work = work_rows[:h]
         row_plans[h] = (
-            pyfftw.FFTW(work, work, axes=(1,), flags=flags, threads=1),
-            pyfftw.FFTW(work, work, axes=(1,), direction="FFTW_BACKWARD", flags=flags, threads=1),
+            fftw_plan(work, work, axes=(1,), flags=flags),
+            fftw_plan(work, work, axes=(1,), direction="FFTW_BACKWARD", flags=flags),
         )
     return work_real, work_half, work_rows, column_plans, row_plans
 

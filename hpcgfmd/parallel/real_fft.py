@@ -18,6 +18,19 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 
 import numpy as np
+import pyfftw
+
+# FFTW's planner may measure candidate algorithms at most this long per plan (seconds): a
+# large grid's planning stays bounded, and a stop signal is seen between plans within it
+# (FFTW then keeps the best plan it found; docs/results.md has the transforms' speed).
+PLANNING_TIMELIMIT = 5.0
+
+
+def fftw_plan(input_array, output_array, **options):
+    """A pyfftw plan on one thread whose planning takes at most PLANNING_TIMELIMIT seconds."""
+    return pyfftw.FFTW(
+        input_array, output_array, threads=1, planning_timelimit=PLANNING_TIMELIMIT, **options
+    )
 
 
 class RealFFT(ABC):

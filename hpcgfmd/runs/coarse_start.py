@@ -55,6 +55,14 @@ def coarser_nx(case) -> int | None:
     return nx // 2
 
 
+def preload_grids(case) -> list:
+    """The preload's grids, coarsest first, ending with ``case``'s own."""
+    grids = [case.numerics.nx]
+    while (nx := coarser_nx(coarse_case(case, grids[0]))) is not None:
+        grids.insert(0, nx)
+    return grids
+
+
 def coarse_case(case, nx: int):
     """``case`` on ``nx`` nodes, solved to the coarse levels' tolerance."""
     tolerance = max(case.numerics.tolerance, COARSE_TOLERANCE)
@@ -84,7 +92,7 @@ def prolong(coarse_full: np.ndarray, x_start: int, x_stop: int) -> np.ndarray:
     return 0.5 * (left + right)  # even nodes: left == right
 
 
-def coarse_start(case, domain, planner_effort: str, level):
+def coarse_start(case, domain, planner_effort: str, level, watch=None):
     """Collective: this rank's block of the fine preload's start, or None (no coarser level).
 
     Parameters
@@ -96,9 +104,11 @@ def coarse_start(case, domain, planner_effort: str, level):
     planner_effort : str
         FFTW planner flag of the coarse levels' transforms.
     level : callable
-        ``level(case, comm, planner_effort=...)`` builds a coarse level's protocol (the
-        caller's class, :class:`hpcgfmd.runs.protocol.Retraction`: a coarse level is an
+        ``level(case, comm, planner_effort=..., watch=...)`` builds a coarse level's protocol
+        (the caller's class, :class:`hpcgfmd.runs.protocol.Retraction`: a coarse level is an
         ordinary preload, which starts from its own coarser level in turn).
+    watch : hpcgfmd.runs.watch.Watch, optional
+        The run's watch, which the coarse levels share.
 
     Returns
     -------
@@ -110,7 +120,7 @@ def coarse_start(case, domain, planner_effort: str, level):
     nx = coarser_nx(case)
     if nx is None:
         return None, []
-    coarse = level(coarse_case(case, nx), domain.comm, planner_effort=planner_effort)
+    coarse = level(coarse_case(case, nx), domain.comm, planner_effort=planner_effort, watch=watch)
     try:
         record = coarse.preload()
         levels = coarse.preload_levels + [(nx, record.iterations)]

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import NonConvergenceError
 from ..parallel.fft import aligned_empty
+from .watch import StopRequested
 
 
 @dataclass
@@ -94,8 +95,12 @@ class Equilibrium:
             np.add(u, (indenter - z) * near, out=surface.u)
         surface.indenter = indenter
         self.place(indenter)
-        result = solver.solve(surface.u, self.wall, ops, self.history, edge_watch=watch)
+        result = solver.solve(
+            surface.u, self.wall, ops, self.history, edge_watch=watch, watch=run.watch
+        )
         self.iterations += result.iterations
+        if result.interrupted:  # (alike on every rank: the flag is reduced)
+            raise StopRequested(run.watch.phase)
         if result.abandoned:
             return None
         if not math.isfinite(result.residual):  # a reduced value: every rank raises

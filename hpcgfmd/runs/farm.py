@@ -23,11 +23,11 @@ Faults. A case that fails (invalid parameters, a cell too small, non-convergence
 recorded with its error and the farm goes on. Re-running the same command resumes: a case
 whose file is marked finished (and belongs to the same case) is skipped, an interrupted one
 continues from its checkpoint, any other is started again. SIGTERM or SIGUSR1 makes every
-running case checkpoint and stop, and no new case starts.
+running case checkpoint and stop, and no new case starts; so does SIGINT (Ctrl-C).
 
-Exit status: 0 all cases finished; 75 interrupted by a signal, or cases left to another
-process writing them (the same command continues); 100 + N when N cases failed (capped at
-199); 2 for a bad sweep file or command line.
+Exit status: 0 all cases finished; 75 interrupted by a signal (130 after SIGINT), or cases
+left to another process writing them (the same command continues); 100 + N when N cases
+failed (capped at 199); 2 for a bad sweep file or command line.
 """
 
 from __future__ import annotations
@@ -46,6 +46,7 @@ from mpi4py import MPI
 from ..atomic import replacing, write_csv
 from ..errors import (
     EXIT_FAILED_BASE,
+    EXIT_INTERRUPTED,
     EXIT_RESUMABLE,
     CaseError,
     CaseFailure,
@@ -390,7 +391,9 @@ def _run_locked(item, path, record, group, say, stop):
 @contextlib.contextmanager
 def _quiet_case():
     """The farm reports each case in one line: the case's own progress lines are held back."""
-    loggers = [logging.getLogger(f"hpcgfmd.runs.{name}") for name in ("single_case", "progress")]
+    loggers = [
+        logging.getLogger(f"hpcgfmd.runs.{name}") for name in ("single_case", "progress", "watch")
+    ]
     levels = [one.level for one in loggers]
     for one in loggers:
         one.setLevel(logging.WARNING)
@@ -414,6 +417,15 @@ def run_farm(
     if stop is None:
         with StopSignals() as own:
             return run_farm(sweep, comm, out_dir, ranks_per_case, only, own, label, noun)
+    with stop.listening():  # SIGINT, too, stops the cases cleanly (hpcgfmd.signals)
+        status = _farm(sweep, comm, out_dir, ranks_per_case, only, stop, label, noun)
+    if status == EXIT_RESUMABLE and comm.allreduce(stop.interrupted, op=MPI.LOR):
+        return EXIT_INTERRUPTED
+    return status
+
+
+def _farm(sweep, comm, out_dir, ranks_per_case, only, stop, label, noun) -> int:
+    """Collective: the body of :func:`run_farm`, while it listens to the stop signals."""
     started = time.monotonic()
     rank = comm.Get_rank()
     if rank == 0:

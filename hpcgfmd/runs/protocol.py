@@ -25,18 +25,20 @@ Every method is collective over the case's communicator.
 from __future__ import annotations
 
 import math
+import time
 
 from ..errors import NonConvergenceError
+from ..model.grid import grid_label
 from ..model.halfspace import MaxwellHalfSpace
 from ..model.interface import DugdaleMaugis
 from ..model.loading import START_HEIGHT
 from ..parallel.domain import Domain
-from ..parallel.fft import aligned_empty, plan_real_fft
+from ..parallel.fft import PLANNING_TIMELIMIT, aligned_empty, plan_real_fft
 from ..solvers import make_solver
 from ..solvers.predictor import Predictor
 from ..solvers.step_kernels import all_beyond
 from ..solvers.stepping import StepOutcome, make_step_control
-from .coarse_start import coarse_start
+from .coarse_start import coarse_start, preload_grids
 from .contact_edges import ContactEdges
 from .drive import CompliantDrive
 from .equilibrium import Equilibrium, StepRecord
@@ -44,6 +46,9 @@ from .history_window import HistoryWindow
 from .run_state import RunState
 from .schedule import Schedule
 from .surface import Surface
+from .watch import StopRequested, Watch
+
+PLANNING_NOTED = 2**18  # grids from this size say when they plan their transforms
 
 
 class Retraction:
@@ -59,10 +64,11 @@ class Retraction:
         FFTW planner flag (FFTW_MEASURE for runs, FFTW_ESTIMATE for quick tests).
     """
 
-    def __init__(self, case, comm, planner_effort="FFTW_MEASURE"):
+    def __init__(self, case, comm, planner_effort="FFTW_MEASURE", watch=None):
         self.case, self.planner_effort = case, planner_effort
+        self.watch = Watch() if watch is None else watch
         self.n = n = case.numerics.nx
-        self.fft = plan_real_fft(comm, n, planner_effort=planner_effort)
+        self.fft = _planned(comm, n, planner_effort, self.watch)
         self.domain = Domain(comm, n, case.cell, self.fft.x_blocks)
         self.geometry = case.geometry()
         self.profile = self.geometry.profile(self.domain.coordinates)
@@ -104,12 +110,14 @@ class Retraction:
         """The t = 0 state: the relaxed adhesive indentation to u_z = -h0, started from its
         solution on coarser grids when there are any (:mod:`.coarse_start`), else flat; or,
         when the protocol starts with an approach, the flat relaxed surface out of reach."""
-        surface, case = self.surface, self.case
+        surface, case, watch = self.surface, self.case, self.watch
         if case.starts_out_of_contact:
             surface.indenter = surface.drive = START_HEIGHT * case.dmax
         else:
+            if watch.levels is None:  # the finest level: the grids of all
+                watch.levels = preload_grids(case)
             start, self.preload_levels = coarse_start(
-                case, self.domain, self.planner_effort, type(self)
+                case, self.domain, self.planner_effort, type(self), watch
             )
             if start is not None:
                 surface.u[:] = start
@@ -119,7 +127,10 @@ class Retraction:
             solver=self.solver.preload_solver(),
             relaxed=True,
         )
+        started = time.monotonic()
+        watch.enter(f"preload{_level(watch.levels, self.n)}")
         record = self.equilibrium.solve(surface.indenter)
+        _note_level(watch, self.n, record.iterations, time.monotonic() - started)
         self.edges.advance(record.edges)
         if self.spring is not None:  # the spring holds the start's load
             surface.drive = record.drive = self.spring.hold(surface.indenter, record.load)
@@ -142,7 +153,7 @@ class Retraction:
             self.state.save()
             try:
                 record = self._advance(dt, end)
-            except NonConvergenceError:
+            except (NonConvergenceError, StopRequested):
                 self.state.revert()  # a checkpoint keeps the last accepted step
                 raise
             decision = self.steps.judge(self._outcome(record, dt))
@@ -211,6 +222,7 @@ class Retraction:
         equilibrium.place(surface.indenter)
         gap_before = equilibrium.gap()  # under the last step's wall
         surface.step_index += 1
+        self.watch.enter(f"solve of step {surface.step_index}")
         if end is not None:  # the segment's end, exactly
             surface.time = end
         elif self.steps.adaptive:
@@ -285,6 +297,39 @@ class Retraction:
     def summary(self) -> dict:
         """Counters of the run so far (rank-independent), for the output file's summary."""
         return {"steps": self.surface.step_index, "spring_solves": 0, **self.state.counters()}
+
+
+def _planned(comm, n, planner_effort, watch):
+    """Collective: the real FFT of n nodes on ``comm``, planned with a line before a large
+    grid's planning and after a slow one."""
+    large = n >= PLANNING_NOTED
+    if large:
+        watch.note(
+            f"planning the transforms of {grid_label(n)} nodes on {comm.Get_size()} rank(s)"
+            f" ({planner_effort}, each plan at most {PLANNING_TIMELIMIT:g} s)"
+        )
+    watch.enter(f"planning of the transforms of {grid_label(n)} nodes")
+    started = time.monotonic()
+    fft = plan_real_fft(comm, n, planner_effort=planner_effort)
+    if large:
+        watch.note(f"planned in {time.monotonic() - started:.1f} s")
+    return fft
+
+
+def _level(levels, n) -> str:
+    """ ", level k of K (2^a nodes)" of the preload's grid n among ``levels`` (or "")."""
+    if not levels or n not in levels:
+        return ""
+    return f", level {levels.index(n) + 1} of {len(levels)} ({grid_label(n)} nodes)"
+
+
+def _note_level(watch, n, iterations, seconds):
+    """A line after a preload level, when there are several or it was slow (the finer
+    levels start from the coarser one's solution and take a few iterations each)."""
+    levels = watch.levels or [n]
+    if len(levels) == 1 and seconds < 1.0:
+        return
+    watch.note(f"preload{_level(levels, n)}: {iterations} iterations, {seconds:.1f} s")
 
 
 def _run_state(run) -> RunState:

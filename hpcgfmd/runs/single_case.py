@@ -3,8 +3,9 @@
 Collective over the case's communicator. A run survives the end of a job's allocation:
 the full state is checkpointed (:mod:`hpcgfmd.storage.checkpoint`) every ``[output]
 checkpoint_interval`` seconds of wall time and/or every ``checkpoint_steps`` steps, and when
-the process receives SIGTERM or SIGUSR1 (what SLURM sends before the time limit), after which
-the run stops with :class:`~hpcgfmd.errors.Interrupted` (exit status 75). ``resume=True``
+the process receives SIGTERM or SIGUSR1 (what SLURM sends before the time limit) or SIGINT,
+after which the run stops with :class:`~hpcgfmd.errors.Interrupted` (exit status 75, 130 after
+SIGINT). ``resume=True``
 continues from the checkpoint on any number of ranks, appending to the same output file.
 Progress goes to the ``hpcgfmd`` logger (:mod:`hpcgfmd.logs`).
 """
@@ -17,9 +18,17 @@ import os
 import time
 
 import numpy as np
+from mpi4py import MPI
 
 from ..case import Case
-from ..errors import CaseError, CaseFailure, Interrupted, NonConvergenceError
+from ..errors import (
+    EXIT_INTERRUPTED,
+    EXIT_RESUMABLE,
+    CaseError,
+    CaseFailure,
+    Interrupted,
+    NonConvergenceError,
+)
 from ..model import accuracy as knob
 from ..signals import StopSignals
 from ..solvers import solver_class
@@ -34,6 +43,7 @@ from ..storage.space import free_bytes, room_for_a_step
 from .checkpoints import Checkpoints
 from .progress import Progress
 from .protocol import Retraction
+from .watch import StopRequested, Watch
 
 logger = logging.getLogger(__name__)
 
@@ -145,21 +155,38 @@ def run_case(
     Returns the summary stored in the file; raises :class:`Interrupted` after a signal.
     ``stop`` is the caller's :class:`StopSignals` (the farm's, shared by its cases); without
     one, the run installs its own from the start, so a signal during the set-up counts too.
+    The run looks at the signals in every phase (:mod:`.watch`): planning, the preload, a
+    step's solve, the output; it stops within a fraction of a second of a solve's iteration,
+    with the last accepted step's checkpoint when there is one.
     """
     if stop is None:
         with StopSignals() as own:
             return run_case(case, path, comm, overwrite, resume, planner_effort, own)
-    start = time.monotonic()
-    sim = Retraction(case, comm, planner_effort=planner_effort)
-    # Free the transform's shared-memory window (collective) when every rank stops alike; on
-    # any other error the job aborts and a collective here would hang the failing rank.
-    try:
-        summary = _run(sim, case, path, comm, overwrite, resume, stop, start)
-    except (CaseError, CaseFailure, FloatingPointError, Interrupted):
+    with stop.listening():
+        start = time.monotonic()
+        watch = Watch(stop, case.output.progress_interval)
+        sim = Retraction(case, comm, planner_effort=planner_effort, watch=watch)
+        # Free the transform's shared-memory window (collective) when every rank stops
+        # alike; on any other error the job aborts and a collective here would hang.
+        try:
+            watch.check(comm)  # a signal while the transforms were planned
+            summary = _run(sim, case, path, comm, overwrite, resume, stop, start)
+        except StopRequested as err:
+            sim.close()
+            raise Interrupted(
+                f"stopped by a signal during the {err}; nothing was written", _status(stop, comm)
+            ) from None
+        except (CaseError, CaseFailure, FloatingPointError, Interrupted):
+            sim.close()
+            raise
         sim.close()
-        raise
-    sim.close()
-    return summary
+        return summary
+
+
+def _status(stop, comm) -> int:
+    """Collective: the exit status of a stop, alike on every rank: 130 when any rank
+    received SIGINT, else 75."""
+    return EXIT_INTERRUPTED if comm.allreduce(stop.interrupted, op=MPI.LOR) else EXIT_RESUMABLE
 
 
 def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
@@ -178,7 +205,9 @@ def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
         schedule.restore(attrs["snapshot_schedule"])
         snapshots = int(attrs["snapshots_written"])
         if dom.max(float(stop.received is not None)):  # the checkpoint is still the latest
-            raise Interrupted(f"stopped by a signal while resuming; checkpoint {checkpoint}")
+            raise Interrupted(
+                f"stopped by a signal while resuming; checkpoint {checkpoint}", _status(stop, comm)
+            )
         try:
             out = ResultFile.reopen(
                 path, case, dom, comm, steps=sim.surface.step_index + 1, snapshots=snapshots
@@ -208,7 +237,9 @@ def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
             f" {need * case.units.length:.4g}"
         )
     if dom.max(float(stop.received is not None)):
-        raise Interrupted("stopped by a signal before the first step; nothing was written")
+        raise Interrupted(
+            "stopped by a signal before the first step; nothing was written", _status(stop, comm)
+        )
     remove_checkpoint(checkpoint, comm)  # a stale one would pair with the new file
     out = ResultFile(path, case, dom, comm, overwrite=overwrite)
     out.append_step(record.as_dict())
@@ -266,6 +297,14 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
         while not sim.finished():
             try:
                 record = sim.step()
+            except StopRequested as err:  # (alike on every rank: the flag was reduced)
+                keeper.save()  # the last accepted step (Retraction.step undid this one)
+                raise Interrupted(
+                    f"stopped by a signal during the {err}; checkpoint"
+                    f" {keeper.path_checkpoint} holds step {surface.step_index}"
+                    f" (t = {surface.time * case.units.time:.6g})",
+                    _status(stop, comm),
+                ) from None
             except NonConvergenceError as err:  # (alike on every rank: a reduced residual)
                 keeper.save()  # the last accepted step (Retraction.step undid the failed one)
                 raise NonConvergenceError(
@@ -283,7 +322,8 @@ def _run(sim, case, path, comm, overwrite, resume, stop, start):
                 raise Interrupted(
                     f"stopped by a signal at step {surface.step_index}"
                     f" (t = {surface.time * case.units.time:.6g});"
-                    f" checkpoint {keeper.path_checkpoint}"
+                    f" checkpoint {keeper.path_checkpoint}",
+                    _status(stop, comm),
                 )
         out.add_snapshot(surface.time, surface.u, surface.traction, sim.equilibrium.gap())
         summary = {

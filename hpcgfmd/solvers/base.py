@@ -41,6 +41,9 @@ class SolveResult:
     abandoned : bool
         The iterate's contact edges moved beyond the caller's ``edge_watch`` limit: the
         solve stopped early, ``u`` is not an equilibrium.
+    interrupted : bool
+        A stop signal reached the solve (its ``watch``): it stopped early on every rank, ``u``
+        is not an equilibrium.
     """
 
     iterations: int
@@ -48,6 +51,26 @@ class SolveResult:
     converged: bool
     mean_traction: float
     abandoned: bool = False
+    interrupted: bool = False
+
+
+class NoWatch:
+    """The watch of a solve nobody watches: never a stop, no heartbeat.
+
+    A solve's ``watch`` has ``flag()``, this process's stop flag (1.0: a stop signal was
+    received, else 0.0), which the solver reduces with the values it reduces anyway in each
+    iteration, and ``beat(iteration, residual)``, called each iteration for the run's
+    progress lines (:class:`hpcgfmd.runs.watch.Watch`).
+    """
+
+    def flag(self) -> float:
+        return 0.0
+
+    def beat(self, iteration, residual=None):
+        pass
+
+
+NO_WATCH = NoWatch()
 
 
 @dataclass
@@ -132,12 +155,14 @@ class EquilibriumSolver(ABC):
 
     @abstractmethod
     def solve(
-        self, u, wall, ops, history, applied=None, edge_watch: EdgeWatch | None = None
+        self, u, wall, ops, history, applied=None, edge_watch: EdgeWatch | None = None, watch=None
     ) -> SolveResult:
         """Collective: relax ``u`` in place to the equilibrium of the step.
 
         ``edge_watch``: a solver may stop early (``abandoned``) once its iterate's contact
         edges are farther than ``edge_watch.limit`` from the given ones; it may also ignore it.
+        ``watch``: the run's watch (:class:`NoWatch`): a solver reduces its flag in every
+        iteration and stops (``interrupted``) when any rank's is set, and beats it.
         """
 
     def preload_solver(self) -> EquilibriumSolver:

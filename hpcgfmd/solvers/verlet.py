@@ -144,7 +144,7 @@ import math
 import numpy as np
 
 from ..model.interface import DugdaleMaugis
-from .base import EquilibriumSolver, SolveResult, SolverKey, register
+from .base import NO_WATCH, EquilibriumSolver, SolveResult, SolverKey, register
 from .cg import ConstrainedCG
 from .projection import project_feasible
 from .step_problem import StepProblem
@@ -397,13 +397,14 @@ class DampedVerletGFMD(EquilibriumSolver):
         return h
 
     # --- the relaxation -----------------------------------------------------------------
-    def relax(self, u, wall, ops, history, steps, applied=None, monitor=None):
+    def relax(self, u, wall, ops, history, steps, applied=None, monitor=None, watch=NO_WATCH):
         """Collective: ``steps`` damped Verlet pseudo steps from ``u`` (at rest), in place.
 
         ``u`` is first projected exactly (zero mean, u <= wall), and so is the last pseudo
         step's result (module docstring: the contact stays on the wall). ``monitor(k, u)``,
         if given, is called after every pseudo step k = 1..steps (diagnostics and tests; u
-        must not be modified). Returns the shift s of the last step (mu ~ s / h^2).
+        must not be modified). Returns the shift s of the last step (mu ~ s / h^2), or None
+        when the ``watch``'s stop flag (reduced with each pseudo step's sums) stopped it.
         """
         dom, fft = self.domain, self.fft
         h = self.prepare(ops)
@@ -460,7 +461,9 @@ class DampedVerletGFMD(EquilibriumSolver):
             else:
                 minimum(u, wall, out=u)  # the hard wall
                 np.less(u, wall, out=free)
-                total, count = dom.sums(u.sum(), np.count_nonzero(free))
+                total, count, stop = dom.sums(u.sum(), np.count_nonzero(free), watch.flag())
+                if stop:
+                    return None
                 if count == 0:
                     raise FloatingPointError(
                         "the wall leaves no free node for zero mean displacement"
@@ -468,19 +471,32 @@ class DampedVerletGFMD(EquilibriumSolver):
                 s += total / count  # Newton on the mean, used by the next step
             if monitor is not None:
                 monitor(k + 1, u)
+            watch.beat(k + 1)
         self._v_old, self._v_new = v_old, v_new
         return s
 
-    def solve(self, u, wall, ops, history, applied=None, edge_watch=None) -> SolveResult:
+    def solve(
+        self, u, wall, ops, history, applied=None, edge_watch=None, watch=None
+    ) -> SolveResult:
         """Collective: relax ``u`` in place by ``equilibration_steps`` pseudo steps.
 
         Same arguments and result type as :meth:`ConstrainedCG.solve`; ``iterations`` is
         the number of pseudo steps, ``converged`` is always True (fixed equilibration time,
         the paper's method) and ``residual`` is ConstrainedCG's measure of the result.
         ``edge_watch`` is ignored: the paper's method runs with fixed steps, which never
-        abandon a solve.
+        abandon a solve. A stop flag of the ``watch`` ends it early (``interrupted``).
         """
-        s = self.relax(u, wall, ops, history, self.equilibration_steps, applied)
+        s = self.relax(
+            u,
+            wall,
+            ops,
+            history,
+            self.equilibration_steps,
+            applied,
+            watch=NO_WATCH if watch is None else watch,
+        )
+        if s is None:
+            return SolveResult(self.equilibration_steps, np.nan, False, 0.0, True, True)
         # exact projection, K u, residual and multiplier (StepProblem.measure)
         check, self._k_u = self.problem.measure(u, wall, ops, history, applied)
         self.shift_traction = s / self.step_length**2
@@ -492,14 +508,7 @@ class DampedVerletGFMD(EquilibriumSolver):
             mean_traction=check.mean_traction,
         )
 
-    # --- the rest of the solver interface -----------------------------------------------
     def elastic_traction(self):
-        """K u of the last solve's displacement (stress units; valid until the next solve)."""
+        """K u of the last solve's displacement (stress units; valid until the next solve).
+        (No counters beyond the pseudo steps, which the run counts as iterations.)"""
         return self._k_u
-
-    def counters(self) -> dict:
-        """No counters beyond the pseudo steps (the run counts them as iterations)."""
-        return {}
-
-    def restore_counters(self, saved):
-        pass

@@ -62,7 +62,7 @@ import numpy as np
 from ...parallel.fft import aligned_empty
 from .. import kernels
 from ..active_set import ActiveSet
-from ..base import EdgeWatch, EquilibriumSolver, SolveResult, register
+from ..base import NO_WATCH, EdgeWatch, EquilibriumSolver, SolveResult, register
 from ..points import Point, PointEvaluator
 from ..projection import project_feasible
 from ..step_problem import StepProblem
@@ -167,7 +167,7 @@ class ConstrainedCG(EquilibriumSolver):
         return self
 
     def solve(
-        self, u, wall, ops, history, applied=None, edge_watch: EdgeWatch | None = None
+        self, u, wall, ops, history, applied=None, edge_watch: EdgeWatch | None = None, watch=None
     ) -> SolveResult:
         """Collective: relax ``u`` (this rank's block of the start, length) in place to the
         equilibrium of the step (module docstring; the arguments as in
@@ -175,8 +175,10 @@ class ConstrainedCG(EquilibriumSolver):
         iterate's contact edges (first and last node on the wall) are farther than its
         ``limit`` from the given edges: the adaptive step control would reject that step
         whatever the rest of the descent does (a step beyond the fold of the attached branch
-        otherwise descends through the whole snap-off only to be repeated shorter).
+        otherwise descends through the whole snap-off only to be repeated shorter). The
+        ``watch``'s stop flag rides on the iteration's reduction of the residual.
         """
+        watch = NO_WATCH if watch is None else watch
         linear, on_wall_tolerance = self._begin(u, wall, ops, history, applied)
         it = _Descent(*self._points)
         while True:
@@ -185,24 +187,21 @@ class ConstrainedCG(EquilibriumSolver):
             )
             interacting = 1.0 if hi > lo else 0.0  # a node of this rank within the range
             if edge_watch is None:
-                r_max, joined_any, interacting = self.domain.maxes(
-                    local_max, 1.0 if joined else 0.0, interacting
+                r_max, joined_any, interacting, stop = self.domain.maxes(
+                    local_max, 1.0 if joined else 0.0, interacting, watch.flag()
                 )
             else:  # the iterate's contact edges in the same reduction
                 left, right = self._active.contact_nodes(on_s, lo)
-                r_max, joined_any, interacting, minus_left, right = self.domain.maxes(
-                    local_max, 1.0 if joined else 0.0, interacting, -left, right
+                r_max, joined_any, interacting, stop, minus_left, right = self.domain.maxes(
+                    local_max, 1.0 if joined else 0.0, interacting, watch.flag(), -left, right
                 )
-                if self._active.strayed(edge_watch, -minus_left, right):
+                if not stop and self._active.strayed(edge_watch, -minus_left, right):
                     self.count["abandoned_solves"] += 1
-                    return SolveResult(
-                        iterations=it.iteration,
-                        residual=r_max / self.traction_scale,
-                        converged=False,
-                        mean_traction=it.mu,
-                        abandoned=True,
-                    )
+                    return self._stopped(it, r_max, "abandoned")
+            if stop:
+                return self._stopped(it, r_max, "interrupted")
             it.residual = r_max / self.traction_scale
+            watch.beat(it.iteration, it.residual)
             if it.residual <= self.tolerance or it.iteration >= self.max_iterations:
                 break
             if not interacting and not it.jump_tried:
@@ -232,6 +231,17 @@ class ConstrainedCG(EquilibriumSolver):
             residual=it.residual,
             converged=it.residual <= self.tolerance,
             mean_traction=it.mu,
+        )
+
+    def _stopped(self, it, r_max, why):
+        """The result of a solve stopped early (``why``: abandoned or interrupted)."""
+        return SolveResult(
+            iterations=it.iteration,
+            residual=r_max / self.traction_scale,
+            converged=False,
+            mean_traction=it.mu,
+            abandoned=True,
+            interrupted=why == "interrupted",
         )
 
     def _begin(self, u, wall, ops, history, applied):
