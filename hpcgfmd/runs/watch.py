@@ -1,5 +1,5 @@
 """The run's watch: the stop signals looked at in every phase, and a line at least every so
-often whatever the phase (docs/parallel.md, "Signals, progress and restarts").
+often whatever the phase (docs/parallel.md, "Signals, checkpoints, resuming").
 
 A run goes through phases: planning the transforms, the preload (its coarse levels, then the
 fine grid), the steps (each a solve), the output. The solvers call :meth:`Watch.flag` in each
