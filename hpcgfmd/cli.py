@@ -48,6 +48,9 @@ def _run(comm, case, output, overwrite, dry_run, restart=False, stop=None):
 
     logger.info(describe(case))
     if dry_run:
+        from .runs.cost import resources_line
+
+        logger.info(resources_line(case, comm.Get_size()))
         return EXIT_OK
     # one writer per output, decided before anything is read or computed (storage/lock.py)
     lock, resume = prepare_output(comm, case, output, overwrite, restart)
@@ -124,7 +127,7 @@ def cmd_farm(comm, args):
     if os.path.exists(out_dir) and not os.path.isdir(out_dir):
         raise UsageError(f"-o {out_dir}: exists and is not a directory")
     if args.dry_run:
-        logger.info(plan_table(sweep, out_dir, size // ranks))
+        logger.info(plan_table(sweep, out_dir, size // ranks, ranks))
         return EXIT_OK
     check_farm_directory(comm, out_dir)
     logger.info(f"farm: {len(sweep.cases)} cases in {out_dir}, {size} ranks, {ranks} per case")
@@ -263,7 +266,11 @@ def build_parser():
         help="output HDF5 file (default: the case file's name with .h5)",
     )
     run.add_argument("--overwrite", action="store_true", help="replace an existing output file")
-    run.add_argument("--dry-run", action="store_true", help="validate and print the groups only")
+    run.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="validate; print the groups, the numerics and the estimated cost and memory",
+    )
     run.add_argument(
         "--restart",
         action="store_true",

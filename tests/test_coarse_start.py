@@ -41,16 +41,28 @@ def test_levels_stop_at_the_zone_resolution_and_the_smallest_grid():
     assert coarse_start.coarser_nx(parse_case(case_text("nx = 12000"))) == 6000
     assert coarse_start.coarser_nx(parse_case(case_text("nx = 12002"))) is None  # 6001: odd
     assert coarse_start.coarser_nx(parse_case(case_text("nx = 6000"))) is None
-    # lambda0 = 14: w = 1.9e-4, 1.5 nodes at 2^14 on L = 2: 2^15 is the coarsest
+    # lambda0 = 14: w = 1.9e-4, 1.5 nodes at 2^14 on L = 2: that level's lambda is coarsened
+    # to 14 sqrt(1.5 / 2) = 12.2, its zone two nodes wide (w lambda0^2 / lambda_c^2)
     sharp = parse_case(case_text("nx = 32768", maugis=14.0))
-    assert sharp.zone_width / (sharp.cell / 16384) < coarse_start.MIN_ZONE_NODES
-    assert coarse_start.coarser_nx(sharp) is None
-    assert coarse_start.coarser_nx(parse_case(case_text("nx = 65536", maugis=14.0))) == 32768
+    points = sharp.zone_width / (sharp.cell / 16384)
+    assert points < coarse_start.MIN_ZONE_NODES
+    assert coarse_start.coarser_nx(sharp) == 16384
+    level = coarse_start.coarse_case(sharp, 16384)
+    assert level.maugis == pytest.approx(14.0 * np.sqrt(points / 2.0), rel=1e-12)
+    assert level.zone_width / level.dx == pytest.approx(2.0, rel=1e-12)
+    assert level.adhesion == sharp.adhesion and level.depth == sharp.depth
+    assert level.numerics.tolerance == max(sharp.numerics.tolerance, coarse_start.COARSE_TOLERANCE)
+    # down to the smallest grid, 2^12 (lambda_c = 6.1); no lambda_c below MIN_COARSE_MAUGIS
+    assert coarse_start.preload_grids(sharp) == [4096, 8192, 16384, 32768]
+    # lambda_c = sqrt(pi beta / (8 dx)) whatever lambda0: on a cell of 4, 4.3 at 2^12
+    blunt = parse_case(case_text("nx = 131072", maugis=28.0, cell=4.0))
+    assert coarse_start.coarse_maugis(blunt, 4096) < coarse_start.MIN_COARSE_MAUGIS
+    assert coarse_start.preload_grids(blunt)[0] == 8192
 
 
-def preload(nx, coarse):
+def preload(nx, coarse, **groups):
     """(load, contact half-width, fine iterations, levels) of the shared case's preload."""
-    case = parse_case(case_text(f"nx = {nx}"))
+    case = parse_case(case_text(f"nx = {nx}", **groups))
     sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
     if not coarse:
         previous, coarse_start.MIN_LEVEL_NODES = coarse_start.MIN_LEVEL_NODES, 1 << 40
@@ -75,6 +87,24 @@ def test_coarse_start_reaches_the_flat_starts_equilibrium_in_fewer_iterations():
     assert abs(load - flat_load) < 0.1 * abs(flat_load - half_grid_load)
     assert abs(half_width - flat_half_width) < 2.0 / 16384  # less than a node (L/R = 2)
     assert iterations < flat_iterations / 2  # measured 14 against 62
+
+
+def test_a_large_lambda0_preload_starts_from_coarsened_levels():
+    # lambda0 = 60 (w/dx = 1.03 on 2^16 nodes, a contact of 2 x 12,700 nodes): solved from
+    # flat the active set grows a few nodes per iteration (3159 iterations); from levels
+    # down to 2^12 with lambda coarsened to 10.8 there, the fine level takes a few. At this
+    # zone resolution the discrete contact edge is trapped (lattice trapping): the flat
+    # start's advancing edge stops early, the coarse start's sits near the converged edge
+    # (measured: coarse starts at 2^16 and 2^17 within 1.7e-4 of each other, the flat
+    # starts 1.3 % and 0.36 % off them, moving toward them as the grid is refined).
+    groups = dict(maugis=60.0, modulus_ratio=1.0, depth=0.005, cell=0.64)
+    load, half_width, iterations, levels = preload(65536, True, **groups)
+    flat_load, _, flat_iterations, _ = preload(65536, False, **groups)
+    fine_load = preload(131072, True, **groups)[0]
+    assert [nx for nx, _ in levels] == [4096, 8192, 16384, 32768]
+    assert iterations < flat_iterations / 100  # measured 7 against 3159
+    assert abs(load - fine_load) < 1e-3 * abs(fine_load)
+    assert abs(flat_load - fine_load) > 3 * abs(load - fine_load)
 
 
 def preload_on(ranks):

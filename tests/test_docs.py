@@ -271,6 +271,10 @@ CASES = {
     "fixed steps": case_text('step_control = "fixed"'),
     "creeping": case_text("", maugis=1.0, velocity=0.1, depth=0.1, cell=3.578),
     "compliant": case_text("", drive_stiffness=0.3),
+    # a fast retraction at large lambda0: the relaxed floor sets its grid
+    "fast, large lambda0": case_text(
+        "", maugis=30.0, modulus_ratio=0.2, velocity=0.26, depth=0.005, cell=0.64
+    ),
 }
 
 

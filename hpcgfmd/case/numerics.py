@@ -6,7 +6,6 @@ grid, the steps and the tolerances that ``accuracy`` implies where a key is left
 from __future__ import annotations
 
 import math
-import os
 import sys
 from dataclasses import dataclass
 
@@ -30,8 +29,6 @@ FIRST_STEP_PER_DEFAULT = 1.0 / 16.0  # adaptive: the first step, doubling while 
 DT_MAX_DEPTH_FRACTION = 0.02  # dt_max: the indenter rises by this fraction of h0
 STEP_CONTROLS = ("adaptive", "fixed")
 MIN_TOLERANCE = 1e-13  # the residual's round-off floor (max norm relative to sigma_a)
-BYTES_PER_POINT = 320  # about 40 float64 work arrays per grid point
-BYTES_PER_BRANCH = 24  # a Prony branch's traction, its step start and its undo copy
 # the keys every case has; each solver adds its own (SolverKey, hpcgfmd.solvers.base)
 COMMON_KEYS = (
     "accuracy",
@@ -265,13 +262,16 @@ def _grid(case, num, accuracy):
     """(nx, chosen automatically): given and checked, or :func:`automatic_nx`."""
     width = case.zone_width
     if "nx" not in num:
-        nx = automatic_nx(case, accuracy)
-        _check_memory(nx, True, len(case.relaxation_moduli))
-        return nx, True
+        outside = knob.unvalidated(accuracy, case.chi_ve, case.modulus_ratio, case.maugis)
+        if outside is not None:
+            raise CaseError(
+                f"[numerics] accuracy = {accuracy:g}: its grid would have {outside} for this"
+                " case, or an explicit nx"
+            )
+        return automatic_nx(case, accuracy), True
     nx = num["nx"]
     if isinstance(nx, bool) or not isinstance(nx, int) or nx < 64 or nx % 2:
         raise CaseError(f"[numerics] nx = {shown(nx)}: expected an even integer >= 64")
-    _check_memory(nx, False, len(case.relaxation_moduli))  # first: nx may exceed floats
     # the zone the retraction's tip has: the relaxed w, wider for a fast one (the knob's
     # grids resolve it alike)
     width *= knob.fast_widening(case.chi_ve, case.modulus_ratio, case.maugis)
@@ -304,19 +304,3 @@ def _log2_ratio(a, b, c):
         return math.log2(ratio)
     return math.log2(a) + math.log2(b) - math.log2(c)
 
-
-def _check_memory(nx, automatic, branches=0):
-    """CaseError when nx nodes need more memory than this machine has."""
-    memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    size = nx * (BYTES_PER_POINT + BYTES_PER_BRANCH * branches)
-    if size > memory:
-        gib = (
-            f"{size / 2**30:.1f}"
-            if size.bit_length() < 1000  # else beyond float range
-            else f"2^{size.bit_length() - 31}"
-        )
-        raise CaseError(
-            f"[numerics] nx = {nx}{' (automatic)' if automatic else ''}: needs"
-            f" about {gib} GiB, more than the {memory / 2**30:.1f} GiB of this"
-            " machine"
-        )

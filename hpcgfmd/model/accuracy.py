@@ -51,15 +51,77 @@ CREEP_CAP = 3.0
 GLASSY_MAUGIS = 1.0
 
 
+# A fast retraction starts from the relaxed preload: until its edge is fast, its load-area
+# points see the relaxed zone, which the widening leaves coarse. Their error is about
+# RELAXED_ERROR (dx / w)^RELAXED_ORDER at large lambda0 (lambda0 = 30, k = 0.2, V_z = 0.26:
+# curve errors 3.4e-2, 1.4e-2, 8.6e-3, 3.5e-3, 1.9e-3 at w/dx = 0.58, 0.78, 1.17, 2.33, 3.11;
+# less at lambda0 <= 14: (7, 0.1, 2, 0.02) 4.0e-3 at 0.85), held to RELAXED_SHARE of the
+# accuracy by a floor under the widened grid (docs/results.md, "The knob at large lambda0").
+RELAXED_ERROR, RELAXED_ORDER, RELAXED_SHARE = 1.1e-2, 1.5, 0.75
+
+
 def zone_points(accuracy, chi_ve=math.inf, k=1.0, lambda0=math.inf, widen=True):
     """Grid points across the relaxed cohesive zone w for the grid's share of ``accuracy``.
 
     The elastic law C (dx/w)^P, times the creep factor :func:`creep_factor` and over the
     fast widening :func:`fast_widening` (``widen``; without it, the relaxed zone is resolved
-    as the elastic law asks: the grid of the accuracy study's references).
+    as the elastic law asks: the grid of the accuracy study's references), but never below
+    :func:`relaxed_points` (nor above the unwidened grid).
     """
     points = (GRID_ERROR / (GRID_SHARE * accuracy)) ** (1.0 / GRID_ORDER) * creep_factor(chi_ve, k)
-    return points / fast_widening(chi_ve, k, lambda0) if widen else points
+    if not widen:
+        return points
+    floor = min(points, relaxed_points(accuracy))
+    return max(points / fast_widening(chi_ve, k, lambda0), floor)
+
+
+# The fewest points across the zone each law was measured on: the elastic law from 1.5 (2.3e-2
+# at lambda0 = 3.5), the relaxed floor from 0.58 (3.4e-2 at lambda0 = 30). A coarser grid's
+# error is an extrapolation the knob does not vouch for (:func:`unvalidated`).
+MIN_ELASTIC_POINTS, MIN_RELAXED_POINTS = 1.5, 0.58
+
+
+def unvalidated(accuracy, chi_ve=math.inf, k=1.0, lambda0=math.inf):
+    """None when the grid of ``accuracy`` lies within its laws' measured range; else why
+    not and the coarsest accuracy that does, as "<why>; ... <= <accuracy>".
+
+    The points across the zone the tip sees (the elastic law's, times the creep factor)
+    must be at least MIN_ELASTIC_POINTS; where the widening's floor sets the grid, the
+    relaxed zone's points at least MIN_RELAXED_POINTS.
+    """
+    elastic = (GRID_ERROR / (GRID_SHARE * accuracy)) ** (1.0 / GRID_ORDER) * creep_factor(chi_ve, k)
+    if elastic < MIN_ELASTIC_POINTS:
+        coarsest = GRID_ERROR / GRID_SHARE / (MIN_ELASTIC_POINTS / creep_factor(chi_ve, k)) ** (
+            GRID_ORDER
+        )
+        return (
+            f"{elastic:.2g} points across the cohesive zone, fewer than the"
+            f" {MIN_ELASTIC_POINTS:g} its error law was measured on; accuracy <= {_down(coarsest)}"
+        )
+    widened = elastic / fast_widening(chi_ve, k, lambda0)
+    floor = relaxed_points(accuracy)
+    if widened < floor < MIN_RELAXED_POINTS:
+        coarsest = RELAXED_ERROR / RELAXED_SHARE / MIN_RELAXED_POINTS**RELAXED_ORDER
+        return (
+            f"{floor:.2g} points across the relaxed cohesive zone w (a fast retraction's"
+            f" floor), fewer than the {MIN_RELAXED_POINTS:g} its error law was measured on;"
+            f" accuracy <= {_down(coarsest)}"
+        )
+    return None
+
+
+def _down(value) -> str:
+    """``value`` to two significant digits, rounded down (a bound that holds as printed)."""
+    scale = 10.0 ** (math.floor(math.log10(value)) - 1)
+    return f"{math.floor(value / scale) * scale:.2g}"
+
+
+def relaxed_points(accuracy):
+    """The fewest points across the relaxed zone w a widened grid keeps:
+    (RELAXED_ERROR / (RELAXED_SHARE accuracy))^(1 / RELAXED_ORDER), so that the load-area
+    points of the retraction's relaxed start stay within the accuracy (0.81, 1.3, 2.1 and 6.0
+    points at 2e-2, 1e-2, 5e-3 and 1e-3)."""
+    return (RELAXED_ERROR / (RELAXED_SHARE * accuracy)) ** (1.0 / RELAXED_ORDER)
 
 
 def contact_points(accuracy):

@@ -5,16 +5,27 @@ from there the active-set CG needs a number of iterations that grows with the gr
 n_x^0.4: the contact's active set is found a few nodes per restart). Started from the
 solution of the same problem on a grid of half the nodes, interpolated, the fine solve only
 corrects the interpolation error near the contact and cohesive-zone edges. Applied
-recursively, the levels halve n_x down to the coarsest grid that still resolves the
-cohesive zone (``MIN_ZONE_NODES`` nodes across the relaxed zone width w) and has at least
-``MIN_LEVEL_NODES`` nodes; their total work is below one fine solve of the same iteration
-count, as each level has half the nodes of the next.
+recursively, the levels halve n_x down to a grid of at least ``MIN_LEVEL_NODES`` nodes; their
+total work is below one fine solve of the same iteration count, as each level has half the
+nodes of the next.
+
+A level whose grid has fewer than ``MIN_ZONE_NODES`` nodes across the relaxed zone width w
+solves the same case with a smaller Maugis parameter lambda_c = lambda0 sqrt(w / (MIN_ZONE_NODES
+dx)), the work of adhesion (alpha) kept: its zone, w lambda0^2 / lambda_c^2 (docs/model.md
+(M23)), has those nodes. A JKR-like contact's size depends on the work of adhesion, not on
+lambda, to O(1 / lambda^2) (Baney-Hui, (M26)): the coarse contact is the fine one's but for
+its edges, which the finer levels move by a few nodes. Without it a large lambda0 (a real
+elastomer's hundreds) would leave one level, solved from flat, whose active set grows a few
+nodes per iteration across a contact of millions. The levels stop where lambda_c would fall
+below ``MIN_COARSE_MAUGIS`` (the contact no longer JKR-like) or the contact half-width
+sqrt(2 R h0) below ``MIN_CONTACT_NODES`` nodes.
 
 Invariants. Only the start of the fine solve changes: it still descends to the local energy
 minimum of the loading branch to the case's tolerance, so the preload's equilibrium is the
 same to that tolerance (the relaxed adhesive indentation has one loading-branch minimum for
 a given depth; docs/model.md, "Protocol"). Each coarse level is an ordinary preload of the
-same case with ``nx`` halved, on the same ranks; its result is gathered on every rank and
+same case with ``nx`` halved (and lambda0 coarsened as above), on the same ranks; its result
+is gathered on every rank and
 interpolated linearly (coarse node j sits on fine node 2j; odd fine nodes take the mean of
 their neighbours, periodically), then shifted to zero mean (the q = 0 mode of u is held at
 zero). The fine solver projects the start onto the wall (u <= h + u_z), which the chords
@@ -25,17 +36,25 @@ Rank independence: every level is collective and deterministic on any number of 
 from __future__ import annotations
 
 import dataclasses
+import gc
 import logging
+import math
 
 import numpy as np
 
 log = logging.getLogger(__name__)
 
-#: Coarsest level: at least this many nodes across the relaxed cohesive-zone width w
-#: (coarser grids misplace the zone's edges by more than the fine solve saves).
+#: A level has at least this many nodes across its cohesive-zone width (coarser zones
+#: misplace their edges by more than the fine solve saves): its lambda is coarsened to it.
 MIN_ZONE_NODES = 2.0
-#: ... and at least this many nodes in the cell (below, a flat start is as cheap).
+#: The coarsest level has at least this many nodes in the cell (below, a flat start is as
+#: cheap) ...
 MIN_LEVEL_NODES = 4096
+#: ... a coarsened lambda of at least this (the contact JKR-like: its size within about 1 %
+#: of the fine one's, docs/model.md (M26)) ...
+MIN_COARSE_MAUGIS = 5.0
+#: ... and at least this many nodes across the geometric contact half-width sqrt(2 R h0).
+MIN_CONTACT_NODES = 64.0
 #: Residual tolerance of the coarse levels (relative to sigma_a): their solution is a start,
 #: its error at most the coarse grid's discretisation error, far above the case's tolerance.
 COARSE_TOLERANCE = 1e-4
@@ -44,15 +63,28 @@ COARSE_TOLERANCE = 1e-4
 def coarser_nx(case) -> int | None:
     """The n_x of the next coarser level, or None when ``case``'s grid is the coarsest.
 
-    Halves n_x when the halved grid is even (every grid is), keeps ``MIN_LEVEL_NODES`` nodes and
-    ``MIN_ZONE_NODES`` nodes across the zone width w (internal units: ``case.zone_width``).
+    Halves n_x when the halved grid is even (every grid is), keeps ``MIN_LEVEL_NODES`` nodes,
+    ``MIN_CONTACT_NODES`` across sqrt(2 R h0), and a zone of ``MIN_ZONE_NODES`` nodes with a
+    lambda of at least ``MIN_COARSE_MAUGIS`` (:func:`coarse_maugis`).
     """
     nx = case.numerics.nx
     if nx % 4 or nx // 2 < MIN_LEVEL_NODES:
         return None
-    if case.zone_width / (case.cell / (nx // 2)) < MIN_ZONE_NODES:
+    if math.sqrt(2.0 * case.depth) / (case.cell / (nx // 2)) < MIN_CONTACT_NODES:
+        return None
+    maugis = coarse_maugis(case, nx // 2)
+    if maugis < case.maugis and maugis < MIN_COARSE_MAUGIS:
         return None
     return nx // 2
+
+
+def coarse_maugis(case, nx: int) -> float:
+    """The lambda of ``case``'s level on ``nx`` nodes: lambda0, or lambda0 sqrt(w / (MIN_ZONE_NODES
+    dx)) where the grid has fewer than MIN_ZONE_NODES nodes across w (module docstring)."""
+    points = case.zone_width / (case.cell / nx)
+    if points >= MIN_ZONE_NODES:
+        return case.maugis
+    return case.maugis * math.sqrt(points / MIN_ZONE_NODES)
 
 
 def preload_grids(case) -> list:
@@ -64,10 +96,28 @@ def preload_grids(case) -> list:
 
 
 def coarse_case(case, nx: int):
-    """``case`` on ``nx`` nodes, solved to the coarse levels' tolerance."""
+    """``case`` on ``nx`` nodes, solved to the coarse levels' tolerance, its lambda coarsened
+    where the grid does not resolve w (:func:`coarse_maugis`)."""
+    from ..case import Case
+
     tolerance = max(case.numerics.tolerance, COARSE_TOLERANCE)
-    return dataclasses.replace(
-        case, numerics=dataclasses.replace(case.numerics, nx=nx, tolerance=tolerance)
+    numerics = dataclasses.replace(case.numerics, nx=nx, tolerance=tolerance)
+    maugis = coarse_maugis(case, nx)
+    if maugis == case.maugis:
+        return dataclasses.replace(case, numerics=numerics)
+    return Case(
+        maugis=maugis,
+        modulus_ratio=None if case.relaxation_moduli else case.modulus_ratio,
+        velocity=case.velocity,
+        depth=case.depth,
+        cell=case.cell,
+        adhesion=case.adhesion,
+        numerics=numerics,
+        output=case.output,
+        relaxation_moduli=case.relaxation_moduli,
+        relaxation_times=case.relaxation_times,
+        drive_stiffness=case.drive_stiffness,
+        protocol=case.protocol,
     )
 
 
@@ -127,6 +177,10 @@ def coarse_start(case, domain, planner_effort: str, level, watch=None):
         full = coarse.domain.segment(coarse.surface.u, 0, nx)
     finally:
         coarse.close()
+    # the level's arrays hang in reference cycles: free them now, not at the next collection
+    # (the preload's peak memory would hold every level beside the fine grid)
+    del coarse
+    gc.collect()
     start = prolong(full, domain.x_start, domain.x_stop)
     start -= domain.sum(start.sum()) / domain.n
     return start, levels

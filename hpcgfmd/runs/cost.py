@@ -69,6 +69,11 @@ NODE_ORDER = 1.36
 SECONDS_PER_NODE_ITERATION = 1.5e-8  # one CG iteration per node (2.0 ms at 2^17)
 SECONDS_PER_NODE_STEP = 7.1e-8  # a step's own work per node (history estimate, output)
 START_SECONDS = 0.22  # a case's set-up and preload at the paper's sizes
+# Memory: the peak resident set of a rank, BASE_MEMORY + MEMORY_PER_NODE nodes of its block
+# (the preload's peak, its coarse levels beside the fine grid's arrays; 676-713 bytes per
+# node measured from 2^20 to 2^22 on one rank, docs/results.md "The cost of large grids").
+BASE_MEMORY = 140e6  # bytes: the interpreter, numpy, mpi4py, h5py and pyfftw
+MEMORY_PER_NODE = 720.0  # bytes
 
 
 @dataclass(frozen=True)
@@ -109,6 +114,27 @@ def estimated_cost(case) -> float:
 def estimated_steps(case) -> float:
     """Estimated accepted steps of ``case``."""
     return sum(segment.steps for segment in plan(case))
+
+
+def estimated_memory(case, ranks: int = 1) -> float:
+    """Estimated peak resident bytes of each of ``ranks`` ranks running ``case``."""
+    return BASE_MEMORY + MEMORY_PER_NODE * math.ceil(case.numerics.nx / ranks)
+
+
+def resources_line(case, ranks: int = 1) -> str:
+    """What a run of ``case`` will take, for ``--dry-run``: steps, iterations, single-core
+    hours (this model) and the memory per rank on ``ranks`` ranks."""
+    segments = plan(case)
+    steps = sum(s.steps for s in segments)
+    iterations = sum(s.iterations for s in segments)
+    hours = estimated_cost(case) / 3600.0
+    memory = estimated_memory(case, ranks)
+    return (
+        f"estimated: {steps:.3g} steps, {iterations:.3g} solver iterations,"
+        f" {hours:.3g} core-hours (single core; hpcgfmd/runs/cost.py); memory"
+        f" {memory / 1e9:.3g} GB per rank on {ranks} rank(s), {ranks * memory / 1e9:.3g} GB"
+        " in all"
+    )
 
 
 def model_line() -> str:

@@ -58,7 +58,7 @@ from ..storage.checkpoint import checkpoint_path, usable_checkpoint
 from ..storage.lock import acquire_output_lock
 from ..storage.reader import read_series
 from ..storage.result_file import UNIT_NAMES
-from .cost import model_line
+from .cost import estimated_memory, model_line
 from .progress import duration_text
 from .single_case import run_case
 
@@ -146,14 +146,15 @@ def check_farm_directory(comm, out_dir):
         raise UsageError(error)
 
 
-def plan_table(sweep, out_dir, groups):
-    """The dry run's listing: each case, its groups, its file's state and its estimated cost."""
+def plan_table(sweep, out_dir, groups, ranks_per_case=1):
+    """The dry run's listing: each case, its groups, its file's state, its estimated cost
+    (single-core seconds) and its memory per rank on ``ranks_per_case`` ranks."""
     width = max([32] + [len(item.name) for item in sweep.cases])
     lines = [
         f"{len(sweep.cases)} cases; outputs in {out_dir}",
         (
             f"{'#':>3}  {'name':<{width}} {'lambda0':>8} {'k':>6} {'V_z':>8} {'chi_ve':>9}"
-            f" {'h0/R':>6} {'nx':>8} {'cost/s':>8}  file"
+            f" {'h0/R':>6} {'nx':>8} {'cost/s':>8} {'GB/rank':>7}  file"
         ),
     ]
     costs = [item.cost() for item in sweep.cases]
@@ -169,11 +170,18 @@ def plan_table(sweep, out_dir, groups):
             f"{item.index:>3}  {item.name:<{width}} {g['lambda0']:>8.4g} {g['k']:>6.3g}"
             f" {g['Vz']:>8.4g} {g['chi_ve']:>9.4g} {g['depth']:>6.3g}"
             f" {item.case.numerics.nx:>8} {cost:>8.3g}"
+            f" {estimated_memory(item.case, ranks_per_case) / 1e9:>7.3g}"
             f"  {file_status(case_file(out_dir, item), item)}"
         )
+    memory = max(
+        (estimated_memory(item.case, ranks_per_case) for item in sweep.cases if item.case),
+        default=0.0,
+    )
     lines.append(
-        f"estimated cost: {sum(costs):.3g} core-seconds (model: {model_line()});"
-        f" about {max(loads):.3g} s on {groups} group(s) of ranks, longest first"
+        f"estimated cost: {sum(costs):.3g} core-seconds = {sum(costs) / 3600:.3g} core-hours"
+        f" (model: {model_line()}); about {max(loads):.3g} s on {groups} group(s) of"
+        f" {ranks_per_case} rank(s), longest first; memory at most {memory / 1e9:.3g} GB per"
+        " rank"
     )
     return "\n".join(lines)
 

@@ -43,12 +43,16 @@ from .contact_edges import ContactEdges
 from .drive import CompliantDrive
 from .equilibrium import Equilibrium, StepRecord
 from .history_window import HistoryWindow
+from .progress import duration_text
 from .run_state import RunState
 from .schedule import Schedule
 from .surface import Surface
 from .watch import StopRequested, Watch
 
 PLANNING_NOTED = 2**18  # grids from this size say when they plan their transforms
+# A preload level started from the one below takes a few iterations (measured 3 to 11 on
+# lambda0 = 3.5 to 60, docs/results.md "The cost of large grids"): the estimate before one ran.
+STARTED_LEVEL_ITERATIONS = 12
 
 
 class Retraction:
@@ -324,12 +328,23 @@ def _level(levels, n) -> str:
 
 
 def _note_level(watch, n, iterations, seconds):
-    """A line after a preload level, when there are several or it was slow (the finer
-    levels start from the coarser one's solution and take a few iterations each)."""
+    """A line after a preload level, when there are several or it was slow, with the time
+    the finer ones will take: each starts from the level below and takes about as many
+    iterations as the last such level (STARTED_LEVEL_ITERATIONS before any), at this
+    level's seconds per node and iteration."""
     levels = watch.levels or [n]
     if len(levels) == 1 and seconds < 1.0:
         return
-    watch.note(f"preload{_level(levels, n)}: {iterations} iterations, {seconds:.1f} s")
+    line = f"preload{_level(levels, n)}: {iterations} iterations, {seconds:.1f} s"
+    index = levels.index(n) if n in levels else len(levels) - 1
+    if index > 0:  # a level started from the one below
+        watch.started_iterations = iterations
+    finer = levels[index + 1 :]
+    if finer and iterations:
+        expected = watch.started_iterations or STARTED_LEVEL_ITERATIONS
+        rest = seconds / (n * iterations) * sum(finer) * expected
+        line += f"; the finer levels about {duration_text(rest)}"
+    watch.note(line)
 
 
 def _run_state(run) -> RunState:

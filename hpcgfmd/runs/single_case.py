@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import os
 import time
 
@@ -41,6 +42,7 @@ from ..storage.checkpoint import (
 from ..storage.result_file import ResultFile
 from ..storage.space import free_bytes, room_for_a_step
 from .checkpoints import Checkpoints
+from .cost import estimated_memory
 from .progress import Progress
 from .protocol import Retraction
 from .watch import StopRequested, Watch
@@ -164,6 +166,7 @@ def run_case(
             return run_case(case, path, comm, overwrite, resume, planner_effort, own)
     with stop.listening():
         start = time.monotonic()
+        check_memory(case, comm)
         watch = Watch(stop, case.output.progress_interval)
         sim = Retraction(case, comm, planner_effort=planner_effort, watch=watch)
         # Free the transform's shared-memory window (collective) when every rank stops
@@ -181,6 +184,27 @@ def run_case(
             raise
         sim.close()
         return summary
+
+
+def check_memory(case, comm):
+    """Collective: CaseError, before anything is allocated, when the ranks of ``comm`` on
+    this node would need more memory than it has (the estimate of
+    :func:`~.cost.estimated_memory`)."""
+    node = comm.Split_type(MPI.COMM_TYPE_SHARED)
+    sharing = node.Get_size()
+    node.Free()
+    per_rank = estimated_memory(case, comm.Get_size())
+    memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    if per_rank * sharing > memory:
+        nx = case.numerics.nx
+        automatic = " (automatic)" if case.numerics.nx_automatic else ""
+        ranks = math.ceil(per_rank * comm.Get_size() / memory)
+        raise CaseError(
+            f"[numerics] nx = {nx}{automatic}: needs about {per_rank / 2**30:.3g} GiB per rank"
+            f" on {comm.Get_size()} rank(s), {per_rank * sharing / 2**30:.3g} GiB for the"
+            f" {sharing} on this node, more than its {memory / 2**30:.3g} GiB; run on more"
+            f" nodes (at least {ranks} rank(s) on nodes like this one, one per node)"
+        )
 
 
 def _status(stop, comm) -> int:

@@ -43,6 +43,7 @@ class Watch:
         self.interval = min(interval, HEARTBEAT)
         self.phase = "set-up"
         self.levels = None  # the preload's grids, coarsest first (the finest level sets them)
+        self.started_iterations = None  # of the last preload level started from the one below
         self._last = self._phase_start = time.monotonic()
 
     def flag(self) -> float:

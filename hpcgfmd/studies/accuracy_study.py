@@ -3,13 +3,18 @@
 For each case (lambda0, k, V_z, h0/R; L/R and alpha shared) the knob is run at each
 requested accuracy with everything else left to it (the grid included), and once at a much
 finer accuracy that stands for the converged answer, on the grid of the relaxed zone
-(:func:`reference_text`). The error of a run is the relative
-distance of its pull-off load to the converged one, and the largest distance of its
-load-area points to the converged curve (:func:`hpcgfmd.studies.benchmark.curve_error`);
-both must be at most the requested accuracy. The runs are shared out over the ranks (one
-run per rank at a time, each on its own communicator); a run is saved by its case text and
-the code's identity as the study starts (sources edited meanwhile do not make it run again),
-and reused by a later call of the same code.
+(:func:`reference_text`). The error of a run is the relative distance of its pull-off load
+to the converged one, and the largest distance of its load-area points to the converged
+curve (:func:`hpcgfmd.studies.benchmark.curve_error`); both must be at most the requested
+accuracy. An elastic case (k = 1) has an exact reference instead: the Baney-Hui load-area
+curve of its lambda0 with the periodic cell's factor (docs/model.md (M26), (M29);
+:func:`theory_reference`), drawn densely, so its runs are judged against the continuum's
+answer and no reference is run. ``--reference-widened`` runs the references on the knob's
+own grid at their accuracy (the fast widening included): a tighter-accuracy reference where
+the unwidened grid does not fit (lambda0 = 100, k = 0.2: 5x the nodes). The runs are shared
+out over the ranks (one run per rank at a time, each on its own communicator); a run is
+saved by its case text and the code's identity as the study starts (sources edited meanwhile
+do not make it run again), and reused by a later call of the same code.
 
     mpirun -n 2 python -m hpcgfmd bench accuracy --out docs/figures/accuracy \\
         --cases 1:0.1:1:0.02 3.5:0.2:0.01:0.1 --accuracies 1e-2 5e-3 1e-3
@@ -27,6 +32,8 @@ import hashlib
 import math
 import os
 import sys
+
+import numpy as np
 
 from .. import atomic
 from ..case import parse_case
@@ -53,6 +60,7 @@ COLUMNS = (
     "pulloff_error",
     "curve_error",
     "within",
+    "reference",
 )
 
 
@@ -66,16 +74,38 @@ def case_text(spec, accuracy, cell, alpha):
     return benchmark.case_text(lambda0, vz, {"accuracy": accuracy}, geometry)
 
 
-def reference_text(spec, accuracy, cell, alpha):
+def reference_text(spec, accuracy, cell, alpha, widened=False):
     """:func:`case_text` of the converged reference: the grid of ``accuracy`` without the
     fast retraction's widening (:func:`~hpcgfmd.model.accuracy.fast_widening`), so that a
-    reference never shares that rule, which it validates; it has the contact points
-    (:func:`~hpcgfmd.model.accuracy.contact_points`) of its own, finer accuracy."""
+    reference never shares that rule, which it validates (``widened``: it does); it has the
+    contact points (:func:`~hpcgfmd.model.accuracy.contact_points`) of its own, finer
+    accuracy."""
     case = parse_case(case_text(spec, accuracy, cell, alpha))
+    if widened:
+        return case_text(spec, accuracy, cell, alpha)
     nx = automatic_nx(case, accuracy, widen=False)
     lambda0, k, vz, depth = spec
     geometry = {"modulus_ratio": k, "depth": depth, "cell": case.cell, "adhesion": alpha}
     return benchmark.case_text(lambda0, vz, {"accuracy": accuracy, "nx": nx}, geometry)
+
+
+def theory_reference(spec, cell, alpha, widest):
+    """The exact load-area curve of an elastic ``spec`` (k = 1): Baney-Hui's Lbar(abar) of its
+    lambda0 times the periodic factor of the cell (docs/model.md (M26), (M29)), drawn at
+    4001 widths from ``widest`` (abar) down to a tenth of the load minimum's width. Its
+    polyline lies within 1e-6 of the curve; its minimum within 1e-7 of the curve's."""
+    from ..model import theory
+
+    lambda0 = spec[0]
+    beta = alpha ** (1.0 / 3.0)  # beta / R (R = 1)
+    abar = np.linspace(widest, 0.086, 4001)
+    lbar = np.array([theory.maugis_dugdale(a, lambda0)[0] for a in abar])
+    lbar *= theory.periodic_load_factor(abar * beta, cell)
+    return {"abar": abar, "lbar": lbar}
+
+
+def _elastic(spec):
+    return spec[1] == 1.0
 
 
 def _cached(text, comm, folder, identity):
@@ -114,9 +144,9 @@ def markdown(rows):
     lines = [
         (
             "| lambda0 | k | V_z | h0/R | accuracy | nx | steps | it/step | CPU s |"
-            " pull-off Lbar | pull-off error | curve error | within |"
+            " pull-off Lbar | pull-off error | curve error | within | reference |"
         ),
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
@@ -125,6 +155,7 @@ def markdown(rows):
             f" {r['iterations_per_step']:.1f} | {r['cpu_s']:.1f} |"
             f" {r['pulloff_Lbar']:.5f} | {r['pulloff_error']:.1e} |"
             f" {r['curve_error']:.1e} | {'yes' if r['within'] else 'NO'} |"
+            f" {r.get('reference', '')} |"
         )
     return "\n".join(lines) + "\n"
 
@@ -153,6 +184,11 @@ def _parser():
         help=(f"L/R (default {CELL_PER_CONTACT:g} sqrt(2 h0/R), the contact's width 8 times)"),
     )
     parser.add_argument("--alpha", type=float, default=5e-5, help="alpha (default 5e-5)")
+    parser.add_argument(
+        "--reference-widened",
+        action="store_true",
+        help="run the references on the knob's grid, fast widening included",
+    )
     parser.add_argument(
         "--out",
         default="accuracy",
@@ -210,22 +246,15 @@ def main(comm, argv=None):
     # the code's identity once, on one rank: the runs of this study are keyed by the code it
     # started with, even if the sources change while it runs
     identity = comm.bcast(benchmark.code_identity() if comm.Get_rank() == 0 else None, root=0)
-    runs = [(spec, a) for spec in specs for a in (args.reference_accuracy, *args.accuracies)]
+    texts = [_reference(spec, args)[0] for spec in specs if not _elastic(spec)]
+    texts += [case_text(s, a, args.cell, args.alpha) for s in specs for a in args.accuracies]
     # references first, so that the ranks share them out too; each run on one rank
-    mine = runs[comm.Get_rank() :: comm.Get_size()]
-    for spec, accuracy in mine:
-        text = reference_text if accuracy == args.reference_accuracy else case_text
-        _cached(text(spec, accuracy, args.cell, args.alpha), MPI.COMM_SELF, folder, identity)
+    for text in texts[comm.Get_rank() :: comm.Get_size()]:
+        _cached(text, MPI.COMM_SELF, folder, identity)
     comm.Barrier()
     rows = []
     if comm.Get_rank() == 0:
         for spec in specs:
-            reference = _cached(
-                reference_text(spec, args.reference_accuracy, args.cell, args.alpha),
-                MPI.COMM_SELF,
-                folder,
-                identity,
-            )
             for accuracy in args.accuracies:
                 result = _cached(
                     case_text(spec, accuracy, args.cell, args.alpha),
@@ -233,12 +262,29 @@ def main(comm, argv=None):
                     folder,
                     identity,
                 )
-                rows.append(_row(spec, accuracy, result, reference))
+                if _elastic(spec):
+                    cell = result["case"].cell
+                    widest = 1.05 * float(result["abar"].max())
+                    reference = theory_reference(spec, cell, args.alpha, widest)
+                    source = "Baney-Hui"
+                else:
+                    reference = _cached(_reference(spec, args)[0], MPI.COMM_SELF, folder, identity)
+                    source = _reference(spec, args)[1]
+                rows.append(dict(_row(spec, accuracy, result, reference), reference=source))
         benchmark.write_csv(rows, f"{args.out}.csv", COLUMNS)
         table = markdown(rows) + "\n".join(verdicts(rows)) + "\n"
         atomic.write_text(f"{args.out}.md", f"{head}\n{table}")
         print(table, end="")
     return 0
+
+
+def _reference(spec, args):
+    """The reference run's case text and its name in the table."""
+    text = reference_text(
+        spec, args.reference_accuracy, args.cell, args.alpha, args.reference_widened
+    )
+    grid = "knob's grid" if args.reference_widened else "relaxed zone's grid"
+    return text, f"run at {args.reference_accuracy:g}, {grid}"
 
 
 def verdicts(rows):
@@ -269,6 +315,8 @@ def read_rows(path):
         rows = list(csv.DictReader(fh))
     for row in rows:
         for key in COLUMNS:
+            if key == "reference":
+                continue
             row[key] = (
                 row[key] == "True" if key == "within" else float(row[key]) if row[key] else math.nan
             )
