@@ -266,11 +266,7 @@ def build_parser():
         help="output HDF5 file (default: the case file's name with .h5)",
     )
     run.add_argument("--overwrite", action="store_true", help="replace an existing output file")
-    run.add_argument(
-        "--dry-run",
-        action="store_true",
-        help="validate; print the groups, the numerics and the estimated cost and memory",
-    )
+    run.add_argument("--dry-run", action="store_true", help="validate; print cost and memory")
     run.add_argument(
         "--restart",
         action="store_true",

@@ -4,7 +4,7 @@ What is measured (one row per grid size and rank count, appended to a CSV file)
     The paper's default case (lambda0 = 7, k = 0.1, V_z = 0.45, h0/R = 0.1, L/R = 10,
     alpha = 5e-5, default dt and tolerance) on a grid of n_x = 2^N nodes. The run builds the
     :class:`~hpcgfmd.runs.protocol.Retraction` (``setup``: dominated by FFTW planning), solves the
-    preload from the flat surface (``preload``, reported with its iterations but not part of
+    preload from its coarse levels (``preload``, reported with its iterations but not part of
     the per-step cost), then times ``--steps`` retraction steps exactly as the production loop
     does them (a detachment test and one step each, no output file), between two barriers.
     Times are the maximum over the ranks. Communication shares are the seconds spent in the
@@ -57,6 +57,7 @@ import argparse
 import csv
 import datetime
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -104,6 +105,7 @@ FIELDS = [
     "preload_time",
     "preload_iterations",
     "preload_levels",
+    "peak_memory",
     "load",
 ]
 
@@ -147,14 +149,7 @@ def measure(comm, nx, steps, planner):
     preload = sim.preload()
     comm.Barrier()
     t2 = time.perf_counter()
-    fft, dom = sim.fft, sim.domain
-    before = (
-        sim.equilibrium.iterations,
-        fft.pairs,
-        dom.messages,
-        fft.communication_time,
-        dom.communication_time,
-    )
+    before = _counters(sim)
     done = 0
     record = preload
     comm.Barrier()
@@ -167,19 +162,16 @@ def measure(comm, nx, steps, planner):
     t4 = time.perf_counter()
     own = comm.allreduce(time.process_time() - own, op=MPI.SUM)  # busy-waiting included
     busy = busy_seconds() - busy
-    after = (
-        sim.equilibrium.iterations,
-        fft.pairs,
-        dom.messages,
-        fft.communication_time,
-        dom.communication_time,
-    )
+    after = _counters(sim)
     iterations, pairs, messages = (a - b for a, b in zip(after[:3], before[:3]))
     # Slowest rank decides; the barriers make the ranks' wall times nearly equal anyway.
     local = np.array([t1 - t0, t2 - t1, t4 - t3, after[3] - before[3], after[4] - before[4]])
     comm.Allreduce(MPI.IN_PLACE, local, op=MPI.MAX)
     setup, preload_time, wall, fft_comm, dom_comm = local
+    # the largest peak resident set of a rank (ru_maxrss: KiB on Linux), in bytes
+    peak = comm.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, op=MPI.MAX)
     row.update(
+        peak_memory=1024 * peak,
         other_cpu=max(busy - own, 0.0) / wall,
         steps=done,
         iterations=iterations,
@@ -197,6 +189,18 @@ def measure(comm, nx, steps, planner):
         load=repr(record.load),
     )
     return row
+
+
+def _counters(sim):
+    """(iterations, FFT pairs, Domain messages, FFT and Domain communication seconds)."""
+    fft, dom = sim.fft, sim.domain
+    return (
+        sim.equilibrium.iterations,
+        fft.pairs,
+        dom.messages,
+        fft.communication_time,
+        dom.communication_time,
+    )
 
 
 def busy_seconds():
@@ -228,7 +232,7 @@ def run_here(args):
     """Measure every grid on COMM_WORLD and append the rows (rank 0 prints and writes)."""
     from mpi4py import MPI
 
-    from hpcgfmd.model import numerics as config
+    from hpcgfmd.case import numerics as config
 
     # Cost, not accuracy, is measured: accept the quick test grid 2^14 (w/dx = 0.97 < 1).
     config.MIN_ZONE_POINTS = 0.5
@@ -258,6 +262,17 @@ def _levels(row):
         f"{grid_label(int(nx))}: {it}" for nx, it in (level.split(":") for level in coarse.split())
     ]
     return " + ".join([*levels, str(row["preload_iterations"])])
+
+
+def _memory(row):
+    """The peak resident set of a rank, MB, and per node of its block beyond the base of
+    hpcgfmd.runs.cost (empty for rows written before it was measured)."""
+    if not row.get("peak_memory"):
+        return ""
+    from hpcgfmd.runs.cost import BASE_MEMORY
+
+    peak, nodes = float(row["peak_memory"]), int(row["nx"]) / int(row["ranks"])
+    return f"{peak / 1e6:.0f} ({(peak - BASE_MEMORY) / nodes:.0f})"
 
 
 def uptime():
@@ -331,6 +346,7 @@ def report(path, markdown=None, notes=()):
         "msgs/it",
         "setup s",
         "preload s (iterations per level, coarsest first)",
+        "peak MB/rank (bytes/node)",
         "load of last step",
         "rel. diff",
         "other CPU",
@@ -357,6 +373,7 @@ def report(path, markdown=None, notes=()):
                 f"{int(r['messages']) / iterations:.1f}",
                 f"{float(r['setup_time']):.3g} ({r['planner'].removeprefix('FFTW_')})",
                 f"{float(r['preload_time']):.3g} ({_levels(r)})",
+                _memory(r),
                 f"{load:.10g}",
                 f"{abs(load - load0) / abs(load0):.1e}",
                 f"{float(r['other_cpu']):.2f}",

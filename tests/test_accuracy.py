@@ -379,3 +379,25 @@ def test_the_knob_refuses_a_grid_its_laws_were_not_measured_on(groups, knob, mes
     )
     parse_case(case_text(f"accuracy = {coarsest * 0.999}", **groups))
     parse_case(case_text(f"accuracy = {knob}\nnx = 65536", **groups))
+
+
+def test_persson_brener_ratio_is_one_on_a_jkr_curve_with_their_work():
+    # a retraction whose points lie on the JKR curve (Eq. 10) with Persson and Brener's work
+    # at its edge's constant speed: the ratio at its pull-off is 1, for an SLS; NaN elastic
+    from hpcgfmd.studies import accuracy_study
+
+    case = parse_case(case_text("nx = 16384", maugis=30.0, modulus_ratio=0.2))
+    beta = case.adhesion ** (1 / 3)
+    rate = 0.01  # R / tau: the contact half-width's shrinking speed
+    work = theory.persson_brener(theory.peel_velocity(rate, 1.0, 0.2, 30.0, beta), 0.2)
+    assert 1.5 < work < 5.0  # between the relaxed and the glassy work
+    abar = np.linspace(3.0, 0.2, 2801)
+    result = {
+        "case": case,
+        "abar": abar,
+        "lbar": theory.jkr_load(abar, work),
+        "time": (abar[0] - abar) * beta / rate,
+    }
+    assert accuracy_study.persson_brener_ratio(result) == pytest.approx(1.0, abs=1e-9)
+    elastic = dict(result, case=parse_case(case_text("nx = 1024", modulus_ratio=1.0)))
+    assert math.isnan(accuracy_study.persson_brener_ratio(elastic))

@@ -15,6 +15,7 @@ import re
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -420,6 +421,33 @@ def test_small_modes_print_their_tables(tmp_path):
     assert done.returncode == 0, done.stderr
     assert_reported(done.stdout, "The paper's method: lag against pseudo steps")
     assert re.search(r"^\| 10 \| \d\.\d\de-\d\d \|", done.stdout, re.MULTILINE)
+
+
+def test_the_scaling_script_measures_and_reports_its_rows(tmp_path):
+    # scripts/bench_scaling.py on one rank, the smallest grid: a row with the time per
+    # iteration and the peak memory per rank, and its table
+    script = Path(__file__).resolve().parents[1] / "scripts" / "bench_scaling.py"
+    out = tmp_path / "scaling.csv"
+    done = subprocess.run(
+        [sys.executable, str(script), "--n", "14", "--steps", "2", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    (row,) = list(csv.DictReader(out.open()))
+    assert int(row["nx"]) == 2**14 and int(row["iterations"]) > 0
+    assert 50e6 < float(row["peak_memory"]) < 2e9  # bytes: the interpreter and the arrays
+    done = subprocess.run(
+        [sys.executable, str(script), "--report", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    assert re.search(r"^\| 2\^14 \| 1 \| 2 \|", done.stdout, re.MULTILINE), done.stdout
 
 
 @pytest.mark.slow

@@ -303,4 +303,3 @@ def _log2_ratio(a, b, c):
     if 0.0 < ratio < math.inf:
         return math.log2(ratio)
     return math.log2(a) + math.log2(b) - math.log2(c)
-

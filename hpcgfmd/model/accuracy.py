@@ -91,8 +91,8 @@ def unvalidated(accuracy, chi_ve=math.inf, k=1.0, lambda0=math.inf):
     """
     elastic = (GRID_ERROR / (GRID_SHARE * accuracy)) ** (1.0 / GRID_ORDER) * creep_factor(chi_ve, k)
     if elastic < MIN_ELASTIC_POINTS:
-        coarsest = GRID_ERROR / GRID_SHARE / (MIN_ELASTIC_POINTS / creep_factor(chi_ve, k)) ** (
-            GRID_ORDER
+        coarsest = (
+            GRID_ERROR / GRID_SHARE / (MIN_ELASTIC_POINTS / creep_factor(chi_ve, k)) ** (GRID_ORDER)
         )
         return (
             f"{elastic:.2g} points across the cohesive zone, fewer than the"

@@ -60,6 +60,7 @@ COLUMNS = (
     "pulloff_error",
     "curve_error",
     "within",
+    "work_per_persson_brener",
     "reference",
 )
 
@@ -115,6 +116,29 @@ def _cached(text, comm, folder, identity):
     return benchmark.cached_run(text, comm, os.path.join(folder, key + ".npz"))
 
 
+def persson_brener_ratio(result):
+    """An SLS run's effective work of adhesion at its pull-off over Persson and Brener's at
+    its edge speed there (paper Eqs. 8-9; NaN for an elastic solid or a Prony series).
+
+    Ours inverts the JKR relation at the pull-off's (abar, Lbar) (:func:`~hpcgfmd.model.
+    theory.effective_work_ratio`); the edge speed is the contact half-width's rate between
+    the steps beside the pull-off (:func:`~hpcgfmd.model.theory.peel_velocity`, tau = 1).
+    """
+    from ..model import theory
+
+    case = result["case"]
+    k = case.modulus_ratio
+    lbar, abar, time = result["lbar"], result["abar"], result["time"]
+    i = int(np.argmin(lbar))
+    if k >= 1.0 or case.relaxation_moduli or not 0 < i < lbar.size - 1:
+        return math.nan
+    beta = case.adhesion ** (1.0 / 3.0)
+    rate = -(abar[i + 1] - abar[i - 1]) * beta / (time[i + 1] - time[i - 1])
+    expected = theory.persson_brener(theory.peel_velocity(rate, 1.0, k, case.maugis, beta), k)
+    ours = theory.effective_work_ratio(lbar[i] / np.sqrt(abar[i]), np.pi / 4 * abar[i] ** 1.5)
+    return float(ours / expected)
+
+
 def _row(spec, accuracy, result, reference):
     lambda0, k, vz, depth = spec
     pull_off = float(result["lbar"].min())
@@ -136,6 +160,7 @@ def _row(spec, accuracy, result, reference):
         "pulloff_error": error,
         "curve_error": curve,
         "within": bool(error <= accuracy and curve <= accuracy),
+        "work_per_persson_brener": persson_brener_ratio(result),
     }
 
 
@@ -144,9 +169,9 @@ def markdown(rows):
     lines = [
         (
             "| lambda0 | k | V_z | h0/R | accuracy | nx | steps | it/step | CPU s |"
-            " pull-off Lbar | pull-off error | curve error | within | reference |"
+            " pull-off Lbar | pull-off error | curve error | within | work / PB | reference |"
         ),
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
@@ -155,9 +180,13 @@ def markdown(rows):
             f" {r['iterations_per_step']:.1f} | {r['cpu_s']:.1f} |"
             f" {r['pulloff_Lbar']:.5f} | {r['pulloff_error']:.1e} |"
             f" {r['curve_error']:.1e} | {'yes' if r['within'] else 'NO'} |"
-            f" {r.get('reference', '')} |"
+            f" {_ratio(r.get('work_per_persson_brener', math.nan))} | {r.get('reference', '')} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def _ratio(value) -> str:
+    return "" if math.isnan(value) else f"{value:.3f}"
 
 
 def _parser():
@@ -317,7 +346,6 @@ def read_rows(path):
         for key in COLUMNS:
             if key == "reference":
                 continue
-            row[key] = (
-                row[key] == "True" if key == "within" else float(row[key]) if row[key] else math.nan
-            )
+            value = row.get(key) or ""  # (a column later tables added is empty in older ones)
+            row[key] = value == "True" if key == "within" else float(value) if value else math.nan
     return rows

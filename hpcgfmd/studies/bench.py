@@ -13,7 +13,7 @@ from __future__ import annotations
 def _speed(comm, argv):
     from .benchmark import main
 
-    return main(comm, argv)
+    return main(comm, argv, modes_help())
 
 
 def _cases(comm, argv):

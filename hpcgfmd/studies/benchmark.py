@@ -557,15 +557,13 @@ def plot(rows, path, clock="wall"):
     plt.close(fig)
 
 
-def _parser():
-    from .bench import modes_help
-
+def _parser(modes=""):
     parser = argparse.ArgumentParser(
         prog="python -m hpcgfmd bench [speed]",
         description=__doc__.split("\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="--quiet and --log FILE as for every command (before or after bench)\n\n"
-        + modes_help(),
+        + modes,
     )
     parser.add_argument(
         "--cases",
@@ -701,10 +699,11 @@ def _settings(args, geometry):
     return sweep, None
 
 
-def main(comm, argv=None):
-    """Collective: ``python -m hpcgfmd bench [speed]``; the exit status."""
+def main(comm, argv=None, modes=""):
+    """Collective: ``python -m hpcgfmd bench [speed]``; the exit status. ``modes``: the list
+    of the bench modes its ``--help`` ends with (:func:`hpcgfmd.studies.bench.modes_help`)."""
     try:
-        args = _parser().parse_args(argv)
+        args = _parser(modes).parse_args(argv)
     except SystemExit as exit_:
         return int(exit_.code or 0)
     geometry = dict(GEOMETRY)

@@ -11,7 +11,10 @@ change of the machine's load hits all of them alike:
 * ``T x 1``: :class:`hpcgfmd.parallel.TransposedRealFFT` on ``COMM_SELF`` of rank 0 alone;
 * ``T x P``: :class:`hpcgfmd.parallel.TransposedRealFFT` on all ranks (only when P > 1);
 * ``H x 2``: :class:`hpcgfmd.parallel.HalvedRealFFT` on all ranks (only when P = 2 and 4
-  divides n): the transform two-rank runs use.
+  divides n): the transform two-rank runs use;
+* ``S/P x P``: every rank its own :class:`~hpcgfmd.parallel.SerialRealFFT` of n/P nodes, all
+  at once, with no exchange: the ideal split of the work. Its time against ``serial`` is
+  what the cores' shared caches and memory leave of a P-fold speed-up, for any split.
 
 While rank 0 plans or runs alone the other ranks sleep in a polled ``Ibarrier`` (they do not
 spin, so rank 0 has a core to itself as in a one-rank run). A call's time is the wall time on
@@ -31,6 +34,7 @@ import numpy as np
 from mpi4py import MPI
 
 from ..model.grid import grid_label
+from ..parallel import real_fft
 from ..parallel.fft import HalvedRealFFT, SerialRealFFT, TransposedRealFFT
 from ..parallel.fft_halved import fits
 from ..parallel.fft_transposed import TRANSPORTS
@@ -92,12 +96,15 @@ def bench(comm, n, rounds, calls, effort, transport):
         makers[wide_name] = lambda: TransposedRealFFT(comm, n, effort, transport=transport)
     if fits(size, n):
         makers["H x 2"] = lambda: HalvedRealFFT(comm, n, effort, transport=transport)
+    if size > 1 and n % size == 0 and (n // size) % 2 == 0:
+        # the ideal split: every rank its own serial transform of n/P nodes, all at once
+        makers[f"S/{size} x {size}"] = lambda: SerialRealFFT(n // size, effort)
     wide = {}
     for name, make in makers.items():
         start = time.perf_counter()
         fft = make()
         result["plan " + name] = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
-        result["transport"] = fft.transport
+        result["transport"] = getattr(fft, "transport", result.get("transport"))
         wide[name] = (fft, *inputs(fft, n, rng))
     samples = {name: [] for name in ["serial", "T x 1", *makers]}
     communication = dict.fromkeys(wide, 0.0)
@@ -160,6 +167,12 @@ def _parser():
     )
     parser.add_argument("--effort", default="FFTW_MEASURE", help="FFTW planner flag")
     parser.add_argument(
+        "--planning-limit",
+        type=float,
+        default=real_fft.PLANNING_TIMELIMIT,
+        help="seconds each plan may take (0: no limit; with HPCGFMD_WISDOM=off: planned anew)",
+    )
+    parser.add_argument(
         "--transport", default="auto", choices=TRANSPORTS, help="transport of the P-rank transform"
     )
     return parser
@@ -172,6 +185,7 @@ def main(comm, argv=None):
     except SystemExit as exit_:
         return int(exit_.code or 0)
     size = comm.Get_size()
+    real_fft.PLANNING_TIMELIMIT = args.planning_limit or None  # read as each plan is made
     exponents = args.n if args.n or args.sizes else [17, 20]
     lengths = sorted({2**e for e in exponents or []} | set(args.sizes))
     if any(n < 16 or n % 2 for n in lengths) or args.rounds < 1:
@@ -192,7 +206,8 @@ def main(comm, argv=None):
     if comm.Get_rank() != 0:
         return 0
     # the transforms over all ranks (none on one rank: "T x 1" is the column before them)
-    wides = [name for name in (f"T x {size}", "H x 2") if size > 1 and any(name in r for r in rows)]
+    names = (f"T x {size}", "H x 2", f"S/{size} x {size}")
+    wides = [name for name in names if size > 1 and any(name in r for r in rows)]
     head = ["n", "serial ms", "ns/node", "T x 1 ms", "/serial"]
     for name in wides:
         head += [f"{name} ms", "/serial", "comm"]
@@ -220,7 +235,8 @@ def main(comm, argv=None):
         table.append(cells + [", ".join(f"{p:.2f}" for p in plans)])
     transport = f", transport {rows[0]['transport']}" if size > 1 else ""
     print(
-        f"{args.rounds} rounds, {args.effort}{transport}\n\n"
+        f"{args.rounds} rounds, {args.effort}, each plan at most"
+        f" {args.planning_limit or 'unlimited'} s{transport}\n\n"
         + report.markdown_table(head, table)
         + "\n\n"
         + report.no_target("the two-rank target is per CG iteration: scripts/bench_scaling.py"),
