@@ -45,6 +45,12 @@ BAD = [
     ("tolerance", case_text(numerics="nx = 1024\ntolerance = 0.5"), ["tolerance", "0.5"]),
     ("tolerance floor", case_text(numerics="nx = 1024\ntolerance = 1e-20"), ["tolerance", "1e-20"]),
     ("nx memory", case_text(numerics="nx = 1099511627776"), ["nx", "1099511627776", "GiB"]),
+    ("nx beyond any machine", case_text(numerics=f"nx = {2**52}"), ["nx", str(2**52), "2^50"]),
+    (
+        "grid beyond any machine",
+        case_text(maugis="1e16", cell="1e270", numerics=""),
+        ["accuracy", "2^1010 nodes", "at most 2^50"],
+    ),
     ("not a table", "output = 3\n" + case_text(), ["output = 3", "section"]),
     # passes the static check (L >= 6 sqrt(2 R h0)) but the adhesive contact found by the
     # preload is wider than L/4

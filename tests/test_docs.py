@@ -398,3 +398,22 @@ def test_shell_commands_exist(source, line):
     assert_options_listed(
         source, line, rest, text, " ".join(w for w in ("hpcgfmd", subcommand, mode) if w)
     )
+
+
+def test_the_glass_on_pdms_example_is_what_its_comments_say():
+    # docs/examples/glass-on-pdms.toml: its groups, its grid and memory at 1e-2 and at the
+    # default 5e-3 (the estimate of hpcgfmd/runs/cost.py that --dry-run prints)
+    from hpcgfmd.case import load_case, parse_case
+    from hpcgfmd.runs.cost import estimated_memory
+
+    path = REPO / "docs" / "examples" / "glass-on-pdms.toml"
+    case = load_case(str(path))
+    g = case.groups()
+    assert round(g["lambda0"]) == 390 and g["k"] == pytest.approx(0.2)
+    assert round(g["Vz"], 2) == 0.26 and round(g["chi_ve"], -3) == 39000
+    assert g["alpha"] == pytest.approx(7.7e-6, rel=1e-2)
+    assert case.numerics.nx == 2**25 and round(g["zone_points"] / 1.3, 1) >= 1.0
+    assert estimated_memory(case) == pytest.approx(24e9, rel=0.05)
+    default = parse_case(path.read_text().replace("accuracy = 1e-2", "accuracy = 5e-3"))
+    assert default.numerics.nx == 3 * 2**24
+    assert estimated_memory(default) == pytest.approx(36e9, rel=0.05)

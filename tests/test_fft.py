@@ -15,7 +15,7 @@ import pytest
 from mpi4py import MPI
 
 from hpcgfmd.parallel.blocks import block_range
-from hpcgfmd.parallel.fft import SerialRealFFT, TransposedRealFFT, plan_real_fft
+from hpcgfmd.parallel.fft import FOUR_STEP_NODES, SerialRealFFT, TransposedRealFFT, plan_real_fft
 from hpcgfmd.parallel.fft_transposed import split_length
 
 SIZES = [2, 16, 30, 64, 96, 1000, 2**12]
@@ -159,11 +159,23 @@ def test_transport_on_one_rank(transport):
         TransposedRealFFT(MPI.COMM_SELF, 64, "FFTW_ESTIMATE", transport="carrier pigeon")
 
 
-def test_factory_picks_the_serial_transform_on_one_rank():
+def test_factory_picks_the_serial_transform_on_one_rank_up_to_the_four_step_size():
     assert isinstance(plan_real_fft(MPI.COMM_SELF, 16, "FFTW_ESTIMATE"), SerialRealFFT)
     assert isinstance(
         plan_real_fft(MPI.COMM_SELF, 16, "FFTW_ESTIMATE", transposed=True), TransposedRealFFT
     )
+    below = plan_real_fft(MPI.COMM_SELF, FOUR_STEP_NODES - 2, "FFTW_ESTIMATE")
+    assert isinstance(below, SerialRealFFT)
+    # from 2^20 nodes the four-step transform, also on one rank; the same transform
+    large = plan_real_fft(MPI.COMM_SELF, FOUR_STEP_NODES, "FFTW_ESTIMATE")
+    assert isinstance(large, TransposedRealFFT)
+    field = np.random.default_rng(5).standard_normal(FOUR_STEP_NODES)
+    diagonal = 1.0 / (1.0 + np.abs(large.wavenumber)) / FOUR_STEP_NODES
+    out = large.apply_diagonal(field, diagonal, np.empty_like(field))
+    spectrum = np.fft.rfft(field) / (1.0 + np.arange(FOUR_STEP_NODES // 2 + 1))
+    np.testing.assert_allclose(out, np.fft.irfft(spectrum, FOUR_STEP_NODES), atol=1e-14)
+    large.close()
+    below.close()
 
 
 @pytest.mark.parametrize("n", [0, 1, 5, 8, 64, 97])

@@ -83,7 +83,7 @@ def test_below_wall_is_numpys_minimum_to_the_bit():
     wall = np.array([2.0, 0.0, -0.0, 1.0, np.nan, 3.0, 0.25, -1.0, 1.0])
     for shift in (0.0, 0.25):
         out = np.empty_like(u)
-        free = step_kernels.below_wall(u, shift, wall, out)
+        free = step_kernels.below_wall(u, shift, wall, out, False)
         expected = np.minimum(u - shift, wall)
         assert out.tobytes() == expected.tobytes()
         assert free == np.count_nonzero(u - shift < wall)

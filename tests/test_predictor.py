@@ -13,6 +13,7 @@ from hpcgfmd.case import parse_case
 from hpcgfmd.parallel.domain import Domain
 from hpcgfmd.runs.protocol import Retraction
 from hpcgfmd.solvers.predictor import Predictor, lagrange_weights
+from hpcgfmd.solvers.projection import project_feasible
 from hpcgfmd.solvers.step_kernels import quadratic_guess
 from hpcgfmd.state import State
 
@@ -142,3 +143,46 @@ def test_a_retried_step_starts_from_its_first_attempts_predictor_state(monkeypat
     np.testing.assert_array_equal(previous_retry, previous)
     np.testing.assert_array_equal(before_retry, before)
     assert ratio_retry == ratio
+
+
+def test_projection_holds_the_contact_a_guess_carries():
+    # a guess with its contact on the risen wall has a positive mean: the Euclidean
+    # projection lowers every node by the same shift, the contact off the wall with it
+    # (a patch of millions of nodes then costs the CG hundreds of iterations to land); held,
+    # the contact stays on the wall and the free nodes alone take the shift
+    domain = Domain(MPI.COMM_SELF, N, CELL, [(0, N)])
+    x = domain.x
+    wall = 0.05 + x**2 / 2.0
+    u = np.minimum(0.02 * np.cos(2.0 * np.pi * x / CELL), wall)
+    contact = np.abs(x) < 0.5
+    u[contact] = wall[contact]
+    assert u.mean() > 1e-3
+    held, plain = np.empty(N), np.empty(N)
+    shift = project_feasible(domain, u, wall, held, hold_contact=True)
+    project_feasible(domain, u, wall, plain)
+    for out in (held, plain):
+        assert abs(out.mean()) < 1e-15 and np.all(out <= wall)
+    np.testing.assert_array_equal(held[contact], wall[contact])
+    np.testing.assert_allclose(held[~contact], np.minimum(u - shift, wall)[~contact], atol=1e-15)
+    assert np.all(wall[contact] - plain[contact] > 1e-3)
+
+
+def test_the_first_step_starts_with_the_preloads_contact_on_the_new_wall(monkeypatch):
+    # right after the preload the predictor's guess carries the contact with the rising
+    # wall; the solve starts from it with every contact node on the new wall (gap exactly 0)
+    sim = Retraction(
+        parse_case(case_text("nx = 1024")), MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE"
+    )
+    sim.preload()
+    starts, start = [], sim.predictor.start
+
+    def recorded(u, wall, gap_before, contact, *args, **kwargs):
+        result = start(u, wall, gap_before, contact, *args, **kwargs)
+        starts.append((contact.copy(), (wall - u)[contact]))
+        return result
+
+    monkeypatch.setattr(sim.predictor, "start", recorded)
+    sim.step()
+    contact, gaps = starts[0]
+    assert contact.sum() > 10
+    np.testing.assert_array_equal(gaps, 0.0)

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 from ..errors import CaseError
 from ..model import accuracy as knob
-from ..model.grid import smallest_grid
+from ..model.grid import MAX_NODES, smallest_grid
 from ..solvers import registered, solver_class
 from .keys import choice, integer, number, shown, unknown_keys
 
@@ -268,10 +268,20 @@ def _grid(case, num, accuracy):
                 f"[numerics] accuracy = {accuracy:g}: its grid would have {outside} for this"
                 " case, or an explicit nx"
             )
-        return automatic_nx(case, accuracy), True
+        nx = automatic_nx(case, accuracy)
+        if nx > MAX_NODES:
+            raise CaseError(
+                f"[numerics] accuracy = {accuracy:g}: its grid would have about"
+                f" 2^{math.log2(nx):.0f} nodes for this case; at most"
+                f" 2^{MAX_NODES.bit_length() - 1} are run anywhere"
+            )
+        return nx, True
     nx = num["nx"]
-    if isinstance(nx, bool) or not isinstance(nx, int) or nx < 64 or nx % 2:
-        raise CaseError(f"[numerics] nx = {shown(nx)}: expected an even integer >= 64")
+    if isinstance(nx, bool) or not isinstance(nx, int) or nx < 64 or nx % 2 or nx > MAX_NODES:
+        raise CaseError(
+            f"[numerics] nx = {shown(nx)}: expected an even integer in"
+            f" [64, 2^{MAX_NODES.bit_length() - 1}]"
+        )
     # the zone the retraction's tip has: the relaxed w, wider for a fast one (the knob's
     # grids resolve it alike)
     width *= knob.fast_widening(case.chi_ve, case.modulus_ratio, case.maugis)

@@ -16,6 +16,9 @@ import math
 ODD_FACTORS = (1, 3, 9)
 #: The smallest automatic grid.
 MIN_NODES = 64
+#: No grid beyond this is run anywhere (2^50 nodes: 8 PB for each array of the state); a
+#: case that asks for more is refused when it is read, whatever the machine.
+MAX_NODES = 2**50
 
 
 def smallest_grid(log2_nodes: float) -> int:
@@ -25,7 +28,8 @@ def smallest_grid(log2_nodes: float) -> int:
     ----------
     log2_nodes : float
         log2 of the number of nodes required (a logarithm, so that requirements beyond the
-        floating-point range still give an integer, which the memory check then rejects).
+        floating-point range still give an integer, which the case's check against
+        :data:`MAX_NODES` then rejects).
 
     Returns
     -------

@@ -8,7 +8,13 @@ Three classes share the interface of :class:`~.real_fft.RealFFT`:
   divides n (n >= 8).
 * :class:`TransposedRealFFT`: a single length-n transform split over the P ranks of ``comm``
   with the four-step (transposed) algorithm (:mod:`hpcgfmd.parallel.fft_transposed`); the
-  other rank counts and lengths.
+  other rank counts and lengths, and every rank count from ``FOUR_STEP_NODES`` nodes on.
+
+From 2^20 nodes the four-step transform is the faster on one and on two ranks: its
+transforms of about sqrt(n) points work in the cache and plan in a second, while FFTW's plan
+of the whole length, limited to ``PLANNING_TIMELIMIT`` per plan, is 1.3-2.1 times slower on
+one rank (2^20 to 2^24) and the halved transform's half-length plans 1.2-1.8 times slower on
+two (docs/results.md, "Large transforms").
 """
 
 from __future__ import annotations
@@ -18,6 +24,8 @@ from .fft_halved import HalvedRealFFT, fits
 from .fft_serial import SerialRealFFT, aligned_empty
 from .fft_transposed import TransposedRealFFT
 from .real_fft import PLANNING_TIMELIMIT, RealFFT
+
+FOUR_STEP_NODES = 2**20  # from this size the four-step transform is the faster on any ranks
 
 
 def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
@@ -36,8 +44,8 @@ def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
     planner_effort : str
         FFTW planner flag, e.g. ``"FFTW_MEASURE"`` or ``"FFTW_ESTIMATE"`` (tests).
     transposed : bool or None
-        ``None``: serial on one rank, halved on two (when 4 divides n, n >= 8), transposed
-        otherwise.
+        ``None``: from ``FOUR_STEP_NODES`` nodes on transposed; below, serial on one rank,
+        halved on two (when 4 divides n, n >= 8), transposed otherwise.
         ``True`` forces the transposed class (also on one or two ranks, for testing).
         ``False`` demands the serial class and is an error on more than one rank.
 
@@ -46,6 +54,8 @@ def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
     RealFFT
     """
     size = comm.Get_size()
+    if transposed is None and n >= FOUR_STEP_NODES:
+        transposed = True
     halved = transposed is None and fits(size, n)
     if transposed is None:
         transposed = size > 1 and not halved
@@ -65,6 +75,7 @@ def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
 
 
 __all__ = [
+    "FOUR_STEP_NODES",
     "PLANNING_TIMELIMIT",
     "HalvedRealFFT",
     "RealFFT",

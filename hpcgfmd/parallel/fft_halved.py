@@ -49,7 +49,7 @@ synchronisation, so a rank about to write the blocks of the stage synchronised l
 the peer first (:meth:`HalvedRealFFT._write`). ``apply_diagonal`` after ``apply_diagonal``
 alternates the stages and never waits: two synchronisations per application. A forward
 followed by a forward or an application, and an application or an inverse followed by an
-inverse, wait once. Measurements: docs/results.md, "Two ranks: the halved transform".
+inverse, wait once. Measurements: docs/results.md, "Large transforms".
 """
 
 from __future__ import annotations

@@ -8,7 +8,8 @@ ends on the branch the previous step was on:
   are known (Lagrange weights of the unequal steps, error O(dt^3 u_ttt) where u is smooth in
   time), linear u_n + r (u_n - u_{n-1}) (r = dt_{n+1} / dt_n) before, with the contact nodes
   of step n put exactly on the new wall (extrapolation lands there only to round-off, and a
-  gap of 1e-18 would free the whole patch);
+  gap of 1e-18 would free the whole patch), where the projection onto zero mean keeps them
+  (it shifts the free nodes only);
 - the linear extrapolation with the gap profile around each contact edge translated by the
   edge's last displacement (a peeling edge moves with its shape), which frees the nodes the
   edge will pass instead of leaving the solver to unzip them one by one (a quadratic base
@@ -125,7 +126,7 @@ class Predictor:
                 continue
             start = self._starts[kind]
             try:
-                project_feasible(self.domain, guess, wall, start)
+                project_feasible(self.domain, guess, wall, start, hold_contact=True)
             except FloatingPointError:  # no feasible point of that form (tiny grids): skip it
                 continue
             candidates[kind] = start

@@ -9,7 +9,7 @@ from __future__ import annotations
 from .step_kernels import below_wall
 
 
-def project_feasible(domain, u, wall, out, wall_scale=None, shift=0.0):
+def project_feasible(domain, u, wall, out, wall_scale=None, shift=0.0, hold_contact=False):
     """Collective: the displacement min(u - c, wall) whose mean is zero, into ``out``.
 
     The shift c solves f(c) = sum min(u - c, wall) = 0. f is concave, decreasing and piecewise
@@ -33,6 +33,12 @@ def project_feasible(domain, u, wall, out, wall_scale=None, shift=0.0):
         ``domain.max_abs(wall)`` when the caller has it (saves a reduction).
     shift : float
         Start of the Newton iteration for c (a warm start: the last projection's shift).
+    hold_contact : bool
+        Keep the nodes with u >= wall on the wall and shift only the others: a guess that
+        carries its contact with the wall keeps it (the Euclidean projection would lower
+        the whole patch off the wall by c when the guess's mean is positive, and a patch of
+        millions of nodes off the wall by a uniform gap costs the CG hundreds of
+        iterations to land again).
 
     Returns
     -------
@@ -51,7 +57,7 @@ def project_feasible(domain, u, wall, out, wall_scale=None, shift=0.0):
     for _ in range(100):
         # one compiled pass for min(u - c, wall) and its free count; the sum stays numpy's
         # pairwise one (the accuracy the stopping test needs, above)
-        free = below_wall(u, c, wall, out)
+        free = below_wall(u, c, wall, out, hold_contact)
         total, count = domain.sums(out.sum(), free)
         if count == 0:
             raise FloatingPointError("the wall leaves no free node for zero mean displacement")

@@ -118,11 +118,15 @@ def contact_sums(a, b, state):
 
 
 @njit(cache=True)
-def below_wall(u, shift, wall, out):
+def below_wall(u, shift, wall, out, hold):
     """out = numpy's minimum(u - shift, wall) (NaN propagates; of two equal values the
-    wall's); returns the number of nodes with u - shift < wall (the free nodes)."""
+    wall's); returns the number of nodes with u - shift < wall (the free nodes). With
+    ``hold``, the nodes with u >= wall stay on the wall whatever the shift (not free)."""
     free = 0
     for i in range(u.shape[0]):
+        if hold and u[i] >= wall[i]:
+            out[i] = wall[i]
+            continue
         v = u[i] - shift
         w = wall[i]
         if v < w:
@@ -157,4 +161,4 @@ def compile_all():
     clear_near_crossings(states[0], states[1], states[2], 2, 3, 3, d)
     contact_sums(a, b, states[0])
     all_beyond(a, b, 0.5)
-    below_wall(a, 0.1, b, c)
+    below_wall(a, 0.1, b, c, False)

@@ -562,8 +562,7 @@ def _parser(modes=""):
         prog="python -m hpcgfmd bench [speed]",
         description=__doc__.split("\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="--quiet and --log FILE as for every command (before or after bench)\n\n"
-        + modes,
+        epilog="--quiet and --log FILE as for every command (before or after bench)\n\n" + modes,
     )
     parser.add_argument(
         "--cases",
