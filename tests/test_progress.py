@@ -136,7 +136,7 @@ def test_run_lines_say_the_time_left_and_the_share_done(tmp_path):
     pattern = re.compile(
         r"^step +(\d+)  t = \S+  load = \S+  a_c = \S+  iterations = +\d+"
         r"  elapsed (\d+ s|\d+ min \d+ s), left ~(\?|[\d a-z]+) \((\d+)% of"
-        r" the protocol\)$"
+        r" the protocol(, \S+ core-hours in all by the cost model)?\)$"
     )
     matched = [pattern.match(line) for line in lines]
     assert len(lines) > 100 and all(matched), [ln for ln, m in zip(lines, matched) if not m][:3]
@@ -144,6 +144,8 @@ def test_run_lines_say_the_time_left_and_the_share_done(tmp_path):
     assert shares == sorted(shares) and shares[-1] >= 60, shares[::20]
     known = [m.group(3) != "?" for m in matched]
     assert sum(known) > 0.9 * len(known)  # from 1 % of the protocol on
+    # before, the cost model's total, exactly when the time left is "?"
+    assert all((m.group(3) == "?") == (m.group(5) is not None) for m in matched)
 
 
 # --- the cost model ---------------------------------------------------------------------

@@ -32,7 +32,8 @@ class Progress:
     """Logs one line every ``interval`` seconds of wall time: step, time, load, contact width,
     the step's iterations, the time elapsed and the time left.
 
-    The time left extrapolates the share of the protocol done since the first line's step:
+    The time left extrapolates the share of the protocol done since the first line's step
+    (until 1 % is done, "?" and the cost model's core-hours of the whole protocol):
     each segment weighs its estimated cost (:func:`hpcgfmd.runs.cost.plan`), and the current
     one counts the share of its travel the drive has made (from its start to its target, or
     to the estimated detachment of a retraction "until detachment"; a dwell: its time), and,
@@ -121,14 +122,18 @@ class Progress:
         self.last = now
         elapsed = now - self.start
         u = self.units
+        left = self.left(done, elapsed)
         share = f" ({done:.0%} of the protocol)" if math.isfinite(done) else ""
+        if left is None and self.plan and share:  # too little done: the model's total
+            total = math.fsum(segment.seconds for segment in self.plan) / 3600.0
+            share = share[:-1] + f", {total:.3g} core-hours in all by the cost model)"
         logger.info(
             f"step {step:6d}  t = {record.time * u.time:.5g}"
             f"  load = {record.load * u.load:.5g}"
             f"  a_c = {record.contact_half_width * u.length:.5g}"
             f"  iterations = {record.iterations:4d}"
             f"  elapsed {duration_text(elapsed)}, left ~"
-            f"{duration_text(self.left(done, elapsed))}{share}"
+            f"{duration_text(left)}{share}"
         )
 
 
