@@ -50,20 +50,23 @@ def test_the_farm_line_counts_k_of_n_and_scales_the_estimate_by_what_was_measure
     assert "ETA 0 s" in progress_line("farm", "cases", 10, 10, 99.0, 1e-3, 20.0, 30.0, 2)
 
 
-def records(case):
-    """StepRecords of an approach-dwell-retract protocol as a run makes them: 20 steps per
-    segment, the retraction up to its estimated detachment."""
+def records(case, edge=None):
+    """StepRecords of a protocol as a run makes them: 20 steps per segment, the retraction
+    up to its estimated detachment, the contact half-width from the segment's estimated start
+    to its end along with the drive (``edge(j)``: the share of that travel at step j of 20)."""
     estimate = plan(case)
+    edge = edge or (lambda j: j / 20)
     time, out = 0.0, []
     for index, segment in enumerate(estimate):
         for j in range(1, 21):
             drive = segment.start + (segment.end - segment.start) * j / 20
+            width = segment.width + (segment.end_width - segment.width) * edge(j)
             out.append(
                 StepRecord(
                     time=time + segment.duration * j / 20,
                     indenter=drive,
                     load=0.0,
-                    contact_half_width=0.1,
+                    contact_half_width=width,
                     cohesive_half_width=0.1,
                     iterations=5,
                     residual=0.0,
@@ -98,6 +101,21 @@ def test_a_protocol_that_starts_with_an_approach_has_a_time_left():
     assert progress.left(0.005, 10.0) is None  # under 1 % done: "?"
 
 
+def test_a_retraction_whose_edge_stands_has_done_little():
+    # the edge criterion sets a share of the retraction's steps (nearly all at large
+    # lambda0): while the edge stands, the drive's travel counts for the other steps only;
+    # from then on the edge's share of its travel counts for the edge's steps
+    case = hpcgfmd.Case(**PAPER, velocity=0.45, numerics={"nx": 16384})
+    (segment,) = plan(case)
+    weight = segment.edge_weight
+    assert segment.kind == "retract" and weight > 0.3
+    progress = Progress(10.0, case.units, case)
+    _, late = records(case, lambda j: max(0.0, (j - 10) / 10))  # the edge moves from halfway
+    done = [progress.done(r) for r in late]
+    assert done[9] == pytest.approx(0.5 * (1.0 - weight), rel=1e-9)
+    assert done[14] == pytest.approx(0.75 * (1.0 - weight) + 0.5 * weight, rel=1e-9)
+
+
 def test_run_lines_say_the_time_left_and_the_share_done(tmp_path):
     (tmp_path / "approach.toml").write_text(
         "[case]\n"
@@ -118,7 +136,7 @@ def test_run_lines_say_the_time_left_and_the_share_done(tmp_path):
     pattern = re.compile(
         r"^step +(\d+)  t = \S+  load = \S+  a_c = \S+  iterations = +\d+"
         r"  elapsed (\d+ s|\d+ min \d+ s), left ~(\?|[\d a-z]+) \((\d+)% of"
-        r" the protocol\)$"
+        r" the protocol(, \S+ core-hours in all by the cost model)?\)$"
     )
     matched = [pattern.match(line) for line in lines]
     assert len(lines) > 100 and all(matched), [ln for ln, m in zip(lines, matched) if not m][:3]
@@ -126,6 +144,8 @@ def test_run_lines_say_the_time_left_and_the_share_done(tmp_path):
     assert shares == sorted(shares) and shares[-1] >= 60, shares[::20]
     known = [m.group(3) != "?" for m in matched]
     assert sum(known) > 0.9 * len(known)  # from 1 % of the protocol on
+    # before, the cost model's total, exactly when the time left is "?"
+    assert all((m.group(3) == "?") == (m.group(5) is not None) for m in matched)
 
 
 # --- the cost model ---------------------------------------------------------------------

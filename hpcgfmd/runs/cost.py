@@ -36,8 +36,9 @@ first step's doublings:
   dL / T^2: N_load = sqrt(dL / load_tolerance load_scale).
 
 Fixed steps: T / dt. Iterations per step: :func:`_iterations_per_step` of the nodes an edge
-crosses per step. Seconds: SECONDS_PER_NODE_ITERATION nx iterations + SECONDS_PER_NODE_STEP
-nx steps (the step's own transforms and output) + START_SECONDS.
+crosses per step. Seconds: (SECONDS_PER_NODE_ITERATION nx iterations + SECONDS_PER_NODE_STEP
+nx steps (the step's own transforms and output)) times the large grid's factor
+(nx / CACHE_NODES)^LARGE_GRID_ORDER above CACHE_NODES, + START_SECONDS.
 """
 
 from __future__ import annotations
@@ -69,9 +70,14 @@ NODE_ORDER = 1.36
 SECONDS_PER_NODE_ITERATION = 1.5e-8  # one CG iteration per node (2.0 ms at 2^17)
 SECONDS_PER_NODE_STEP = 7.1e-8  # a step's own work per node (history estimate, output)
 START_SECONDS = 0.22  # a case's set-up and preload at the paper's sizes
+# Beyond the cache a node costs more: every pass and transform stage streams from memory
+# (scripts/bench_scaling.py on one rank: a step cost 1.5, 1.9 and 2.3 times the per-node
+# cost of 2^17 at 2^20, 2^22 and 2^24; docs/results.md, "Scaling")
+CACHE_NODES = 2**17
+LARGE_GRID_ORDER = 0.17
 # Memory: the peak resident set of a rank, BASE_MEMORY + MEMORY_PER_NODE nodes of its block
-# (the preload's peak, its coarse levels beside the fine grid's arrays; 676-713 bytes per
-# node measured from 2^20 to 2^22 on one rank, docs/results.md "The cost of large grids").
+# (the preload's peak, its coarse levels beside the fine grid's arrays; 585-770 bytes per
+# node measured from 2^20 to 2^24 on one and two ranks, docs/results.md "Scaling").
 BASE_MEMORY = 140e6  # bytes: the interpreter, numpy, mpi4py, h5py and pyfftw
 MEMORY_PER_NODE = 720.0  # bytes
 
@@ -93,6 +99,11 @@ class SegmentCost:
         Its estimated accepted steps, solver iterations and single-core seconds.
     detaches : bool
         Whether it ends at (the estimated) complete detachment.
+    width, end_width : float
+        The contact half-width at its start and (estimated) end (R).
+    edge_weight : float
+        The share of its steps the edge criterion sets (N_edge^P / sum of N^P; 0 with fixed
+        steps): those steps follow the contact edge's travel, the others the drive's.
     """
 
     kind: str
@@ -103,6 +114,9 @@ class SegmentCost:
     iterations: float
     seconds: float
     detaches: bool = False
+    width: float = 0.0
+    end_width: float = 0.0
+    edge_weight: float = 0.0
 
 
 def estimated_cost(case) -> float:
@@ -285,6 +299,7 @@ def _estimate(case, kind, start, end, duration, width, end_width, load_change, d
     num = case.numerics
     duration = max(duration, 0.0)
     travel = abs(end_width - width)  # of each contact edge
+    edge_weight = 0.0
     if duration == 0.0:
         steps = 0.0
     elif num.step_control == "fixed":
@@ -296,13 +311,31 @@ def _estimate(case, kind, start, end, duration, width, end_width, load_change, d
             LAG_SHARE * duration / _lag_step(case, travel / duration),
             math.sqrt(load_change / (num.load_tolerance * case.load_scale)),
         )
-        steps = math.log2(max(num.dt_max / num.dt, 1.0)) + math.fsum(
-            b**NORM_ORDER for b in bounds
-        ) ** (1.0 / NORM_ORDER)
+        norm = math.fsum(b**NORM_ORDER for b in bounds)
+        steps = math.log2(max(num.dt_max / num.dt, 1.0)) + norm ** (1.0 / NORM_ORDER)
+        edge_weight = bounds[1] ** NORM_ORDER / norm if norm > 0.0 else 0.0
     crossed = travel / case.dx / steps if steps else 0.0
     iterations = steps * _iterations_per_step(case, crossed)
-    seconds = num.nx * (SECONDS_PER_NODE_ITERATION * iterations + SECONDS_PER_NODE_STEP * steps)
-    return SegmentCost(kind, start, end, duration, steps, iterations, seconds, detaches)
+    per_node = SECONDS_PER_NODE_ITERATION * iterations + SECONDS_PER_NODE_STEP * steps
+    seconds = num.nx * per_node * large_grid_factor(num.nx)
+    return SegmentCost(
+        kind,
+        start,
+        end,
+        duration,
+        steps,
+        iterations,
+        seconds,
+        detaches,
+        width,
+        end_width,
+        edge_weight,
+    )
+
+
+def large_grid_factor(nx: int) -> float:
+    """The cost of a node on a grid of ``nx`` nodes over its cost within the cache."""
+    return max(1.0, nx / CACHE_NODES) ** LARGE_GRID_ORDER
 
 
 def _lag_step(case, edge_speed) -> float:

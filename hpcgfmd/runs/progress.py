@@ -32,10 +32,14 @@ class Progress:
     """Logs one line every ``interval`` seconds of wall time: step, time, load, contact width,
     the step's iterations, the time elapsed and the time left.
 
-    The time left extrapolates the share of the protocol done since the first line's step:
+    The time left extrapolates the share of the protocol done since the first line's step
+    (until 1 % is done, "?" and the cost model's core-hours of the whole protocol):
     each segment weighs its estimated cost (:func:`hpcgfmd.runs.cost.plan`), and the current
     one counts the share of its travel the drive has made (from its start to its target, or
-    to the estimated detachment of a retraction "until detachment"; a dwell: its time).
+    to the estimated detachment of a retraction "until detachment"; a dwell: its time), and,
+    for the share of its steps the contact edge's motion sets (``edge_weight``), the share of
+    the contact half-width's estimated travel made: a retraction whose steps follow its
+    peeling edge has done little while the edge still stands, however far the drive went.
     Every protocol has one, from the paper's retraction to an approach, dwell and cycles.
 
     Parameters
@@ -58,7 +62,9 @@ class Progress:
         except (ArithmeticError, ValueError):  # an estimate must never stop a run
             self.plan = None
         self.segment = 0
-        self.segment_start = (0.0, self.plan[0].start if self.plan else math.nan)
+        # (time, drive, contact half-width) where the current segment started; the first
+        # width is the first record's
+        self.segment_start = (0.0, self.plan[0].start if self.plan else math.nan, math.nan)
         self.previous = self.segment_start
         self.first_done = None
 
@@ -67,12 +73,14 @@ class Progress:
         without a plan). Call with every record in order (segment starts are tracked)."""
         if record.segment != self.segment:
             self.segment, self.segment_start = record.segment, self.previous
-        self.previous = (record.time, record.drive)
+        if math.isnan(self.segment_start[2]):
+            self.segment_start = (*self.segment_start[:2], record.contact_half_width)
+        self.previous = (record.time, record.drive, record.contact_half_width)
         if not self.plan or self.segment >= len(self.plan):
             return math.nan
         weights = [max(segment.seconds, 1e-12) for segment in self.plan]
         current = self.plan[self.segment]
-        start_time, start_value = self.segment_start
+        start_time, start_value, start_width = self.segment_start
         if current.kind == "dwell":
             share = (record.time - start_time) / current.duration if current.duration else 1.0
         else:
@@ -81,7 +89,14 @@ class Progress:
             # a retraction until detachment: the estimated travel from where it started
             end = start_value + current.end - current.start if current.detaches else current.end
             span = end - start_value
-            share = (record.drive - start_value) / span if span else 1.0
+            share = _clipped((record.drive - start_value) / span if span else 1.0)
+            # the edge's travel from the half-width measured at the segment's start (the
+            # estimate's is the geometric contact, without the adhesive neck)
+            travel = current.end_width - start_width
+            if current.edge_weight > 0.0 and travel != 0.0:
+                edge = (record.contact_half_width - start_width) / travel
+                weight = current.edge_weight
+                share = (1.0 - weight) * share + weight * _clipped(edge)
         share = min(max(share, 0.0), MAX_SEGMENT_SHARE)
         return (math.fsum(weights[: self.segment]) + share * weights[self.segment]) / math.fsum(
             weights
@@ -107,12 +122,20 @@ class Progress:
         self.last = now
         elapsed = now - self.start
         u = self.units
+        left = self.left(done, elapsed)
         share = f" ({done:.0%} of the protocol)" if math.isfinite(done) else ""
+        if left is None and self.plan and share:  # too little done: the model's total
+            total = math.fsum(segment.seconds for segment in self.plan) / 3600.0
+            share = share[:-1] + f", {total:.3g} core-hours in all by the cost model)"
         logger.info(
             f"step {step:6d}  t = {record.time * u.time:.5g}"
             f"  load = {record.load * u.load:.5g}"
             f"  a_c = {record.contact_half_width * u.length:.5g}"
             f"  iterations = {record.iterations:4d}"
             f"  elapsed {duration_text(elapsed)}, left ~"
-            f"{duration_text(self.left(done, elapsed))}{share}"
+            f"{duration_text(left)}{share}"
         )
+
+
+def _clipped(share) -> float:
+    return min(max(share, 0.0), 1.0)
