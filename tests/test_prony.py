@@ -166,8 +166,8 @@ def test_two_branch_adaptive_steps_reach_the_accuracy():
     # fixed steps. The errors fall in two groups, 5e-5 to 2e-4 and 5e-4 to 1e-3: near the pull-off
     # the load jitters as nodes leave the contact one by one (2048 nodes), and the sampled
     # minimum does or does not catch a dip. With the kept history errors' signed sum held to
-    # the whole allowance instead of half, 2.2e-3 in 241-270 steps on all 18 draws
-    # measured (docs/results.md, "Fast retractions"). Both runs are solved to 1e-3, the
+    # the whole allowance instead of half, 2.2e-3 in 241-270 steps on all 18 draws measured
+    # (docs/results.md, "Rules of the steps and the grid"). Both runs are solved to 1e-3, the
     # tolerance of those measurements (the default 2.5e-3 adds its own 2e-4 or so to what is
     # compared here, the time error).
     adaptive = retraction(case_text("nx = 2048\ntolerance = 1e-3", **TWO_BRANCHES))

@@ -157,7 +157,7 @@ def fast_widening(chi_ve, k, lambda0):
     3.66 on the accuracy tables and up to 6.04 on the paper's fast cases against their
     converged 2^17 references. The measurements are in docs/results.md ("Grid and time-step
     convergence",
-    "The accuracy knob", "Crossings in the history's estimate").
+    "The accuracy knob", "Rules of the steps and the grid").
     """
     if k >= 1.0 or not chi_ve > 0.0 or lambda0 * k ** (2.0 / 3.0) < GLASSY_MAUGIS:
         return 1.0

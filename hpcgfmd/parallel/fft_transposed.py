@@ -66,8 +66,8 @@ Transport (``transport``) and communication per call
     per call (plus the row padding, under 64 bytes a row). The two transports give bitwise
     equal results.
 
-The measurements behind this variant (per-stage timings, transports, what was tried and
-dropped) are in docs/results.md, "Distributed transform".
+Its measurements are in docs/results.md, "Large transforms"; the per-stage timings, the
+transports and what was tried and dropped in that page's history ("Distributed transform").
 """
 
 from __future__ import annotations

@@ -50,8 +50,8 @@ from .surface import Surface
 from .watch import StopRequested, Watch
 
 PLANNING_NOTED = 2**18  # grids from this size say when they plan their transforms
-# A preload level started from the one below takes a few iterations (measured 3 to 11 on
-# lambda0 = 3.5 to 60, docs/results.md "The cost of large grids"): the estimate before one ran.
+# A preload level started from the one below takes a few to a few tens of iterations (the
+# default case's levels 8 to 31, docs/results.md "Scaling"): the estimate before one ran.
 STARTED_LEVEL_ITERATIONS = 12
 
 

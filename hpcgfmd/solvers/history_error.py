@@ -53,8 +53,8 @@ class HistoryError:
     nodes: the jump spreads over the zone of the passing tip (up to the glassy w / k), and
     read as curvature it gives errors of either sign, 20-80 times a smooth window's, whose
     signed sum walks to the kept errors' allowance on grids of a few nodes per zone and
-    holds the steps at a small fraction of tau (docs/results.md, "Crossings in the
-    history's estimate").
+    holds the steps at a small fraction of tau (docs/results.md, "Rules of the steps and the
+    grid").
 
     Parameters
     ----------
