@@ -13,8 +13,10 @@ change of the machine's load hits all of them alike:
 * ``H x 2``: :class:`hpcgfmd.parallel.HalvedRealFFT` on all ranks (only when P = 2 and 4
   divides n): the transform two-rank runs use;
 * ``S/P x P``: every rank its own :class:`~hpcgfmd.parallel.SerialRealFFT` of n/P nodes, all
-  at once, with no exchange: the ideal split of the work. Its time against ``serial`` is
-  what the cores' shared caches and memory leave of a P-fold speed-up, for any split.
+  at once, with no exchange: the split of the work without its exchanges. Its plans are
+  limited like the serial one's, so from about 2^20 nodes, where a limited whole-length plan
+  is poor, it measures that plan's quality as much as the cores' shared caches and memory
+  (docs/results.md, "Large transforms").
 
 While rank 0 plans or runs alone the other ranks sleep in a polled ``Ibarrier`` (they do not
 spin, so rank 0 has a core to itself as in a one-rank run). A call's time is the wall time on
