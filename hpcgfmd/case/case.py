@@ -24,7 +24,15 @@ from dataclasses import dataclass
 from ..errors import CaseError
 from ..model.loading import Segment, paper_protocol
 from .files import case_arguments, read_case_file
-from .groups import DRIVE_KEYS, GROUP_KEYS, PRONY_KEYS, Groups, checked_groups, python_numbers
+from .groups import (
+    DRIVE_KEYS,
+    GEOMETRY_KEYS,
+    GROUP_KEYS,
+    PRONY_KEYS,
+    Groups,
+    checked_groups,
+    python_numbers,
+)
 from .identity import case_identity
 from .keys import shown
 from .numerics import Numerics, resolve_numerics
@@ -60,6 +68,9 @@ class Case(Groups):
     drive_stiffness : float, optional
         k_s / E0 >= 0 of the spring between the drive and the indenter (docs/model.md,
         "Protocol"): inf (the default) is displacement control, 0 load control.
+    geometry : {"cylinder", "sphere"}, optional
+        The indenter: the paper's cylinder on a line (the default) or a sphere on a square
+        surface, whose groups are the sphere's (docs/model.md, "The sphere").
     protocol : list of dict or tuple of Segment, optional
         The ``[[protocol]]`` tables (case units) or resolved segments; empty: the paper's
         preload and retraction.
@@ -92,6 +103,7 @@ class Case(Groups):
         relaxation_times: Sequence[float] = (),
         drive_stiffness: float = math.inf,
         protocol: Sequence = (),
+        geometry: str = "cylinder",
     ) -> None:
         raw = python_numbers(
             {
@@ -104,6 +116,7 @@ class Case(Groups):
                 "relaxation_moduli": relaxation_moduli,
                 "relaxation_times": relaxation_times,
                 "drive_stiffness": drive_stiffness,
+                "geometry": geometry,
             }
         )
         numerics, output, protocol = (python_numbers(v) for v in (numerics, output, protocol))
@@ -168,6 +181,12 @@ class Case(Groups):
         """Grid spacing L / nx."""
         return self.cell / self.numerics.nx
 
+    @property
+    def load_unit(self) -> float:
+        """The case's unit of the load: E0 R per unit length of a cylinder, E0 R^2 (a force)
+        for a sphere (the units of :class:`~.units.Units`)."""
+        return self.units.force if self.sphere else self.units.load
+
     def identity(self) -> str:
         """The hash of everything that determines the series (:mod:`.identity`)."""
         return case_identity(self)
@@ -206,11 +225,12 @@ def _segments(groups: Groups, protocol) -> tuple:
     if not protocol or all(isinstance(s, Segment) for s in protocol):
         return tuple(protocol or ())
     units = groups.units
-    scale = (
-        groups.adhesion ** (2.0 / 3.0)
-        if groups.form == "case"  # V_z units: beta^2
-        else units.time / units.length
-    )  # m/s
+    if groups.form != "case":
+        scale = units.time / units.length  # m/s
+    elif groups.sphere:
+        scale = groups.depth_scale  # V_z units: the depth scale per tau (M49)
+    else:
+        scale = groups.adhesion ** (2.0 / 3.0)  # V_z units: beta^2 (M19)
     return parse_protocol(
         list(protocol),
         length=units.length,
@@ -231,6 +251,8 @@ def _keyword_text(groups: Groups, numerics, output, protocol) -> str:
     )
     if groups.compliant:
         keys += DRIVE_KEYS
+    if groups.sphere:
+        keys = GEOMETRY_KEYS + keys
     return case_file_text(
         {key: getattr(groups, key) for key in keys},
         numerics if isinstance(numerics, Mapping) else None,

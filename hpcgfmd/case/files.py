@@ -6,7 +6,7 @@ from __future__ import annotations
 import tomllib
 
 from ..errors import CaseError
-from .groups import DRIVE_KEYS, GROUP_KEYS, PRONY_KEYS
+from .groups import DRIVE_KEYS, GEOMETRY_KEYS, GROUP_KEYS, PRONY_KEYS
 from .keys import number, quoted_key, shown, stiffness, unknown_keys
 from .numerics import numerics_keys
 from .output import OUTPUT_KEYS
@@ -16,8 +16,8 @@ from .units import PHYSICAL_KEYS, Units, groups_from_physical
 def sections() -> dict:
     """The sections of a case file and their keys (``[[protocol]]`` apart)."""
     return {
-        "case": GROUP_KEYS + PRONY_KEYS + DRIVE_KEYS,
-        "physical": PHYSICAL_KEYS + PRONY_KEYS + DRIVE_KEYS,
+        "case": GEOMETRY_KEYS + GROUP_KEYS + PRONY_KEYS + DRIVE_KEYS,
+        "physical": GEOMETRY_KEYS + PHYSICAL_KEYS + PRONY_KEYS + DRIVE_KEYS,
         "numerics": numerics_keys(),
         "output": OUTPUT_KEYS,
     }
@@ -65,7 +65,10 @@ def case_arguments(text: str) -> dict:
     if form == "case":
         groups, units = _case_groups(doc["case"]), Units()
     else:
-        groups, units = groups_from_physical(doc["physical"])
+        geometry = doc["physical"].get("geometry", "cylinder")
+        groups, units = groups_from_physical(doc["physical"], geometry)
+        if "geometry" in doc["physical"]:
+            groups["geometry"] = geometry
     protocol = doc.get("protocol", ())
     if "protocol" in doc and (not isinstance(protocol, list) or not protocol):
         raise CaseError(
@@ -100,4 +103,6 @@ def _case_groups(table) -> dict:
         )
     if "drive_stiffness" in table:
         groups["drive_stiffness"] = stiffness(table, "case")
+    if "geometry" in table:
+        groups["geometry"] = table["geometry"]
     return groups

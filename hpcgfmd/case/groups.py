@@ -4,7 +4,9 @@
 Internal units are R = E0 = tau = 1 (tau_r, the modulus-weighted mean time (M41), for a
 Prony series). The groups keep their case-file names: ``maugis`` is lambda0, ``modulus_ratio``
 k = E0/Einf, ``velocity`` V_z, ``depth`` h0/R, ``cell`` L/R and ``adhesion``
-alpha = dgamma0/(E0 R); everything else is derived from them.
+alpha = dgamma0/(E0 R); everything else is derived from them. ``geometry`` is the indenter:
+the cylinder of the paper (a line in plane strain) or a sphere on a surface, whose Maugis
+parameter, speed and scales are the sphere's (docs/model.md, "The sphere").
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import numpy as np
 
 from ..errors import CaseError
 from ..model import theory
-from ..model.geometry import Cylinder
+from ..model.geometry import GEOMETRIES, Cylinder, Sphere
 from ..model.material import GeneralizedMaxwell
 from .keys import number, prony_series, shown, stiffness
 from .units import Units, finite_scales
@@ -25,6 +27,7 @@ from .units import Units, finite_scales
 GROUP_KEYS = ("maugis", "modulus_ratio", "velocity", "depth", "cell", "adhesion")
 PRONY_KEYS = ("relaxation_moduli", "relaxation_times")
 DRIVE_KEYS = ("drive_stiffness",)  # in E0 ([case]) or Pa ([physical]): the compliant drive
+GEOMETRY_KEYS = ("geometry",)  # "cylinder" (the default) or "sphere"
 # The geometric contact width sqrt(2 R h0) bounds a_c; with L >= 6 sqrt(2 R h0) the periodic
 # image correction pi^2 a^2 / (6 L^2) to the load stays below 5 %.
 MIN_CELL_PER_CONTACT = 6.0
@@ -44,6 +47,8 @@ class Groups:
     drive_stiffness : float
         k_s / E0 of the spring holding the indenter (inf: displacement control, 0: load
         control).
+    geometry : {"cylinder", "sphere"}
+        The indenter.
     units : Units
         The case's units in the internal ones.
     form : {"case", "physical"}
@@ -59,6 +64,7 @@ class Groups:
     relaxation_moduli: tuple = ()
     relaxation_times: tuple = ()
     drive_stiffness: float = math.inf
+    geometry: str = "cylinder"
     units: Units = field(default_factory=Units)
     form: str = "case"
 
@@ -70,9 +76,14 @@ class Groups:
             return GeneralizedMaxwell(1.0, self.relaxation_moduli, self.relaxation_times)
         return GeneralizedMaxwell.standard_linear(1.0, 1.0 / self.modulus_ratio, 1.0)
 
-    def geometry(self) -> Cylinder:
+    def indenter(self) -> Cylinder | Sphere:
         """The indenter (internal units, R = 1)."""
-        return Cylinder()
+        return GEOMETRIES[self.geometry]()
+
+    @property
+    def sphere(self) -> bool:
+        """The indenter is a sphere on a surface (else the paper's cylinder on a line)."""
+        return self.geometry == "sphere"
 
     @property
     def compliant(self) -> bool:
@@ -88,17 +99,32 @@ class Groups:
     # --- derived scales (internal units) -------------------------------------------------
     @property
     def beta(self) -> float:
-        """Length scale (R^2 dgamma0 / E0)^(1/3) = alpha^(1/3) (M16)."""
+        """Length scale of the contact: the cylinder's (R^2 dgamma0 / E0)^(1/3) = alpha^(1/3)
+        (M16), the sphere's contact radius scale (pi dgamma0 R^2 / K)^(1/3) (M47)."""
+        if self.sphere:
+            return sphere_scales(self.adhesion)[0]
         return self.adhesion ** (1.0 / 3.0)
 
     @property
     def load_scale(self) -> float:
-        """Load scale (R dgamma0^2 E0)^(1/3) = alpha^(2/3) (M17)."""
+        """Load scale: the cylinder's (R dgamma0^2 E0)^(1/3) = alpha^(2/3) per length (M17),
+        the sphere's force pi dgamma0 R (M47)."""
+        if self.sphere:
+            return sphere_scales(self.adhesion)[1]
         return self.adhesion ** (2.0 / 3.0)
 
     @property
+    def depth_scale(self) -> float:
+        """The scale of the indenter's travel: beta^2 / R, the sphere's
+        (pi^2 dgamma0^2 R / K^2)^(1/3) (M18), (M47)."""
+        return self.beta**2
+
+    @property
     def sigma_a(self) -> float:
-        """Adhesive traction sigma_a = lambda0 (E0^2 dgamma0 / R)^(1/3) (M20)."""
+        """Adhesive traction sigma_a: the cylinder's lambda0 (E0^2 dgamma0 / R)^(1/3) (M20),
+        the sphere's (lambda0 / 2) (pi dgamma0 K^2 / R)^(1/3) (Maugis's lambda, (M48))."""
+        if self.sphere:
+            return 0.5 * self.maugis * sphere_scales(self.adhesion)[2]
         return self.maugis * self.adhesion ** (1.0 / 3.0)
 
     @property
@@ -108,7 +134,8 @@ class Groups:
 
     @property
     def indenter_speed(self) -> float:
-        """Retraction velocity v_z = V_z beta^2 / (R tau) (M19)."""
+        """Retraction velocity v_z = V_z beta^2 / (R tau) (M19), the sphere's
+        V_z times its depth scale (M49)."""
         return self.velocity * self.beta**2
 
     @property
@@ -118,18 +145,45 @@ class Groups:
 
     @property
     def chi_ve(self) -> float:
-        """chi_ve = V_z lambda0^2 (paper Eq. 22, (M22))."""
-        return theory.chi_ve(self.velocity, self.maugis)
+        """chi_ve = v_z tau lambda0 / dmax: V_z lambda0^2 for the cylinder (paper Eq. 22,
+        (M22)), (pi / 2) V_z lambda0^2 for the sphere (M49)."""
+        value = theory.chi_ve(self.velocity, self.maugis)
+        return 0.5 * math.pi * value if self.sphere else value
 
     @property
     def zone_width(self) -> float:
-        """Relaxed cohesive-zone width w = pi E0 dmax / (4 sigma_a) = beta pi / (4 lambda0^2)
-        (M23)."""
+        """Relaxed cohesive-zone width w = pi E0 dmax / (4 sigma_a) (M23): beta pi /
+        (4 lambda0^2) for the cylinder."""
+        if self.sphere:
+            return math.pi * self.dmax / (4.0 * self.sigma_a)
         return self.beta * theory.cohesive_width(self.maugis)
 
     def cell_key(self) -> str:
         """The case file's name for the cell length ([case] cell or [physical] cell_length)."""
         return "[case] cell" if self.form == "case" else "[physical] cell_length"
+
+
+def sphere_scales(adhesion):
+    """The sphere's scales in internal units (R = E0 = 1, K = 4/3; docs/model.md, (M47)):
+    the contact radius (pi alpha / K)^(1/3), the load pi alpha and (pi alpha K^2)^(1/3), the
+    stress that makes Maugis's lambda = 2 sigma_a / (pi dgamma0 K^2 / R)^(1/3) (M48)."""
+    modulus = 4.0 / 3.0
+    return (
+        (math.pi * adhesion / modulus) ** (1.0 / 3.0),
+        math.pi * adhesion,
+        (math.pi * adhesion * modulus**2) ** (1.0 / 3.0),
+    )
+
+
+def checked_geometry(raw: Mapping, section: str) -> str:
+    """The ``geometry`` key: "cylinder" (the default) or "sphere"."""
+    geometry = raw.get("geometry", "cylinder")
+    if geometry not in GEOMETRIES:
+        raise CaseError(
+            f"[{section}] geometry = {shown(geometry)}: expected one of"
+            f" {', '.join(repr(name) for name in GEOMETRIES)}"
+        )
+    return geometry
 
 
 def checked_groups(raw: Mapping, units: Units, form: str) -> Groups:
@@ -167,6 +221,7 @@ def checked_groups(raw: Mapping, units: Units, form: str) -> Groups:
         relaxation_moduli=tuple(moduli),
         relaxation_times=tuple(times),
         drive_stiffness=float(drive),
+        geometry=checked_geometry(raw, section),
         units=units,
         form=form,
     )

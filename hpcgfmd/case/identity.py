@@ -41,7 +41,7 @@ def case_identity(case) -> str:
             n.accuracy,
             [list(pair) for pair in n.solver_settings],
         ],
-        "geometry": type(case.geometry()).__name__,
+        "geometry": type(case.indenter()).__name__,
         "prony": [list(case.relaxation_moduli), list(case.relaxation_times)],
         "drive_stiffness": case.drive_stiffness if case.compliant else None,
         "protocol": [[s.kind, s.target, s.rate] for s in case.protocol],

@@ -33,6 +33,8 @@ MIN_TOLERANCE = 1e-13  # the residual's round-off floor (max norm relative to si
 COMMON_KEYS = (
     "accuracy",
     "nx",
+    "n",
+    "ny",
     "dt",
     "tolerance",
     "max_iterations",
@@ -54,9 +56,12 @@ class Numerics:
     Attributes
     ----------
     nx : int
-        Grid nodes.
+        Grid nodes along x (a sphere's n: its grid is n x n).
     nx_automatic : bool
         ``nx`` was chosen by the accuracy knob.
+    shape : tuple of int
+        The grid: (nx,) for a line, (ny, nx) for a surface (a sphere's (n, n), or a
+        cylinder's on ``[numerics] ny`` rows).
     dt : float
         The fixed step, or the first adaptive step (tau).
     tolerance : float
@@ -90,6 +95,7 @@ class Numerics:
     load_tolerance: float
     time_tolerance: float
     solver_settings: tuple = ()
+    shape: tuple = ()
 
     def setting(self, name: str):
         """The value of the solver's own key ``name``."""
@@ -113,7 +119,9 @@ def resolve_numerics(groups, table: dict) -> Numerics:
     )
     if not accuracy < 0.1:
         raise CaseError(f"[numerics] accuracy = {accuracy}: expected a relative error in (0, 0.1)")
+    table = _grid_keys(groups, table)
     nx, automatic = _grid(groups, table, accuracy)
+    shape = _shape(groups, table, nx)
     solver = choice(table, "numerics", "solver", registered())
     step_control = choice(table, "numerics", "step_control", STEP_CONTROLS)
     steps = _steps(groups, table, step_control)
@@ -155,15 +163,60 @@ def resolve_numerics(groups, table: dict) -> Numerics:
             else knob.time_tolerance(accuracy)
         ),
         solver_settings=_solver_settings(table, solver, nx),
+        shape=shape,
     )
+
+
+def _grid_keys(groups, table) -> dict:
+    """The table with a sphere's ``n`` under the name ``nx`` (the nodes along x); a sphere
+    takes n, a cylinder nx (and ny for a surface of rows)."""
+    if groups.sphere:
+        for key in ("nx", "ny"):
+            if key in table:
+                raise CaseError(
+                    f"[numerics] {key} = {shown(table[key])}: a sphere's grid is n x n;"
+                    " give [numerics] n"
+                )
+        table = {k: v for k, v in table.items() if k != "n"} | (
+            {"nx": table["n"]} if "n" in table else {}
+        )
+    elif "n" in table:
+        raise CaseError(
+            f"[numerics] n = {shown(table['n'])}: n is a sphere's grid (n x n); a cylinder's"
+            " nodes are nx (and ny rows for a surface)"
+        )
+    return table
+
+
+def _shape(groups, table, nx) -> tuple:
+    """The grid's shape: a sphere's (n, n); a cylinder's (nx,), or (ny, nx) with ny given."""
+    if groups.sphere:
+        if nx * nx > MAX_NODES:
+            raise CaseError(
+                f"[numerics] n = {nx}: a grid of n^2 = 2^{math.log2(nx * nx):.0f} nodes;"
+                f" at most 2^{MAX_NODES.bit_length() - 1} are run anywhere"
+            )
+        return (nx, nx)
+    if "ny" not in table:
+        return (nx,)
+    ny = table["ny"]
+    if isinstance(ny, bool) or not isinstance(ny, int) or ny < 2 or ny % 2 or ny * nx > MAX_NODES:
+        raise CaseError(
+            f"[numerics] ny = {shown(ny)}: expected an even number of rows >= 2 (the cylinder"
+            " uniform along y on a surface of ny x nx nodes)"
+        )
+    return (ny, nx)
 
 
 def _steps(groups, table, step_control) -> dict:
     """dt, dt_min and dt_max (internal units): given (case units), or from the indenter's
     travel per interaction range."""
     time_unit = groups.units.time
-    speed = groups.velocity * groups.adhesion ** (2.0 / 3.0)  # v_z = V_z beta^2
-    dmax = groups.adhesion ** (2.0 / 3.0) / groups.maugis
+    if groups.sphere:
+        speed, dmax = groups.indenter_speed, groups.dmax
+    else:
+        speed = groups.velocity * groups.adhesion ** (2.0 / 3.0)  # v_z = V_z beta^2
+        dmax = groups.adhesion ** (2.0 / 3.0) / groups.maugis
     fixed_default = DEFAULT_STEP_PER_RANGE * dmax / speed
     # adaptive steps start short: the retraction starts with the steepest load change
     dt = (
@@ -266,7 +319,7 @@ def _grid(case, num, accuracy):
         if outside is not None:
             raise CaseError(
                 f"[numerics] accuracy = {accuracy:g}: its grid would have {outside} for this"
-                " case, or an explicit nx"
+                f" case, or an explicit {'n' if case.sphere else 'nx'}"
             )
         nx = automatic_nx(case, accuracy)
         if nx > MAX_NODES:
@@ -277,9 +330,10 @@ def _grid(case, num, accuracy):
             )
         return nx, True
     nx = num["nx"]
+    key = "n" if case.sphere else "nx"  # the case file's name of it
     if isinstance(nx, bool) or not isinstance(nx, int) or nx < 64 or nx % 2 or nx > MAX_NODES:
         raise CaseError(
-            f"[numerics] nx = {shown(nx)}: expected an even integer in"
+            f"[numerics] {key} = {shown(nx)}: expected an even integer in"
             f" [64, 2^{MAX_NODES.bit_length() - 1}]"
         )
     # the zone the retraction's tip has: the relaxed w, wider for a fast one (the knob's
@@ -294,9 +348,9 @@ def _grid(case, num, accuracy):
             else smallest_grid(_log2_ratio(MIN_ZONE_POINTS, case.cell, width))
         )
         raise CaseError(
-            f"[numerics] nx = {nx}: resolves the cohesive zone with"
+            f"[numerics] {key} = {nx}: resolves the cohesive zone with"
             f" {points:.3g} points; at least {MIN_ZONE_POINTS:g} is needed"
-            f" (nx >= {need}; left out, nx follows [numerics] accuracy)"
+            f" ({key} >= {need}; left out, {key} follows [numerics] accuracy)"
         )
     return nx, False
 

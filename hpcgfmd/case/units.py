@@ -46,6 +46,11 @@ class Units:
         """Load per unit length: E0 R."""
         return self.stress * self.length
 
+    @property
+    def force(self) -> float:
+        """Force: E0 R^2 (a sphere's load)."""
+        return self.stress * self.length**2
+
 
 def finite_scales(where, scales):
     """CaseError unless each derived scale (name -> function) is finite and > 0: extreme
@@ -62,8 +67,11 @@ def finite_scales(where, scales):
             )
 
 
-def groups_from_physical(table: dict):
+def groups_from_physical(table: dict, geometry: str = "cylinder"):
     """``[physical]`` SI values -> (the ``[case]`` keys and values, the units).
+
+    ``geometry`` "sphere": the sphere's Maugis parameter and V_z (docs/model.md, (M48) and
+    (M49)) in place of the cylinder's (M19)-(M20).
 
     A Prony series (relaxation_moduli in Pa, relaxation_times in s) stands in for
     modulus_instantaneous and relaxation_time: Einf = E0 + sum E_i and the reference time
@@ -111,6 +119,14 @@ def groups_from_physical(table: dict):
         + ", ".join(f"{key} = {value:g}" for key, value in zip(PHYSICAL_KEYS, values)),
         formulas,
     )
+    if geometry == "sphere":  # K = 4 E0 / 3 (M47)-(M49)
+        modulus = 4.0 * e0 / 3.0
+        formulas["maugis"] = lambda: (
+            2.0 * work / dmax / (math.pi * work * modulus**2 / radius) ** (1.0 / 3.0)
+        )
+        formulas["velocity"] = lambda: (
+            velocity * tau / (math.pi**2 * work**2 * radius / modulus**2) ** (1.0 / 3.0)
+        )
     groups = {key: formula() for key, formula in formulas.items()}
     if prony:  # k from the series itself
         groups.update(prony, modulus_ratio=None)

@@ -1,16 +1,22 @@
 """This rank's share of the periodic surface grid, and the collectives the real-space step needs.
 
-The surface has n nodes x_i = (i - n/2) dx on a cell of length L (indenter axis on node n/2).
-Each rank owns one contiguous block [x_start, x_stop) of nodes (the block layout comes from
-the distributed FFT, :mod:`hpcgfmd.parallel.fft`); a rank may own none. Everything the solver
-does in real space is pointwise on the block, except:
+A line (1D) has n nodes x_i = (i - n/2) dx on a cell of length L (indenter axis on node
+n/2). A surface (2D) has ny x nx nodes (x_j, y_i) = ((j - nx/2) dx, (i - ny/2) dy) on a cell
+L x L, stored row by row (x fastest): node (i, j) is the flat node i nx + j, and the axis is
+on node (ny/2, nx/2). Either way each rank owns one contiguous block [x_start, x_stop) of
+the flat nodes (in 2D whole rows; the layout comes from the distributed FFT,
+:mod:`hpcgfmd.parallel.fft`); a rank may own none. The solvers see flat blocks only: the
+dimension enters through ``halo`` (the ghost nodes each side that the interface law reads:
+one node of a line, one row of a surface), ``node_area`` (dx, or dx dy) and the coordinates.
+Everything the solver does in real space is pointwise on the block, except:
 
 - global reductions (dot products, sums, counts, extrema) for CG and the stop decisions: one
   ``Allreduce`` of a few doubles each, so every rank takes every decision from the same value;
-- the element law of the interface (:mod:`hpcgfmd.model.interface`) couples a node to its two
-  neighbours: :meth:`Domain.fill_halo` exchanges one ghost node with each neighbouring block;
-- the contact measures and the moving-edge predictor read a few nodes around the contact
-  edges, wherever they are: :meth:`Domain.segment` assembles a short global segment.
+- the element law of the interface (:mod:`hpcgfmd.model.interface`) couples a node to its
+  neighbours: :meth:`Domain.fill_halo` exchanges ``halo`` ghost nodes (a node, or a row)
+  with each neighbouring block;
+- the contact measures and the moving-edge predictor of a line read a few nodes around the
+  contact edges, wherever they are: :meth:`Domain.segment` assembles a short global segment.
 
 Every method that communicates says "Collective" in its first line and must be called by all
 ranks of ``comm`` in the same order. With one rank no MPI call is made.
@@ -39,27 +45,60 @@ class Domain:
     ----------
     comm : mpi4py.MPI.Comm
         Communicator of the ranks sharing one case.
-    n : int
-        Number of grid nodes.
+    n : int or (int, int)
+        Number of grid nodes of a line, or the shape (ny, nx) of a surface.
     cell : float
-        Cell length L (length units).
+        Cell length L (length units; a surface's cell is L x L).
     x_blocks : list of (int, int)
-        Node block [start, stop) of every rank, in rank order, covering [0, n).
+        Flat node block [start, stop) of every rank, in rank order, covering all nodes (whole
+        rows of a surface).
+
+    Attributes
+    ----------
+    n : int
+        All nodes of the grid (ny nx for a surface).
+    shape : tuple of int
+        (n,) or (ny, nx).
+    dx, dy : float
+        Node spacing along x and y (length; dy = dx on a line, which has no y).
+    node_area : float
+        The measure of one node's cell: dx on a line (length), dx dy on a surface (area).
+    halo : int
+        Ghost nodes each side of a block that the interface law reads (1 or nx).
+    x, y : ndarray
+        The coordinates of this rank's nodes, flat (length; y is None on a line).
     """
 
-    def __init__(self, comm, n: int, cell: float, x_blocks):
+    def __init__(self, comm, n, cell: float, x_blocks):
         self.comm = comm
-        self.n = n
+        self.shape = tuple(int(k) for k in np.atleast_1d(n))
+        nx = self.shape[-1]
+        self.n = int(np.prod(self.shape))
+        self.dimensions = len(self.shape)
         self.cell = cell
-        self.dx = cell / n
+        self.dx = cell / nx
+        self.dy = cell / self.shape[0] if self.dimensions == 2 else self.dx
+        self.node_area = self.dx * (self.dy if self.dimensions == 2 else 1.0)
+        self.halo = nx if self.dimensions == 2 else 1
         self.x_blocks = [tuple(b) for b in x_blocks]
         self.size = comm.Get_size()
         self.rank = comm.Get_rank()
         self.x_start, self.x_stop = self.x_blocks[self.rank]
         self.local_n = self.x_stop - self.x_start
-        self.x = (np.arange(self.x_start, self.x_stop) - n // 2) * self.dx
-        self.shape, self.local_shape = (n,), (self.local_n,)
-        self.coordinates = (self.x,)  # this rank's nodes, one array per dimension
+        nodes = np.arange(self.x_start, self.x_stop)
+        self.x = (nodes % nx - nx // 2) * self.dx
+        self.y = None
+        self.local_shape = (self.local_n,)
+        if self.dimensions == 2:
+            if self.x_start % nx or self.x_stop % nx:
+                raise ValueError(f"a surface's blocks are whole rows of {nx} nodes")
+            self.y = (nodes // nx - self.shape[0] // 2) * self.dy
+            self.local_shape = (self.local_n // nx, nx)
+        # this rank's block along the grid's first axis (nodes of a line, rows of a surface)
+        rows = self.halo
+        self.first_axis_block = (self.x_start // rows, self.x_stop // rows)
+        # this rank's nodes, one flat array per dimension (x first)
+        self.coordinates = (self.x,) if self.y is None else (self.x, self.y)
         self.serial = self.size == 1
         # Halo partners: the nearest ranks to the left and right that own nodes (periodic).
         owners = [r for r, (a, b) in enumerate(self.x_blocks) if b > a]
@@ -74,8 +113,10 @@ class Domain:
         self.messages = 0  # collective calls made (reductions, halo exchanges, segments)
 
     def axes(self):
-        """The global coordinates of each axis of the grid (length; the first axis first)."""
-        return ((np.arange(self.n) - self.n // 2) * self.dx,)
+        """The global coordinates of each axis of the grid, in the order of ``shape`` (y, x
+        on a surface; length)."""
+        spacings = (self.dy, self.dx) if self.dimensions == 2 else (self.dx,)
+        return tuple((np.arange(k) - k // 2) * h for k, h in zip(self.shape, spacings))
 
     # --- reductions ------------------------------------------------------------------
     def _allreduce(self, values, op):
@@ -138,32 +179,35 @@ class Domain:
 
     # --- neighbours ----------------------------------------------------------------------
     def fill_halo(self, extended):
-        """Collective: set the ghost nodes extended[0] and extended[-1] from the neighbours.
+        """Collective: set the ghost nodes, ``halo`` each side, from the neighbours.
 
-        ``extended`` has shape (local_n + 2,) with this block in extended[1:-1]; the ghosts
-        are the nodes x_start - 1 and x_stop (periodic). Ranks that own nothing skip it.
+        ``extended`` has shape (local_n + 2 halo,) with this block in
+        extended[halo:-halo]; the ghosts are the halo nodes before x_start and from x_stop
+        on (periodic): a node each side on a line, a row each side on a surface. Ranks that
+        own nothing skip it.
         """
         if not self.local_n:
             return extended
+        h = self.halo
         if self._left is None:
-            extended[0] = extended[-2]
-            extended[-1] = extended[1]
+            extended[:h] = extended[-2 * h : -h]
+            extended[-h:] = extended[h : 2 * h]
             return extended
         comm = self.comm
         started = time.perf_counter()
         comm.Sendrecv(
-            extended[1:2],
+            extended[h : 2 * h],
             dest=self._left,
             sendtag=71,
-            recvbuf=extended[-1:],
+            recvbuf=extended[-h:],
             source=self._right,
             recvtag=71,
         )
         comm.Sendrecv(
-            extended[-2:-1],
+            extended[-2 * h : -h],
             dest=self._right,
             sendtag=72,
-            recvbuf=extended[:1],
+            recvbuf=extended[:h],
             source=self._left,
             recvtag=72,
         )
@@ -231,5 +275,9 @@ class Domain:
         return int(-low), int(high)
 
     def position(self, index):
-        """x of a global node index (length units), unwrapped: index n is x_0 + L."""
+        """x of a global node index (length units), unwrapped on a line: index n is x_0 + L
+        (on a surface: the x of the flat node, within its row)."""
+        if self.dimensions == 2:
+            nx = self.shape[-1]
+            return (index % nx - nx // 2) * self.dx
         return (index - self.n // 2) * self.dx

@@ -22,6 +22,7 @@ from __future__ import annotations
 from . import wisdom
 from .fft_halved import HalvedRealFFT, fits
 from .fft_serial import SerialRealFFT, aligned_empty
+from .fft_slab import SlabRealFFT2D
 from .fft_transposed import TransposedRealFFT
 from .real_fft import PLANNING_TIMELIMIT, RealFFT
 
@@ -53,6 +54,12 @@ def plan_real_fft(comm, n, planner_effort="FFTW_MEASURE", transposed=None):
     -------
     RealFFT
     """
+    if isinstance(n, tuple):  # a surface (ny, nx)
+        path = wisdom.cache_path() if planner_effort != "FFTW_ESTIMATE" else None
+        known = wisdom.load(path)
+        fft = SlabRealFFT2D(comm, n, planner_effort)
+        wisdom.save(comm, path, known)
+        return fft
     size = comm.Get_size()
     if transposed is None and n >= FOUR_STEP_NODES:
         transposed = True

@@ -40,7 +40,7 @@ class Checkpoints:
         self.interval = sim.case.output.checkpoint_interval
         self.last = time.monotonic()
         # the next step's output and one checkpoint must fit (storage/space.py)
-        self.room = room_for_a_step(sim.n, sim.state.field_count())
+        self.room = room_for_a_step(sim.domain.n, sim.state.field_count())
 
     def save(self):
         """Collective: write the checkpoint of the run's state now."""
@@ -49,7 +49,7 @@ class Checkpoints:
         attrs.update(case_identity=sim.case.identity(), **self.extra())
         try:
             write_checkpoint(
-                self.path_checkpoint, self.comm, sim.n, sim.domain.x_start, fields, attrs
+                self.path_checkpoint, self.comm, sim.domain.n, sim.domain.x_start, fields, attrs
             )
         except OSError as err:  # alike on every rank: rank 0's free space was broadcast
             if err.errno != errno.ENOSPC:

@@ -20,9 +20,10 @@ class ContactEdges:
     compliant drive solves a step several times).
     """
 
-    def __init__(self):
+    def __init__(self, watched=True):
         self.current = (math.nan, math.nan)
         self.previous = None
+        self.watched = watched  # give the solver a watch (a line's contact)
 
     def advance(self, edges):
         """The step just solved had contact edges ``edges`` (left, right)."""
@@ -43,9 +44,11 @@ class ContactEdges:
 
     def watch(self, limit):
         """The solver's watch on a solve's edges (at most ``limit`` from the current ones),
-        or None (no contact, or no finite limit)."""
+        or None (no contact, no finite limit, or not watched: a surface's contact line)."""
         left, right = self.current
-        if not (math.isfinite(limit) and math.isfinite(left) and math.isfinite(right)):
+        if not self.watched or not (
+            math.isfinite(limit) and math.isfinite(left) and math.isfinite(right)
+        ):
             return None
         return EdgeWatch(left, right, limit)
 

@@ -17,6 +17,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from ..errors import NonConvergenceError
+from ..model.geometry import SURFACE_SERIES
 from ..parallel.fft import aligned_empty
 from .watch import StopRequested
 
@@ -26,7 +27,8 @@ class StepRecord:
     """Observables of one time step (internal units): one entry of the series.
 
     ``edges`` (the contact's left and right edges) is kept for the step control, not
-    written.
+    written. ``surface`` holds a surface's measures (:data:`SURFACE_SERIES`, from
+    :class:`~hpcgfmd.model.geometry.ContactMeasure`'s areas and line), None on a line.
     """
 
     time: float
@@ -40,11 +42,14 @@ class StepRecord:
     drive: float = math.nan  # the spring's far end (compliant drive; else the indenter)
     segment: int = 0  # the protocol's segment the step belongs to
     edges: tuple = field(default=(math.nan, math.nan), repr=False)
+    surface: tuple | None = field(default=None, repr=False)
 
     def as_dict(self):
         """The series entries (under load control the drive is the applied load)."""
         values = asdict(self)
-        del values["edges"]
+        del values["edges"], values["surface"]
+        if self.surface is not None:
+            values.update(zip(SURFACE_SERIES, self.surface))
         return {**values, "applied_load": self.drive}
 
 
@@ -144,7 +149,7 @@ class Equilibrium:
     def _record(self, result, dt) -> StepRecord:
         run, surface = self.run, self.run.surface
         measure = run.geometry.measure(run.domain, self.gap(), run.case.dmax)
-        load = -run.domain.sum(surface.traction.sum()) * run.domain.dx
+        load = -run.domain.sum(surface.traction.sum()) * run.domain.node_area
         return StepRecord(
             time=surface.time,
             indenter=surface.indenter,
@@ -157,6 +162,7 @@ class Equilibrium:
             residual=result.residual,
             dt=dt,
             edges=measure.edges,
+            surface=None if measure.areas is None else (*measure.areas, *measure.line),
         )
 
     def _non_finite(self, residual) -> str:

@@ -55,6 +55,8 @@ class Progress:
     def __init__(self, interval, units, case=None):
         self.interval = interval
         self.units = units
+        # a sphere's load is a force (E0 R^2), a cylinder's a load per length (E0 R)
+        self.load_unit = case.load_unit if case is not None else units.load
         self.start = time.monotonic()
         self.last = self.start
         try:
@@ -129,7 +131,7 @@ class Progress:
             share = share[:-1] + f", {total:.3g} core-hours in all by the cost model)"
         logger.info(
             f"step {step:6d}  t = {record.time * u.time:.5g}"
-            f"  load = {record.load * u.load:.5g}"
+            f"  load = {record.load * self.load_unit:.5g}"
             f"  a_c = {record.contact_half_width * u.length:.5g}"
             f"  iterations = {record.iterations:4d}"
             f"  elapsed {duration_text(elapsed)}, left ~"

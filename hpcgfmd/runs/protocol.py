@@ -71,13 +71,17 @@ class Retraction:
     def __init__(self, case, comm, planner_effort="FFTW_MEASURE", watch=None):
         self.case, self.planner_effort = case, planner_effort
         self.watch = Watch() if watch is None else watch
-        self.n = n = case.numerics.nx
-        self.fft = _planned(comm, n, planner_effort, self.watch)
-        self.domain = Domain(comm, n, case.cell, self.fft.x_blocks)
-        self.geometry = case.geometry()
+        self.n = case.numerics.nx  # nodes along x (the preload's levels are named by it)
+        shape = case.numerics.shape
+        self.fft = _planned(comm, shape, planner_effort, self.watch)
+        self.domain = Domain(comm, shape, case.cell, self.fft.x_blocks)
+        self.surface_grid = self.domain.dimensions == 2
+        self.geometry = case.indenter()
         self.profile = self.geometry.profile(self.domain.coordinates)
         half_q = self.fft.half_wavenumbers(case.cell)  # |q|/2 per local mode
-        self.substrate = MaxwellHalfSpace(case.material(), half_q, n, self.domain.local_n)
+        self.substrate = MaxwellHalfSpace(
+            case.material(), half_q, self.domain.n, self.domain.local_n
+        )
         law = DugdaleMaugis(case.sigma_a, case.dmax)
         self.solver = make_solver(case, self.domain, self.fft, law, half_q)
         self.steps = make_step_control(case)
@@ -85,7 +89,8 @@ class Retraction:
         # adaptive steps of a viscous solid estimate the history's time error and take the
         # quadratic step (M46) once a step was accepted; fixed steps keep the linear one (M8)
         self.quadratic = self.steps.adaptive and case.modulus_ratio < 1.0
-        # (crossings: half the glassy zone width, w / (2 k), HistoryError's docstring)
+        # (crossings: half the glassy zone width, w / (2 k), HistoryError's docstring; on a
+        # surface the nodes that changed their state alone)
         self.window = (
             HistoryWindow(
                 self.substrate,
@@ -93,7 +98,7 @@ class Retraction:
                 self.domain,
                 self.profile,
                 case.dmax,
-                0.5 * case.zone_width / case.modulus_ratio,
+                0.0 if self.surface_grid else 0.5 * case.zone_width / case.modulus_ratio,
             )
             if self.quadratic
             else None
@@ -101,7 +106,8 @@ class Retraction:
         self.surface = Surface(self.domain.local_n, -case.depth)
         self.schedule = Schedule(case.segments, case.load_control)
         self.spring = CompliantDrive(case) if case.compliant else None
-        self.edges = ContactEdges()
+        # a solve's edges are watched on a line, where the iterate's contact has two ends
+        self.edges = ContactEdges(watched=not self.surface_grid)
         self.equilibrium = Equilibrium(self)
         self._k_u = aligned_empty(self.domain.local_n)  # K u_n under a step's stiffness
         self.state = _run_state(self)
@@ -117,7 +123,7 @@ class Retraction:
         surface, case, watch = self.surface, self.case, self.watch
         if case.starts_out_of_contact:
             surface.indenter = surface.drive = START_HEIGHT * case.dmax
-        else:
+        elif not self.surface_grid:  # (a surface's preload starts flat)
             if watch.levels is None:  # the finest level: the grids of all
                 watch.levels = preload_grids(case)
             start, self.preload_levels = coarse_start(
@@ -303,18 +309,20 @@ class Retraction:
         return {"steps": self.surface.step_index, "spring_solves": 0, **self.state.counters()}
 
 
-def _planned(comm, n, planner_effort, watch):
-    """Collective: the real FFT of n nodes on ``comm``, planned with a line before a large
-    grid's planning and after a slow one."""
-    large = n >= PLANNING_NOTED
+def _planned(comm, shape, planner_effort, watch):
+    """Collective: the real FFT of a grid of ``shape`` on ``comm``, planned with a line
+    before a large grid's planning and after a slow one."""
+    nodes = math.prod(shape)
+    label = " x ".join(grid_label(k) for k in shape)
+    large = nodes >= PLANNING_NOTED
     if large:
         watch.note(
-            f"planning the transforms of {grid_label(n)} nodes on {comm.Get_size()} rank(s)"
+            f"planning the transforms of {label} nodes on {comm.Get_size()} rank(s)"
             f" ({planner_effort}, each plan at most {PLANNING_TIMELIMIT:g} s)"
         )
-    watch.enter(f"planning of the transforms of {grid_label(n)} nodes")
+    watch.enter(f"planning of the transforms of {label} nodes")
     started = time.monotonic()
-    fft = plan_real_fft(comm, n, planner_effort=planner_effort)
+    fft = plan_real_fft(comm, shape if len(shape) > 1 else shape[0], planner_effort=planner_effort)
     if large:
         watch.note(f"planned in {time.monotonic() - started:.1f} s")
     return fft

@@ -133,7 +133,8 @@ def describe(case: Case) -> str:
             f"   V_z = {g['Vz']:.6g}   chi_ve = {g['chi_ve']:.6g}   alpha = {g['alpha']:.6g}",
             *material,
             f"h0/R = {g['depth']:.6g}   L/R = {g['cell']:.6g}   beta = {case.beta * u.length:.6g}"
-            f"   load scale = {case.load_scale * u.load:.6g}   w/dx = {g['zone_points']:.3g}",
+            f"   load scale = {case.load_scale * case.load_unit:.6g}"
+            f"   w/dx = {g['zone_points']:.3g}",
             f"nx = {num.nx}{auto}   dt = {num.dt * u.time:.6g}   tolerance = {num.tolerance:g}"
             f"   accuracy = {num.accuracy:g}",
             f"solver: {solver_class(num.solver).describe(num)}; {steps}",
@@ -244,7 +245,7 @@ def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
             " rank(s)"
         )
         return out, snapshots, float(attrs["wall_time"])
-    room = room_for_a_step(sim.n, sim.state.field_count())
+    room = room_for_a_step(sim.domain.n, sim.state.field_count())
     free = comm.bcast(free_bytes(path) if comm.Get_rank() == 0 else None, root=0)
     if free < 2 * room:  # the new file, its first steps and a checkpoint (storage/space.py)
         raise CaseError(

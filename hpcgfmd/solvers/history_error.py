@@ -159,7 +159,7 @@ class HistoryError:
         step_part, previous = contact_sums(self._traction, self.previous_correction, state)
         kept = previous * self._response if comparable else 0.0
         step_error, change = self.domain.sums(step_part, step_part - kept)
-        dx = self.domain.dx
+        dx = self.domain.node_area
         kept_error = (change if comparable else step_error) * dx
         if self.substrate.last_step_quadratic:
             # the quadratic step (M46) held dp in its own equilibrium: its error, in the

@@ -10,14 +10,16 @@ from __future__ import annotations
 import numpy as np
 
 from . import kernels
+from .grid_law import GridLaw
 
 
 class Point:
-    """Gaps of one displacement (a ghost node each side), its cohesive traction and spans.
+    """Gaps of one displacement (``halo`` ghost nodes each side), its cohesive traction and
+    spans.
 
     Attributes
     ----------
-    gap_ext : ndarray, shape (m + 2,)
+    gap_ext : ndarray, shape (m + 2 halo,)
         Gaps of this rank's m nodes with the neighbours' ghost nodes (length).
     gap : ndarray, shape (m,)
         The view of this rank's gaps.
@@ -34,9 +36,9 @@ class Point:
 
     __slots__ = ("gap_ext", "gap", "traction", "traction_span", "near", "ready")
 
-    def __init__(self, n):
-        self.gap_ext = np.zeros(n + 2)
-        self.gap = self.gap_ext[1:-1]
+    def __init__(self, n, halo=1):
+        self.gap_ext = np.zeros(n + 2 * halo)
+        self.gap = self.gap_ext[halo : halo + n]
         self.traction = np.zeros(n)
         self.traction_span = (0, 0)
         self.near = (0, 0)
@@ -55,6 +57,7 @@ class PointEvaluator:
     def __init__(self, domain, law):
         self.domain = domain
         self.law = law
+        self.grid_law = GridLaw(domain, law)
         self._n = domain.local_n
         self.level = 0.0  # gap below which a node interacts (set per solve)
 
@@ -79,6 +82,11 @@ class PointEvaluator:
             first, last, smallest = kernels.shifted_window(
                 base, d, length, point.gap, self.level, window[0], window[1]
             )
+            h = self.grid_law.halo
+            if h > 1 and self._n:  # a surface's ghost exchange sends whole end rows
+                gap = point.gap
+                np.subtract(base[:h], length * d[:h], out=gap[:h])
+                np.subtract(base[-h:], length * d[-h:], out=gap[-h:])
         else:
             first, last, smallest = kernels.shifted_gaps(base, d, length, point.gap, self.level)
         return self._finish(point, first, last, smallest, d)
@@ -97,9 +105,7 @@ class PointEvaluator:
         m = self._n
         self.domain.fill_halo(point.gap_ext)
         if m:
-            lo, hi, p, q = kernels.spans(
-                first, last, m, point.gap_ext[0] < self.level, point.gap_ext[-1] < self.level
-            )
+            lo, hi, p, q = self.grid_law.spans(first, last, m, point.gap_ext, self.level)
         else:
             lo = hi = p = q = 0
         point.near = (lo, hi)
@@ -107,15 +113,13 @@ class PointEvaluator:
         law = self.law
         if law.sigma_a > 0.0:
             old_p, old_q = point.traction_span
-            slope = kernels.traction_on_span(
+            slope = self.grid_law.traction_on_span(
                 point.gap_ext,
                 point.traction,
                 old_p,
                 old_q,
                 p,
                 q,
-                law.dmax,
-                law.sigma_a,
                 point.traction if d is None else d,
             )
             if d is None:

@@ -148,7 +148,10 @@ class Predictor:
         self.ratio_previous = ratio
 
     def _moving_edges(self, linear, wall, gap_before, ratio, edges, edges_previous):
-        """Guess with the gap near each contact edge translated by the edge's last motion."""
+        """Guess with the gap near each contact edge translated by the edge's last motion (a
+        line's contact; None on a surface)."""
+        if self.domain.dimensions == 2:
+            return None
         if edges_previous is None or not np.all(np.isfinite(edges)):
             return None
         dom = self.domain

@@ -23,6 +23,7 @@ from ..parallel.fft import aligned_empty
 from . import kernels
 from .active_set import ActiveSet
 from .base import SolveResult
+from .grid_law import GridLaw
 from .points import Point, PointEvaluator
 from .projection import project_feasible
 from .step_kernels import energy_terms
@@ -45,7 +46,9 @@ class StepProblem:
         self.traction_scale = traction_scale
         n = domain.local_n
         self._n = n
-        self._gap_ext = np.empty(n + 2)
+        self.grid_law = GridLaw(domain, law)
+        self._gap_ext = self.grid_law.extended(n)
+        self._gap = self.grid_law.inner(self._gap_ext)
         self._k_u = aligned_empty(n)
         self._mask = np.empty(n, dtype=bool)
         # The lowest-energy vector passed to energy() since the last solve began (the
@@ -79,14 +82,14 @@ class StepProblem:
 
     def energy_with(self, u, k_u, wall, history, applied=None):
         """Collective: energy (per unit length, divided by dx) of u with K u given."""
-        value = energy_terms(u, k_u, history, wall, self._gap_ext[1:-1])
+        value = energy_terms(u, k_u, history, wall, self._gap)
         if applied is not None:
             value -= float(applied @ u)
         return self._interface_energy(value)
 
     def energy_linear(self, u, k_u, wall, linear):
         """:meth:`energy_with` with the linear term H - p_applied given as one vector."""
-        return self._interface_energy(energy_terms(u, k_u, linear, wall, self._gap_ext[1:-1]))
+        return self._interface_energy(energy_terms(u, k_u, linear, wall, self._gap))
 
     def _interface_energy(self, value):
         """Collective: ``value`` plus the cohesive energy of the gaps in the buffer, summed
@@ -94,8 +97,8 @@ class StepProblem:
         gap_ext = self._gap_ext
         self.domain.fill_halo(gap_ext)
         law = self.law
-        if law.sigma_a > 0.0 and gap_ext.shape[0] > 2:
-            value -= law.sigma_a * kernels.cohesive_energy(gap_ext, law.dmax)
+        if law.sigma_a > 0.0 and self._n:
+            value -= law.sigma_a * self.grid_law.ramp_sum(gap_ext)
         return self.domain.sum(value)
 
     def forget(self):
@@ -144,8 +147,7 @@ class StepProblem:
         pass forms the gaps and finds the span of nodes within the interaction range; the
         law and the reaction are evaluated on that span, the rest of ``out`` is zero.
         """
-        gap_ext = self._gap_ext
-        gap = gap_ext[1:-1]
+        gap_ext, gap = self._gap_ext, self._gap
         law = self.law
         # gap < level: in the zone, or on the wall (a contact node's gap is 0 exactly)
         level = law.dmax if law.sigma_a > 0.0 else np.nextafter(0.0, 1.0)
@@ -153,13 +155,11 @@ class StepProblem:
         self.domain.fill_halo(gap_ext)
         lo = hi = p = q = 0
         if self._n:
-            lo, hi, p, q = kernels.spans(
-                first, last, self._n, gap_ext[0] < level, gap_ext[-1] < level
-            )
+            lo, hi, p, q = self.grid_law.spans(first, last, self._n, gap_ext, level)
         out[:p] = 0.0
         out[q:] = 0.0
         if law.sigma_a > 0.0:
-            kernels.cohesive_traction(gap_ext, out, p, q, law.dmax, law.sigma_a)
+            self.grid_law.traction(gap_ext, out, p, q)
         else:
             out[p:q] = 0.0
         kernels.contact_reaction(gap, lo, hi, k_u, history, mean_traction, out)
@@ -182,7 +182,7 @@ class StepProblem:
                 np.empty(n),
                 np.empty(n),
                 aligned_empty(n),
-                Point(n),
+                Point(n, self.domain.halo),
                 PointEvaluator(self.domain, self.law),
                 ActiveSet(self.domain),
             )

@@ -146,6 +146,7 @@ import numpy as np
 from ..model.interface import DugdaleMaugis
 from .base import NO_WATCH, EquilibriumSolver, SolveResult, SolverKey, register
 from .cg import ConstrainedCG
+from .grid_law import GridLaw
 from .projection import project_feasible
 from .step_problem import StepProblem
 
@@ -281,13 +282,14 @@ class DampedVerletGFMD(EquilibriumSolver):
         self.problem = StepProblem(domain, fft, law, traction_scale)
         self._k_u = None
         n = domain.local_n
-        self._gap_ext = np.zeros(n + 2)
-        self._gap = self._gap_ext[1:-1]
+        self._grid_law = GridLaw(domain, law)
+        self._gap_ext = self._grid_law.extended(n)
+        self._gap = self._grid_law.inner(self._gap_ext)
         self._traction = np.zeros(n)
         self._linear = np.zeros(n)  # g = irfft(G)
         self._load = np.zeros(n)  # h^2 (H - applied) / n
         self._free = np.zeros(n, dtype=bool)
-        self._work = np.zeros((3, n + 2), dtype=bool)
+        self._work = np.zeros((3, self._gap_ext.size), dtype=bool)
         shape = fft.spectrum_shape
         # The transform's own spectrum buffer (saves the copies in the serial transform).
         self._spectrum = fft.spectrum
@@ -305,7 +307,7 @@ class DampedVerletGFMD(EquilibriumSolver):
         self._a0_pairs = np.zeros(pairs)
         self._sqrt_k0 = np.sqrt(self.half_q * self.relaxed_modulus)
         self._moving = self.half_q > 0.0
-        zero = np.flatnonzero(np.asarray(fft.wavenumber).ravel() == 0)
+        zero = np.flatnonzero(self.half_q.ravel() == 0.0)  # the q = 0 mode, if held here
         self._zero_mode = np.unravel_index(int(zero[0]), shape) if zero.size else None
         self._mean_traction = 0.0  # warm start of the shift: s = h^2 mu
         self.step_length = self.step_optimal = self.step_limit = np.nan
@@ -448,7 +450,7 @@ class DampedVerletGFMD(EquilibriumSolver):
             if adhesive:  # the cohesive traction of the current u, before it is replaced
                 subtract(wall, u, out=gap)
                 dom.fill_halo(gap_ext)
-                law.traction(gap_ext, out=traction, work=work)
+                self._grid_law.whole_traction(gap_ext, traction, work, law)
             # The first and the last step keep the unshifted update v = g (+ t) and project
             # it exactly (Newton from the current s); the others write it into u and take
             # one Newton step on the shift.

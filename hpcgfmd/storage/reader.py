@@ -23,6 +23,7 @@ import numpy as np
 
 from ..errors import ResultFileError
 from ..model import theory
+from ..model.geometry import SURFACE_SERIES
 from ..model.loading import cycle_of
 
 SERIES = (
@@ -35,7 +36,7 @@ SERIES = (
     "residual",
     "dt",
 )
-OPTIONAL_SERIES = ("drive", "applied_load", "segment")
+OPTIONAL_SERIES = ("drive", "applied_load", "segment") + SURFACE_SERIES
 
 
 @dataclass
@@ -58,6 +59,11 @@ class Series:
     drive: np.ndarray | None = None  # the compliant drive's end; None: displacement control
     applied_load: np.ndarray | None = None  # under load control; else None
     segment: np.ndarray | None = None  # the protocol's segment of each step; None: the paper's
+    # a sphere's: contact and cohesive areas, the contact line's mean radius and roundness
+    contact_area: np.ndarray | None = None
+    cohesive_area: np.ndarray | None = None
+    contact_line_radius: np.ndarray | None = None
+    out_of_roundness: np.ndarray | None = None
 
     @property
     def abar(self) -> np.ndarray:
@@ -137,13 +143,15 @@ class Cycle:
 @dataclass
 class Snapshots:
     """Profiles at chosen moments: ``time`` (s,), ``x`` (n,), ``surface`` u, ``pressure`` (the
-    traction on the substrate, attractive positive) and ``gap``, each (s, n); file units."""
+    traction on the substrate, attractive positive) and ``gap``, each (s, n) on a line and
+    (s, ny, nx) on a surface, whose ``y`` (ny,) is given too (None on a line); file units."""
 
     time: np.ndarray
     x: np.ndarray
     surface: np.ndarray
     pressure: np.ndarray
     gap: np.ndarray
+    y: np.ndarray | None = None
 
 
 @dataclass
@@ -292,7 +300,7 @@ def _read(path, snapshots: bool):
 
 
 # a Prony series' and a protocol's lists, any length
-LIST_ATTRS = ("relaxation_moduli", "relaxation_times", "protocol_kinds")
+LIST_ATTRS = ("relaxation_moduli", "relaxation_times", "protocol_kinds", "shape")
 
 
 def _attrs(f):
@@ -383,26 +391,28 @@ def _snapshots(f, path) -> Snapshots:
         )
     snaps = f["snapshots"]
     x = _dataset(f, path, "snapshots/x", 1)
+    y = _dataset(f, path, "snapshots/y", 1) if "y" in snaps else None
+    axes = (x,) if y is None else (y, x)
     rows = {"/snapshots/time": _dataset(f, path, "snapshots/time", 1)}
     rows.update(
         {
-            f"/snapshots/{name}": _dataset(f, path, f"snapshots/{name}", 2)
+            f"/snapshots/{name}": _dataset(f, path, f"snapshots/{name}", 1 + len(axes))
             for name in SNAPSHOT_FIELDS
         }
     )
     for name in SNAPSHOT_FIELDS:
-        columns = rows[f"/snapshots/{name}"].shape[1]
-        if columns != x.shape[0]:
+        grid = rows[f"/snapshots/{name}"].shape[1:]
+        nodes = tuple(axis.shape[0] for axis in axes)
+        if grid != nodes:
             raise _bad(
-                path,
-                f"dataset /snapshots/{name} has {columns} columns but /snapshots/x"
-                f" {x.shape[0]} nodes",
+                path, f"dataset /snapshots/{name} has a grid of {grid} nodes but its axes {nodes}"
             )
     count = _count(path, _attrs(snaps), "complete", rows, "/snapshots ")
     values = {name: _values(path, ds, slice(0, count)) for name, ds in rows.items()}
     return Snapshots(
         time=values["/snapshots/time"],
         x=_values(path, x, slice(None)),
+        y=None if y is None else _values(path, y, slice(None)),
         **{name: values[f"/snapshots/{name}"] for name in SNAPSHOT_FIELDS},
     )
 

@@ -49,6 +49,7 @@ import os
 import numpy as np
 
 from .. import __version__
+from ..model.geometry import SURFACE_SERIES
 from .hdf5 import check_blocks, open_file, write_block
 
 SERIES = (
@@ -73,24 +74,55 @@ SERIES_UNITS = {
     "drive": "length",
     "applied_load": "load",
     "segment": None,
+    "contact_area": "area",
+    "cohesive_area": "area",
+    "contact_line_radius": "length",
+    "out_of_roundness": None,
 }
 _INT_SERIES = ("iterations", "segment")
 FIELDS = ("surface", "pressure", "gap")
-AXES = ("x", "y")  # the names of the grid's axes, the first axis first (its dimension scales)
+# the names of the grid's axes in the order of its shape (their dimension scales)
+AXES = {1: ("x",), 2: ("y", "x")}
 
 
 def series_names(case):
     """The /series datasets of ``case``: :data:`SERIES`; ``drive`` with a compliant drive,
-    ``applied_load`` under load control; ``segment`` with a protocol."""
+    ``applied_load`` under load control; ``segment`` with a protocol; a sphere's areas and
+    contact line (:data:`~hpcgfmd.model.geometry.SURFACE_SERIES`)."""
     drive = ("applied_load",) if case.load_control else ("drive",) if case.compliant else ()
-    return SERIES + drive + (("segment",) if case.protocol else ())
+    surface = SURFACE_SERIES if case.sphere else ()
+    return SERIES + drive + (("segment",) if case.protocol else ()) + surface
+
+
+def unit_names(case) -> dict:
+    """The ``units`` attribute of each dimension for ``case`` (a sphere's load is a force)."""
+    names = dict(UNIT_NAMES[case.form])
+    if case.sphere:
+        names["load"] = names["force"]
+    return names
 
 
 FIELD_UNITS = {"surface": "length", "pressure": "stress", "gap": "length"}
 # The ``units`` attribute of each dimension, by input form.
 UNIT_NAMES = {
-    "case": {"time": "tau", "length": "R", "load": "E0 R", "stress": "E0", None: "1"},
-    "physical": {"time": "s", "length": "m", "load": "N/m", "stress": "Pa", None: "1"},
+    "case": {
+        "time": "tau",
+        "length": "R",
+        "area": "R^2",
+        "load": "E0 R",
+        "force": "E0 R^2",
+        "stress": "E0",
+        None: "1",
+    },
+    "physical": {
+        "time": "s",
+        "length": "m",
+        "area": "m^2",
+        "load": "N/m",
+        "force": "N",
+        "stress": "Pa",
+        None: "1",
+    },
 }
 
 
@@ -117,12 +149,13 @@ class ResultFile:
     """
 
     def __init__(self, path, case, grid, comm, overwrite=False):
-        check_blocks(comm, grid.shape[0], grid.x_start, grid.x_stop)
+        first, stop = grid.first_axis_block
+        check_blocks(comm, grid.shape[0], first, stop)
         if not overwrite and os.path.exists(path):  # mpio's "w-" raises a bare OSError
             raise FileExistsError(f"{path}: file exists")
-        self._setup(open_file(path, "w" if overwrite else "w-", comm), case, comm, grid.x_start)
+        self._setup(open_file(path, "w" if overwrite else "w-", comm), case, comm, first)
         self._write_attributes(case)
-        names = UNIT_NAMES[case.form]
+        names = unit_names(case)
         series = self.file.create_group("series")
         for name in series_names(case):
             dtype = "i8" if name in _INT_SERIES else "f8"
@@ -143,6 +176,8 @@ class ResultFile:
         for key, value in case.groups().items():
             attrs[key] = value
         attrs["nx"] = num.nx
+        attrs["geometry"] = case.geometry
+        attrs["shape"] = list(num.shape)
         attrs["dt"] = num.dt * units.time
         attrs["tolerance"] = num.tolerance
         attrs["solver"] = num.solver
@@ -156,7 +191,7 @@ class ResultFile:
         for key, value in num.solver_settings:  # the solver's own keys
             attrs[key] = value
         attrs["beta"] = case.beta * units.length
-        attrs["load_scale"] = case.load_scale * units.load
+        attrs["load_scale"] = case.load_scale * case.load_unit
         attrs["length_unit"] = units.length
         attrs["stress_unit"] = units.stress
         attrs["time_unit"] = units.time
@@ -173,7 +208,7 @@ class ResultFile:
         """/snapshots: the axes (x, y, ...) and the growing profiles of the grid's shape."""
         snaps = self.file.create_group("snapshots")
         axes = []
-        for name, values in zip(AXES, grid.axes()):
+        for name, values in zip(AXES[len(grid.shape)], grid.axes()):
             axis = snaps.create_dataset(name, shape=values.shape, dtype="f8")
             axis.attrs["units"] = names["length"]
             write_block(axis, 0, values * self.units.length if self.comm.rank == 0 else np.empty(0))
@@ -206,7 +241,8 @@ class ResultFile:
         self._scale = {
             "time": case.units.time,
             "length": case.units.length,
-            "load": case.units.load,
+            "area": case.units.length**2,
+            "load": case.load_unit,
             None: 1.0,
         }
 
@@ -249,7 +285,7 @@ class ResultFile:
         except BaseException:
             file.close()
             raise
-        self._setup(file, case, comm, grid.x_start)
+        self._setup(file, case, comm, grid.first_axis_block[0])
         file.attrs["finished"] = False  # before truncating: a kill now leaves an unfinished file
         # the case as it runs on (it may differ in what its identity leaves out: [output],
         # max_iterations), under the identity of this version

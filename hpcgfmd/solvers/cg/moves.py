@@ -94,7 +94,8 @@ class Moves:
         # Points along d are formed on a window around the near span while no node from
         # outside can enter the zone (length < entry), and only their gaps: u follows if
         # one is taken.
-        window = (max(lo - 2, 0), min(hi + 2, self._n), entry)
+        margin = self._evaluator.grid_law.window_margin
+        window = (max(lo - margin, 0), min(hi + margin, self._n), entry)
         smallest, t_trial_d = self._evaluator.evaluate_shifted(trial, cur.gap, d, alpha, window)
         below = smallest < 0.0
         if adhesive:

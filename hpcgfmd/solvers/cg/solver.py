@@ -129,7 +129,9 @@ class ConstrainedCG(EquilibriumSolver):
         self._k_u = aligned_empty(n)  # K u at the start and the end of a solve (elastic_traction)
         self._load = np.empty(n)  # K u + H - p_applied during a solve (updated by steps)
         self._linear = np.empty(n)  # H - p_applied when a traction is applied
-        self._points = (Point(n), Point(n), Point(n))  # current, trial, line-search probe
+        self._points = tuple(
+            Point(n, domain.halo) for _ in range(3)
+        )  # current, trial, line-search probe
         self._residuals = aligned_empty((2, n))  # r and the previous r (rows swap roles)
         self._directions = aligned_empty((2, n))  # z and d (rows swap roles)
         self._residuals[...] = 0.0
