@@ -375,7 +375,7 @@ def test_hertz_in_the_cell_against_the_periodic_fourier_series(ratio):
     # (M59): the contact radius a in the cell of period L = a / ratio; the pressure Hertz's
     # for R' (force Pbar of periodic_cell) on every cell; the zero-mean deflection must be
     # the sphere's, Dbar delta_s - r^2 / (2 R), in the contact. The neglected next terms are
-    # O((a/L)^2) of the image terms: the depth's, 0.023 (a/L)^2 of the lift 1.66 (a/L) Abar^2,
+    # O((a/L)^2) of the image terms: the depth's, 0.23 (a/L)^2 of the lift 1.66 (a/L) Abar^2,
     # measured 3.8e-4 and 3.1e-3 Abar^2 at a/L = 0.1 and 0.2 (tolerance 5e-3, against a lift
     # of 0.17 and 0.34); the curvature's 1.5e-5 and 5.1e-4 (tolerance 2e-3, against the
     # images' 1.9e-3 and 1.5e-2)
