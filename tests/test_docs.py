@@ -237,6 +237,7 @@ def namespace(case):
         "chi_ve": case.chi_ve,
         "lambda0": case.maugis,
         "compliant": case.compliant,
+        "sphere": case.sphere,
         "ceil": math.ceil,
         "log2": math.log2,
         "sqrt": math.sqrt,
@@ -271,6 +272,7 @@ CASES = {
     "fixed steps": case_text('step_control = "fixed"'),
     "creeping": case_text("", maugis=1.0, velocity=0.1, depth=0.1, cell=3.578),
     "compliant": case_text("", drive_stiffness=0.3),
+    "sphere": case_text("n = 256", geometry='"sphere"', maugis=1.0, depth=0.01, cell=1.5),
     # a fast retraction at large lambda0: the relaxed floor sets its grid
     "fast, large lambda0": case_text(
         "", maugis=30.0, modulus_ratio=0.2, velocity=0.26, depth=0.005, cell=0.64

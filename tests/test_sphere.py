@@ -198,3 +198,100 @@ def test_a_sphere_case_file_runs_and_opens_in_xarray_with_x_and_y(tmp_path):
     np.testing.assert_allclose(inner, inner.T, atol=1e-12)
     series.close()
     snaps.close()
+
+
+# (lambda, L/R, n, h0/R): grids with >= 5 points across the relaxed zone w0 and cells of
+# 4.6-18 contact radii at the start; the elastic sphere retracted at accuracy 5e-3
+MAUGIS_RUNS = {0.5: (3.0, 256, 0.01), 1.0: (1.5, 256, 0.01), 3.0: (0.8, 384, 0.005)}
+
+
+@pytest.mark.parametrize("maugis", sorted(MAUGIS_RUNS))
+def test_elastic_adhesive_sphere_on_the_maugis_dugdale_curve(maugis):
+    # The load against the indenter's depth (both exact observables, unlike the radius of
+    # a node count) against the Maugis-Dugdale sphere in the periodic cell (M56), (M59), and
+    # the pull-off (the most tensile load) against its least load: within the accuracy.
+    # Measured: pull-off 1.1e-3, 6.3e-4, 9.0e-4 off; curve 1.8e-3, 2.7e-3, 4.9e-3.
+    import hpcgfmd
+    from hpcgfmd.model import sphere_theory
+    from hpcgfmd.studies.distance import polyline_distances
+
+    cell, n, depth = MAUGIS_RUNS[maugis]
+    accuracy = 5e-3
+    case = Case(
+        maugis=maugis,
+        modulus_ratio=1.0,
+        velocity=1.0,
+        depth=depth,
+        cell=cell,
+        adhesion=1e-3,
+        numerics={"n": n, "accuracy": accuracy},
+        geometry="sphere",
+    )
+    series = hpcgfmd.run(case, planner_effort="FFTW_ESTIMATE").series
+    load = series.load / case.load_scale
+    depth_bar = -series.indenter / case.depth_scale
+    start = series.contact_half_width[0] / case.beta
+    radii = np.linspace(0.02, 1.05 * start, 400)
+    ref_load, ref_depth = sphere_theory.periodic_cell(radii, case.cell / case.beta, maugis)
+    assert load.min() == pytest.approx(ref_load.min(), rel=accuracy)
+    scale = np.array([np.abs(ref_depth).max(), abs(ref_load.min())])
+    attached = series.contact_half_width > 0
+    points = np.c_[depth_bar[attached], load[attached]] / scale
+    assert polyline_distances(points, np.c_[ref_depth, ref_load] / scale).max() < accuracy
+    if maugis == 3.0:  # JKR's limit -3/2 (in the cell) approached from below: 1.2 % at 3
+        jkr = sphere_theory.periodic_cell(radii, case.cell / case.beta)[0].min()
+        assert 1.02 * jkr < load.min() < jkr
+
+
+def test_equal_groups_give_equal_scaled_responses():
+    # The sphere's similarity (M51)-(M53): alpha 27 times larger triples a_s and multiplies
+    # delta_s by 9; with h0 and L scaled alike (equal H0 = h0/delta_s and L/a_s) and the same
+    # lambda0, k and V_z the scaled problem is the same, node for node on the same n: the
+    # scaled series agree to round-off (measured 7.8e-13 of the largest load, the same
+    # steps), far below the solver's tolerance (1e-10).
+    import hpcgfmd
+
+    runs = []
+    for adhesion, depth, cell in ((1e-3, 0.01, 1.5), (2.7e-2, 0.09, 4.5)):
+        case = Case(
+            maugis=1.0,
+            modulus_ratio=0.5,
+            velocity=1.0,
+            depth=depth,
+            cell=cell,
+            adhesion=adhesion,
+            numerics={"n": 128, "tolerance": 1e-10},
+            geometry="sphere",
+        )
+        s = hpcgfmd.run(case, planner_effort="FFTW_ESTIMATE").series
+        runs.append((s.time, s.load / case.load_scale, s.indenter / case.depth_scale, s.abar))
+    for a, b in zip(*runs):
+        assert a.shape == b.shape
+        np.testing.assert_allclose(b, a, rtol=1e-8, atol=1e-10 * np.abs(a).max())
+
+
+def test_a_slow_viscoelastic_retraction_follows_the_relaxed_curve():
+    # k = 0.5: the pull-off of a slow retraction (V_z = 1e-3, chi_ve = 1e-3) is the relaxed
+    # Maugis-Dugdale sphere's (E0, dgamma0) in the cell within the accuracy (measured
+    # 1.4e-4); ten times faster the tip's dissipation already raises it (2.4 % measured)
+    import hpcgfmd
+    from hpcgfmd.model import sphere_theory
+
+    pull_offs = []
+    for velocity in (1e-3, 1e-2):
+        case = Case(
+            maugis=1.0,
+            modulus_ratio=0.5,
+            velocity=velocity,
+            depth=0.01,
+            cell=1.5,
+            adhesion=1e-3,
+            numerics={"n": 128},
+            geometry="sphere",
+        )
+        series = hpcgfmd.run(case, planner_effort="FFTW_ESTIMATE").series
+        pull_offs.append(series.load.min() / case.load_scale)
+    radii = np.linspace(0.02, 2.0, 300)
+    relaxed = sphere_theory.periodic_cell(radii, case.cell / case.beta, 1.0)[0].min()
+    assert pull_offs[0] == pytest.approx(relaxed, rel=case.numerics.accuracy)
+    assert pull_offs[1] < relaxed * (1.0 + 4.0 * case.numerics.accuracy)

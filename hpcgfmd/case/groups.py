@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import CaseError
-from ..model import theory
+from ..model import sphere_theory, theory
 from ..model.geometry import GEOMETRIES, Cylinder, Sphere
 from ..model.material import GeneralizedMaxwell
 from .keys import number, prony_series, shown, stiffness
@@ -97,34 +97,40 @@ class Groups:
         return self.drive_stiffness == 0.0
 
     # --- derived scales (internal units) -------------------------------------------------
+    def _sphere(self) -> sphere_theory.SphereGroups:
+        """The sphere's groups and scales (docs/model.md, "The sphere")."""
+        return sphere_theory.SphereGroups(
+            self.maugis, self.modulus_ratio, self.velocity, self.depth, self.cell, self.adhesion
+        )
+
     @property
     def beta(self) -> float:
         """Length scale of the contact: the cylinder's (R^2 dgamma0 / E0)^(1/3) = alpha^(1/3)
-        (M16), the sphere's contact radius scale (pi dgamma0 R^2 / K)^(1/3) (M47)."""
+        (M16), the sphere's contact radius scale a_s = (pi dgamma0 R^2 / K)^(1/3) (M52)."""
         if self.sphere:
-            return sphere_scales(self.adhesion)[0]
+            return self._sphere().beta
         return self.adhesion ** (1.0 / 3.0)
 
     @property
     def load_scale(self) -> float:
         """Load scale: the cylinder's (R dgamma0^2 E0)^(1/3) = alpha^(2/3) per length (M17),
-        the sphere's force pi dgamma0 R (M47)."""
+        the sphere's force pi dgamma0 R (M47), (M52)."""
         if self.sphere:
-            return sphere_scales(self.adhesion)[1]
+            return self._sphere().load_scale
         return self.adhesion ** (2.0 / 3.0)
 
     @property
     def depth_scale(self) -> float:
-        """The scale of the indenter's travel: beta^2 / R, the sphere's
-        (pi^2 dgamma0^2 R / K^2)^(1/3) (M18), (M47)."""
+        """The scale of the indenter's travel: beta^2 / R (M18), the sphere's delta_s =
+        a_s^2 / R (M49)."""
         return self.beta**2
 
     @property
     def sigma_a(self) -> float:
         """Adhesive traction sigma_a: the cylinder's lambda0 (E0^2 dgamma0 / R)^(1/3) (M20),
-        the sphere's (lambda0 / 2) (pi dgamma0 K^2 / R)^(1/3) (Maugis's lambda, (M48))."""
+        the sphere's from Maugis's lambda0 (M48), (M50)."""
         if self.sphere:
-            return 0.5 * self.maugis * sphere_scales(self.adhesion)[2]
+            return self._sphere().sigma_a
         return self.maugis * self.adhesion ** (1.0 / 3.0)
 
     @property
@@ -134,8 +140,10 @@ class Groups:
 
     @property
     def indenter_speed(self) -> float:
-        """Retraction velocity v_z = V_z beta^2 / (R tau) (M19), the sphere's
-        V_z times its depth scale (M49)."""
+        """Retraction velocity v_z = V_z beta^2 / (R tau) (M19); the sphere's V_z delta_s
+        / tau (M49)."""
+        if self.sphere:
+            return self._sphere().indenter_speed
         return self.velocity * self.beta**2
 
     @property
@@ -145,34 +153,23 @@ class Groups:
 
     @property
     def chi_ve(self) -> float:
-        """chi_ve = v_z tau lambda0 / dmax: V_z lambda0^2 for the cylinder (paper Eq. 22,
-        (M22)), (pi / 2) V_z lambda0^2 for the sphere (M49)."""
-        value = theory.chi_ve(self.velocity, self.maugis)
-        return 0.5 * math.pi * value if self.sphere else value
+        """chi_ve: V_z lambda0^2 for the cylinder (paper Eq. 22, (M22)), (pi/3) V_z lambda0^2
+        for the sphere (M53)."""
+        if self.sphere:
+            return self._sphere().chi_ve
+        return theory.chi_ve(self.velocity, self.maugis)
 
     @property
     def zone_width(self) -> float:
-        """Relaxed cohesive-zone width w = pi E0 dmax / (4 sigma_a) (M23): beta pi /
-        (4 lambda0^2) for the cylinder."""
+        """Relaxed cohesive-zone width w = pi E0 dmax / (4 sigma_a): beta pi / (4 lambda0^2)
+        for the cylinder (M23), 3 a_s / (4 lambda0^2) for the sphere (M53)."""
         if self.sphere:
-            return math.pi * self.dmax / (4.0 * self.sigma_a)
+            return self._sphere().zone_width
         return self.beta * theory.cohesive_width(self.maugis)
 
     def cell_key(self) -> str:
         """The case file's name for the cell length ([case] cell or [physical] cell_length)."""
         return "[case] cell" if self.form == "case" else "[physical] cell_length"
-
-
-def sphere_scales(adhesion):
-    """The sphere's scales in internal units (R = E0 = 1, K = 4/3; docs/model.md, (M47)):
-    the contact radius (pi alpha / K)^(1/3), the load pi alpha and (pi alpha K^2)^(1/3), the
-    stress that makes Maugis's lambda = 2 sigma_a / (pi dgamma0 K^2 / R)^(1/3) (M48)."""
-    modulus = 4.0 / 3.0
-    return (
-        (math.pi * adhesion / modulus) ** (1.0 / 3.0),
-        math.pi * adhesion,
-        (math.pi * adhesion * modulus**2) ** (1.0 / 3.0),
-    )
 
 
 def checked_geometry(raw: Mapping, section: str) -> str:

@@ -15,7 +15,7 @@ import json
 
 def case_identity(case) -> str:
     """The 16 hex digits of the SHA-256 of ``case``'s groups, units, numerics (but the
-    iteration cap), solid, drive and protocol."""
+    iteration cap), grid, solid, drive and protocol."""
     n = case.numerics
     content = {
         "groups": [
@@ -46,4 +46,6 @@ def case_identity(case) -> str:
         "drive_stiffness": case.drive_stiffness if case.compliant else None,
         "protocol": [[s.kind, s.target, s.rate] for s in case.protocol],
     }
+    if len(n.shape) > 1:  # a surface (a line's identity is the one it always had)
+        content["grid"] = list(n.shape)
     return hashlib.sha256(json.dumps(content).encode()).hexdigest()[:16]

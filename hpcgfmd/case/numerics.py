@@ -59,9 +59,10 @@ class Numerics:
         Grid nodes along x (a sphere's n: its grid is n x n).
     nx_automatic : bool
         ``nx`` was chosen by the accuracy knob.
-    shape : tuple of int
-        The grid: (nx,) for a line, (ny, nx) for a surface (a sphere's (n, n), or a
-        cylinder's on ``[numerics] ny`` rows).
+    ny : int
+        Rows of a cylinder's surface (``[numerics] ny``; 0: a line).
+    square : bool
+        The grid is n x n with n = nx (a sphere's).
     dt : float
         The fixed step, or the first adaptive step (tau).
     tolerance : float
@@ -95,7 +96,21 @@ class Numerics:
     load_tolerance: float
     time_tolerance: float
     solver_settings: tuple = ()
-    shape: tuple = ()
+    ny: int = 0
+    square: bool = False
+
+    @property
+    def n(self) -> int:
+        """A sphere's nodes per side (its grid is n x n); 0 for a cylinder."""
+        return self.nx if self.square else 0
+
+    @property
+    def shape(self) -> tuple:
+        """The grid: (nx,) for a line, (ny, nx) for a surface (a sphere's (n, n), or a
+        cylinder's on ``ny`` rows)."""
+        if self.square:
+            return (self.nx, self.nx)
+        return (self.ny, self.nx) if self.ny else (self.nx,)
 
     def setting(self, name: str):
         """The value of the solver's own key ``name``."""
@@ -121,7 +136,7 @@ def resolve_numerics(groups, table: dict) -> Numerics:
         raise CaseError(f"[numerics] accuracy = {accuracy}: expected a relative error in (0, 0.1)")
     table = _grid_keys(groups, table)
     nx, automatic = _grid(groups, table, accuracy)
-    shape = _shape(groups, table, nx)
+    ny = _rows(groups, table, nx)
     solver = choice(table, "numerics", "solver", registered())
     step_control = choice(table, "numerics", "step_control", STEP_CONTROLS)
     steps = _steps(groups, table, step_control)
@@ -163,7 +178,8 @@ def resolve_numerics(groups, table: dict) -> Numerics:
             else knob.time_tolerance(accuracy)
         ),
         solver_settings=_solver_settings(table, solver, nx),
-        shape=shape,
+        ny=ny,
+        square=groups.sphere,
     )
 
 
@@ -188,24 +204,24 @@ def _grid_keys(groups, table) -> dict:
     return table
 
 
-def _shape(groups, table, nx) -> tuple:
-    """The grid's shape: a sphere's (n, n); a cylinder's (nx,), or (ny, nx) with ny given."""
+def _rows(groups, table, nx) -> int:
+    """The rows of a cylinder's surface (0: a line); a sphere's n x n grid checked."""
     if groups.sphere:
         if nx * nx > MAX_NODES:
             raise CaseError(
                 f"[numerics] n = {nx}: a grid of n^2 = 2^{math.log2(nx * nx):.0f} nodes;"
                 f" at most 2^{MAX_NODES.bit_length() - 1} are run anywhere"
             )
-        return (nx, nx)
+        return 0
     if "ny" not in table:
-        return (nx,)
+        return 0
     ny = table["ny"]
     if isinstance(ny, bool) or not isinstance(ny, int) or ny < 2 or ny % 2 or ny * nx > MAX_NODES:
         raise CaseError(
             f"[numerics] ny = {shown(ny)}: expected an even number of rows >= 2 (the cylinder"
             " uniform along y on a surface of ny x nx nodes)"
         )
-    return (ny, nx)
+    return ny
 
 
 def _steps(groups, table, step_control) -> dict:

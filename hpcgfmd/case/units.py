@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 
 from ..errors import CaseError
+from ..model import sphere_theory
 from .keys import number, prony_series, stiffness
 
 PHYSICAL_KEYS = (
@@ -105,6 +106,7 @@ def groups_from_physical(table: dict, geometry: str = "cylinder"):
             f"[physical] modulus_instantaneous = {einf}: must be >= modulus_relaxed"
             f" = {e0} (k = E0/Einf in (0, 1])"
         )
+    values = (radius, e0, einf, tau, work, dmax, velocity, depth, cell)
     formulas = {
         "maugis": lambda: (work**2 * radius / (e0**2 * dmax**3)) ** (1.0 / 3.0),
         "modulus_ratio": lambda: e0 / einf,
@@ -113,20 +115,14 @@ def groups_from_physical(table: dict, geometry: str = "cylinder"):
         "cell": lambda: cell / radius,
         "adhesion": lambda: work / (e0 * radius),
     }
-    values = (radius, e0, einf, tau, work, dmax, velocity, depth, cell)
+    if geometry == "sphere":  # Maugis's lambda0 and the sphere's V_z (M48), (M49)
+        formulas["maugis"] = lambda: sphere_theory.physical_groups(*values)["maugis"]
+        formulas["velocity"] = lambda: sphere_theory.physical_groups(*values)["velocity"]
     finite_scales(
         "[physical] "
         + ", ".join(f"{key} = {value:g}" for key, value in zip(PHYSICAL_KEYS, values)),
         formulas,
     )
-    if geometry == "sphere":  # K = 4 E0 / 3 (M47)-(M49)
-        modulus = 4.0 * e0 / 3.0
-        formulas["maugis"] = lambda: (
-            2.0 * work / dmax / (math.pi * work * modulus**2 / radius) ** (1.0 / 3.0)
-        )
-        formulas["velocity"] = lambda: (
-            velocity * tau / (math.pi**2 * work**2 * radius / modulus**2) ** (1.0 / 3.0)
-        )
     groups = {key: formula() for key, formula in formulas.items()}
     if prony:  # k from the series itself
         groups.update(prony, modulus_ratio=None)

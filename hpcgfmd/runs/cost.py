@@ -132,7 +132,7 @@ def estimated_steps(case) -> float:
 
 def estimated_memory(case, ranks: int = 1) -> float:
     """Estimated peak resident bytes of each of ``ranks`` ranks running ``case``."""
-    return BASE_MEMORY + MEMORY_PER_NODE * math.ceil(case.numerics.nx / ranks)
+    return BASE_MEMORY + MEMORY_PER_NODE * math.ceil(math.prod(case.numerics.shape) / ranks)
 
 
 def resources_line(case, ranks: int = 1) -> str:
@@ -317,7 +317,8 @@ def _estimate(case, kind, start, end, duration, width, end_width, load_change, d
     crossed = travel / case.dx / steps if steps else 0.0
     iterations = steps * _iterations_per_step(case, crossed)
     per_node = SECONDS_PER_NODE_ITERATION * iterations + SECONDS_PER_NODE_STEP * steps
-    seconds = num.nx * per_node * large_grid_factor(num.nx)
+    nodes = math.prod(num.shape)  # nx on a line, n^2 on a sphere's surface
+    seconds = nodes * per_node * large_grid_factor(nodes)
     return SegmentCost(
         kind,
         start,

@@ -200,8 +200,9 @@ def check_memory(case, comm):
         nx = case.numerics.nx
         automatic = " (automatic)" if case.numerics.nx_automatic else ""
         ranks = math.ceil(per_rank * comm.Get_size() / memory)
+        key = "n" if case.sphere else "nx"
         raise CaseError(
-            f"[numerics] nx = {nx}{automatic}: needs about {per_rank / 2**30:.3g} GiB per rank"
+            f"[numerics] {key} = {nx}{automatic}: needs about {per_rank / 2**30:.3g} GiB per rank"
             f" on {comm.Get_size()} rank(s), {per_rank * sharing / 2**30:.3g} GiB for the"
             f" {sharing} on this node, more than its {memory / 2**30:.3g} GiB; run on more"
             f" nodes (at least {ranks} rank(s) on nodes like this one, one per node)"

@@ -6,7 +6,7 @@ line, a row on a surface: :meth:`hpcgfmd.parallel.domain.Domain.fill_halo`) and 
 object for the law's traction, its energy and the spans a traction can reach. On a line the
 element law couples a node to its two neighbours (docs/model.md, (M35); :mod:`.kernels`); on
 a surface the triangle law couples it to the eight around it, which are at most 2 nx - 1
-flat nodes away across the periodic seam along x ((M47); :mod:`.surface_kernels`).
+flat nodes away across the periodic seam along x ((M60); :mod:`.surface_kernels`).
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 The 1D law integrates the interface energy exactly over the piecewise-linear interpolant of
 the nodal gaps (docs/model.md, (M35)). On a surface the same is done over linear triangles
-(docs/model.md, "Discretisation", (M47)): each grid square of side dx x dy is split along a
+(docs/model.md, "Discretisation", (M60)): each grid square of side dx x dy is split along a
 diagonal into two triangles, over which the gap is linear, and the energy is the mean of
 the two ways to split it (along either diagonal), so that the law has the lattice's mirror
 symmetries. With f = dmax - g the ramp and T a triangle of vertex values f1 >= f2 >= f3,

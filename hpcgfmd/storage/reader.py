@@ -22,7 +22,7 @@ import h5py
 import numpy as np
 
 from ..errors import ResultFileError
-from ..model import theory
+from ..model import sphere_theory, theory
 from ..model.geometry import SURFACE_SERIES
 from ..model.loading import cycle_of
 
@@ -79,15 +79,24 @@ class Series:
         """Index of the most tensile load (the pull-off point of displacement control)."""
         return int(np.argmin(self.load))
 
+    @property
+    def sphere(self) -> bool:
+        """The file is a sphere's (its load a force, its widths radii)."""
+        return self.attrs.get("geometry") == "sphere"
+
     def scaled_curve(self) -> tuple[np.ndarray, np.ndarray]:
-        """(x, y) = (Lbar / sqrt(abar), (pi/4) abar^(3/2)) over the steps with contact (Fig. 5a)."""
+        """(x, y) over the steps with contact, in which JKR is a line of slope 1: the
+        cylinder's (Lbar / sqrt(abar), (pi/4) abar^(3/2)) (Fig. 5a, (M25)), the sphere's
+        (Pbar / Abar^(3/2), Abar^(3/2)) ((M55))."""
         keep = self.contact_half_width > 0
-        return theory.scaled_curve(self.abar[keep], self.lbar[keep])
+        references = sphere_theory if self.sphere else theory
+        return references.scaled_curve(self.abar[keep], self.lbar[keep])
 
     def effective_work(self) -> np.ndarray:
         """dgamma_eff/dgamma0 of each step with contact (docs/model.md, "Observables")."""
         x, y = self.scaled_curve()
-        return theory.effective_work_ratio(x, y)
+        references = sphere_theory if self.sphere else theory
+        return references.effective_work_ratio(x, y)
 
     def cycles(self) -> list[Cycle]:
         """Per cycle of the protocol (a cycle ends with its retraction; the paper's protocol

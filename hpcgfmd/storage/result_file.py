@@ -191,6 +191,7 @@ class ResultFile:
         for key, value in num.solver_settings:  # the solver's own keys
             attrs[key] = value
         attrs["beta"] = case.beta * units.length
+        attrs["dmax"] = case.dmax * units.length
         attrs["load_scale"] = case.load_scale * case.load_unit
         attrs["length_unit"] = units.length
         attrs["stress_unit"] = units.stress
