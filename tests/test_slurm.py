@@ -342,3 +342,28 @@ def test_array_job_runs_one_case_per_element(slurm, tmp_path):
     for name in names:
         assert name[:-3] in listing.stdout and "finished" in listing.stdout, listing.stdout
         assert_sane(tmp_path / "study" / name, context)
+
+
+def test_a_sphere_case_job_on_two_ranks_matches_its_serial_run(slurm, tmp_path):
+    from test_sphere import SPHERE_CASE
+
+    (tmp_path / "sphere.toml").write_text(SPHERE_CASE)
+    direct = subprocess.run(
+        [sys.executable, "-m", "hpcgfmd", "run", "sphere.toml", "-o", "serial.h5"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1"),
+    )
+    assert direct.returncode == 0, direct.stderr
+    job = submit(slurm, tmp_path, "case.sbatch", "sphere.toml", "out.h5", options=["--ntasks=2"])
+    (record,) = finish(slurm, job)
+    context = slurm.diagnostics(job)
+    assert record["JobState"] == "COMPLETED" and record["ExitCode"] == "0:0", context
+    with h5py.File(tmp_path / "serial.h5") as a, h5py.File(tmp_path / "out.h5") as b:
+        assert b.attrs["finished"] and b.attrs["geometry"] == "sphere", context
+        assert b["snapshots/gap"].shape[1:] == (64, 64), context
+        for name in ("load", "contact_area", "indenter"):
+            ref, got = a["series"][name][:], b["series"][name][:]
+            assert got.shape == ref.shape and relative(ref, got) <= 1e-10, (name, context)

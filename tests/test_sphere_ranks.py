@@ -85,3 +85,28 @@ def test_sphere_stopped_on_two_ranks_resumes_on_three(serial_sphere, tmp_path):
     assert done.returncode == 0, done.stderr
     assert f"at step {stopped} " in done.stdout
     assert_same(serial_sphere, read(tmp_path / "out.h5"))
+
+
+def test_a_farm_of_sphere_cases_on_two_ranks(tmp_path):
+    base = "".join(
+        line.replace("[", "[base.", 1) if line.startswith("[") else line
+        for line in SPHERE_CASE.splitlines(keepends=True)
+    )
+    (tmp_path / "sweep.toml").write_text(base + "\n[grid]\nvelocity = [0.5, 2.0]\n")
+    done = subprocess.run(
+        command(2, "farm", "sweep.toml", "-o", "study"),
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=environment(),
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    files = sorted((tmp_path / "study").glob("velocity_*.h5"))
+    assert [f.name for f in files] == ["velocity_0.5.h5", "velocity_2.0.h5"]
+    pull_offs = []
+    for path in files:
+        with h5py.File(path, "r") as f:
+            assert f.attrs["finished"] and f.attrs["geometry"] == "sphere"
+            pull_offs.append(f["series/load"][:].min())
+    assert pull_offs[1] < pull_offs[0] < 0.0  # the faster retraction pulls harder
