@@ -19,7 +19,7 @@ import pytest
 from mpi4py import MPI
 
 from hpcgfmd.parallel.fft import (
-    SLAB_NODES,
+    WHOLE_PLAN_NODES,
     SerialRealFFT,
     SerialRealFFT2D,
     SlabRealFFT2D,
@@ -163,15 +163,15 @@ def test_transforms_allocate_nothing_per_call(kind):
 
 
 def test_plan_real_fft_takes_a_shape():
-    # one rank: FFTW's whole 2-D plan below SLAB_NODES nodes, the slab transform from there
+    # one rank: FFTW's whole 2-D plan up to WHOLE_PLAN_NODES nodes, the slab transform above
     small = plan_real_fft(MPI.COMM_SELF, (64, 32), "FFTW_ESTIMATE")
     assert isinstance(small, SerialRealFFT2D) and small.shape == (64, 32)
-    side = int(np.sqrt(SLAB_NODES))
-    assert side * side == SLAB_NODES
-    large = plan_real_fft(MPI.COMM_SELF, (side, side), "FFTW_ESTIMATE")
-    assert isinstance(large, SlabRealFFT2D) and large.n == SLAB_NODES
-    below = plan_real_fft(MPI.COMM_SELF, (side, side - 2), "FFTW_ESTIMATE")
-    assert isinstance(below, SerialRealFFT2D)
+    side = int(np.sqrt(WHOLE_PLAN_NODES))
+    assert side * side == WHOLE_PLAN_NODES
+    largest = plan_real_fft(MPI.COMM_SELF, (side, side), "FFTW_ESTIMATE")
+    assert isinstance(largest, SerialRealFFT2D)
+    above = plan_real_fft(MPI.COMM_SELF, (side, side + 2), "FFTW_ESTIMATE")
+    assert isinstance(above, SlabRealFFT2D) and above.n == side * (side + 2)
     # a plain int stays the 1-D transform
     assert isinstance(plan_real_fft(MPI.COMM_SELF, 64, "FFTW_ESTIMATE"), SerialRealFFT)
     with pytest.raises(ValueError):
