@@ -86,3 +86,66 @@ class RealFFT(ABC):
 
     def restore_counters(self, counters: dict):
         self.pairs = int(counters["fft_pairs"])
+
+
+def grid_shape(shape):
+    """``(ny, nx)`` as ints, checked: two even sizes, each at least 2."""
+    ny, nx = (int(s) for s in shape)
+    if ny < 2 or nx < 2 or ny % 2 or nx % 2:
+        raise ValueError(f"the grid's sizes must be even and >= 2, got {tuple(shape)}")
+    return ny, nx
+
+
+class RealFFT2D(RealFFT):
+    """A planned real 2-D transform of an ny x nx periodic grid (node (y, x) is the flat node
+    ``y * nx + x``), over the ranks of ``comm``.
+
+    The attributes of :class:`RealFFT` keep their meaning on the flattened grid (``n`` the
+    total nodes, ``x_blocks`` flat node blocks, so that code working on flat blocks needs no
+    change); besides them:
+
+    Attributes
+    ----------
+    shape : (int, int)
+        ``(ny, nx)``.
+    row_blocks : list of (int, int)
+        Every rank's rows ``[row_start, row_stop)``, in rank order (``x_blocks`` times nx).
+    row_start, row_stop : int
+        This rank's rows.
+    wavenumbers : (ndarray, ndarray) of int64
+        ``(my, mx)``, broadcastable to ``spectrum_shape``: the signed mode indices of each
+        local spectrum entry, my in (-ny/2, ny/2], mx in [0, nx/2]; q = 2 pi (mx/Lx, my/Ly)
+        (docs/model.md, (M4) along each direction). The modes mx < 0 are the conjugates of
+        the stored ones and are not stored.
+    wavenumber : ndarray of float64, shape spectrum_shape
+        |m| = sqrt(mx**2 + my**2) of each local entry (|q| = 2 pi |m| / L on a square
+        cell); 0 at the mode (0, 0) only.
+    """
+
+    shape: tuple
+    wavenumbers: tuple
+
+    def _set_modes(self, my, mx):
+        """Set ``wavenumbers`` and ``wavenumber`` from the signed index arrays."""
+        self.wavenumbers = (my.astype(np.int64), mx.astype(np.int64))
+        self.wavenumber = np.sqrt((mx**2 + my**2).astype(np.float64))
+
+    def half_wavenumbers(self, cell):
+        """|q|/2 = pi sqrt((mx/Lx)**2 + (my/Ly)**2) of each local mode (1/length), shape
+        ``spectrum_shape`` ((M4) with q = 2 pi (mx/Lx, my/Ly)).
+
+        Parameters
+        ----------
+        cell : float or (float, float)
+            The side L of the square cell, or its sides ``(Ly, Lx)`` (length).
+        """
+        ly, lx = (cell, cell) if np.ndim(cell) == 0 else cell
+        my, mx = self.wavenumbers
+        return np.pi * np.sqrt((mx / lx) ** 2 + (my / ly) ** 2)
+
+
+def signed_modes(count):
+    """The signed FFT mode indices of ``count`` (even) entries: 0 .. count/2, then
+    -count/2 + 1 .. -1 (numpy.fft.fftfreq(count) * count, as int64)."""
+    k = np.arange(count, dtype=np.int64)
+    return np.where(k <= count // 2, k, k - count)

@@ -34,6 +34,12 @@ def _fft(comm, argv):
     return main(comm, argv)
 
 
+def _fft2d(comm, argv):
+    from .transforms2d import main
+
+    return main(comm, argv)
+
+
 def _collectives(comm, argv):
     from .counts import collectives
 
@@ -85,6 +91,7 @@ MODES = {
     ),
     "accuracy": (_accuracy, "the accuracy knob's validation: errors against converged runs"),
     "fft": (_fft, "one FFT pair: serial, four-step and halved transforms on the ranks given"),
+    "fft2d": (_fft2d, "one 2-D FFT pair of an n x n grid: the slab transform on 1 and P ranks"),
     "collectives": (_collectives, "collective calls and FFT pairs per CG iteration"),
     "lag": (_lag, ("the paper's method: its lag behind the equilibrium against its pseudo steps")),
     "convergence": (_convergence, ("the paper's cases' pull-off on refined grids and fixed steps")),
