@@ -310,7 +310,9 @@ def automatic_nx(case, accuracy, widen=True):
     """
     try:
         points = knob.zone_points(accuracy, case.chi_ve, case.modulus_ratio, case.maugis, widen)
-        across_contact = knob.contact_points(accuracy)
+        across_contact = (
+            knob.sphere_contact_points(accuracy) if case.sphere else knob.contact_points(accuracy)
+        )
     except ZeroDivisionError:  # a subnormal accuracy underflows to 0
         points = across_contact = math.inf
     if not (math.isfinite(points) and math.isfinite(across_contact)):
@@ -322,7 +324,10 @@ def automatic_nx(case, accuracy, widen=True):
     return smallest_grid(
         max(
             _log2_ratio(points, case.cell, case.zone_width),
-            _log2_ratio(across_contact, case.cell, math.sqrt(2.0 * case.depth)),
+            # across the geometric contact: the cylinder's sqrt(2 R h0), the sphere's sqrt(R h0)
+            _log2_ratio(
+                across_contact, case.cell, math.sqrt((1.0 if case.sphere else 2.0) * case.depth)
+            ),
         )
     )
 

@@ -37,6 +37,7 @@ SOLVER_SHARE_COMPLIANT, SOLVER_RANGE_COMPLIANT = 0.02, (1e-8, 1e-4)
 # contact half-width (measured up to 1.3 on lambda0 = 1, where the zone's grid is coarse
 # against the contact), held to CONTACT_SHARE of the accuracy.
 CONTACT_ERROR, CONTACT_SHARE = 1.3, 0.75
+SPHERE_CONTACT = 2.1  # a sphere's points across sqrt(R h0), times sqrt(accuracy)
 
 
 # Creeping retractions: below chi_ve / k = CREEP_RATE the grid needs (CREEP_RATE k /
@@ -122,6 +123,16 @@ def relaxed_points(accuracy):
     points of the retraction's relaxed start stay within the accuracy (0.81, 1.3, 2.1 and 6.0
     points at 2e-2, 1e-2, 5e-3 and 1e-3)."""
     return (RELAXED_ERROR / (RELAXED_SHARE * accuracy)) ** (1.0 / RELAXED_ORDER)
+
+
+def sphere_contact_points(accuracy):
+    """A sphere's grid points across sqrt(R h0) (the Hertz radius of its preload): the
+    pull-off's error on the triangle-law grid falls as dx^2 (docs/results.md, "The sphere":
+    2.6e-3, 6.3e-4 and 1.2e-4 at 16, 31 and 62 points across the starting contact radius of
+    an elastic sphere at lambda0 = 1), so SPHERE_CONTACT / sqrt(accuracy) points: 30 at 5e-3.
+    The knob's tables are the cylinder's; this rule is the sphere's measured start.
+    """
+    return SPHERE_CONTACT / math.sqrt(accuracy)
 
 
 def contact_points(accuracy):
