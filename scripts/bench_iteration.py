@@ -2,6 +2,7 @@
 
     taskset -c 0 python scripts/bench_iteration.py --n 17 --steps 20
     mpirun -n 2 python scripts/bench_iteration.py --n 17 --steps 20 --out bench.csv
+    taskset -c 0 python scripts/bench_iteration.py --geometry sphere --n 10 --steps 10
 
 Prints first the date, the machine and the commit, last (at n_x = 2^17) the verdict on the
 target of at most 3 bare pairs of time per iteration, in CPU time (the ``CPU time`` ratio
@@ -27,6 +28,10 @@ and records of a step are outside):
   the rest (elementwise numpy and interpreter), accumulated with ``perf_counter``;
 * the check values: load of the last step, total iterations of the retraction steps and
   of the preload, to verify that an optimisation leaves the solution unchanged.
+
+``--geometry sphere`` builds instead docs/examples/sphere.toml's case (the sphere of Maugis's
+lambda0 = 3, k = 0.1, V_z = 1, h0/R = 0.01, L/R = 1, alpha = 1e-3) on n x n nodes, n = 2**n,
+and times against a bare 2-D pair (the target: at most 3 pairs at 512^2 to 2048^2).
 
 The per-iteration cost is also given as the median over the steps of (solve time /
 iterations) / (the pair timed right after that step), which is robust to a change of the
@@ -71,6 +76,15 @@ DEFAULT_GROUPS = {
     "depth": 0.1,
     "cell": 10.0,
     "adhesion": 5e-5,
+}
+SPHERE_GROUPS = {  # docs/examples/sphere.toml
+    "geometry": "sphere",
+    "maugis": 3.0,
+    "modulus_ratio": 0.1,
+    "velocity": 1.0,
+    "depth": 0.01,
+    "cell": 1.0,
+    "adhesion": 1e-3,
 }
 STATISTICS = ("projections", "cut_steps", "residual_steps", "held_steps", "recalled")
 COLLECTIVES = (
@@ -191,20 +205,22 @@ class Profile:
         return (self.solve_time, self.fft.total, self.collective.total, self.iterations)
 
 
-def bare_pairs(fft, n, repeats):
-    """Makes the two bare-pair timers: (apply_diagonal, raw builders pair), each -> seconds."""
+def bare_pairs(fft, shape, repeats):
+    """Makes the two bare-pair timers: (apply_diagonal, raw builders pair), each -> seconds
+    (the grid's ``shape``: (n,) or (n, n))."""
     rng = np.random.default_rng(fft.comm.Get_rank())
     field = rng.standard_normal(fft.x_stop - fft.x_start)
-    diagonal = (1.0 + np.abs(fft.wavenumber) / n) / n
+    nodes = int(np.prod(shape))
+    diagonal = (1.0 + np.abs(fft.wavenumber) / shape[-1]) / nodes
     out = np.empty_like(field)
-    raw_in = pyfftw.empty_aligned(n, dtype="float64")
-    forward = pyfftw.builders.rfft(
+    raw_in = pyfftw.empty_aligned(shape, dtype="float64")
+    forward = pyfftw.builders.rfftn(
         raw_in, planner_effort="FFTW_MEASURE", threads=1, avoid_copy=True
     )
-    backward = pyfftw.builders.irfft(
-        forward.output_array, n=n, planner_effort="FFTW_MEASURE", threads=1, avoid_copy=True
+    backward = pyfftw.builders.irfftn(
+        forward.output_array, s=shape, planner_effort="FFTW_MEASURE", threads=1, avoid_copy=True
     )
-    raw_in[:] = rng.standard_normal(n)
+    raw_in[:] = rng.standard_normal(shape)
     comm = fft.comm
 
     def timed(call):
@@ -258,6 +274,12 @@ def _parser():
     )
     parser.add_argument("--steps", type=int, default=20, help="retraction steps timed")
     parser.add_argument(
+        "--geometry",
+        choices=("cylinder", "sphere"),
+        default="cylinder",
+        help="the paper's default case on a line (default) or the documented sphere on n x n",
+    )
+    parser.add_argument(
         "--repeats", type=int, default=5, help="bare pairs timed after each step (minimum taken)"
     )
     parser.add_argument(
@@ -291,7 +313,12 @@ def main():
     comm = MPI.COMM_WORLD
     rank = comm.Get_rank()
     n = 2**args.n
-    text = case_file_text(DEFAULT_GROUPS, {"nx": n})
+    sphere = args.geometry == "sphere"
+    text = (
+        case_file_text(SPHERE_GROUPS, {"n": n})
+        if sphere
+        else case_file_text(DEFAULT_GROUPS, {"nx": n})
+    )
     try:
         case = parse_case(text)
     except CaseError as err:  # too coarse a grid: one line
@@ -300,7 +327,7 @@ def main():
         print(report.header("Cost per CG iteration (scripts/bench_iteration.py)"), flush=True)
     start = time.perf_counter()
     sim = Retraction(case, comm, planner_effort=args.planner)
-    applied, raw = bare_pairs(sim.fft, n, args.repeats)
+    applied, raw = bare_pairs(sim.fft, case.numerics.shape, args.repeats)
     setup = time.perf_counter() - start
     profile = Profile(sim)
     profile.replays = args.replays
@@ -403,7 +430,8 @@ def _print(comm, sim, profile, args, n, result, loads, iterations, temporaries, 
     its, per_iteration = result["iterations"], result["ms_per_iteration"] / 1e3
     pairs_per_it, pair = result["pairs_per_iteration"], result["pair_ms"] / 1e3
     print(
-        f"n = 2^{args.n} = {n}, {comm.Get_size()} rank(s), {args.steps} retraction steps,"
+        f"n = 2^{args.n} = {n}{' per side' if sim.domain.dimensions == 2 else ''},"
+        f" {comm.Get_size()} rank(s), {args.steps} retraction steps,"
         f" {its} CG iterations (preload {iterations[0]}); load average"
         f" {result['load_average']:.2f} (shared machine: compare ratios within one run)"
     )
@@ -460,10 +488,16 @@ def _print(comm, sim, profile, args, n, result, loads, iterations, temporaries, 
     )
     # judged in CPU time: equal to the wall time's ratio on an idle machine, and on a shared
     # one not inflated by the time other processes hold the core
-    print(
-        report.verdict(
-            "iteration_pairs", result["cpu_ratio"], f"on {comm.Get_size()} rank(s), in CPU time"
+    where = f"on {comm.Get_size()} rank(s), in CPU time"
+    if sim.domain.dimensions == 2:
+        print(
+            report.verdict("sphere_iteration_pairs", result["cpu_ratio"], f"{n}^2 {where}")
+            if 9 <= args.n <= 11
+            else report.no_target("the sphere's target is at 512^2 to 2048^2: --n 9 to 11")
         )
+        return
+    print(
+        report.verdict("iteration_pairs", result["cpu_ratio"], where)
         if n == 2**17
         else report.no_target("the target is at n_x = 2^17: --n 17")
     )

@@ -95,11 +95,15 @@ def describe(case: Case) -> str:
     g = case.groups()
     u = case.units
     num = case.numerics
+    contact = (
+        f"{knob.sphere_contact_points(num.accuracy):.3g} across sqrt(R h0)"
+        if case.sphere
+        else f"{knob.contact_points(num.accuracy):.3g} across sqrt(2 R h0)"
+    )
     auto = (
         f" (from accuracy {num.accuracy:g}: the smallest f 2^a, f in {{1, 3, 9}}, with"
         f" {knob.zone_points(num.accuracy, case.chi_ve, case.modulus_ratio, case.maugis):.2g}"
-        " points"
-        f" across w and {knob.contact_points(num.accuracy):.3g} across sqrt(2 R h0))"
+        f" points across w and {contact})"
         if num.nx_automatic
         else ""
     )
@@ -135,7 +139,8 @@ def describe(case: Case) -> str:
             f"h0/R = {g['depth']:.6g}   L/R = {g['cell']:.6g}   beta = {case.beta * u.length:.6g}"
             f"   load scale = {case.load_scale * case.load_unit:.6g}"
             f"   w/dx = {g['zone_points']:.3g}",
-            f"nx = {num.nx}{auto}   dt = {num.dt * u.time:.6g}   tolerance = {num.tolerance:g}"
+            f"{'n' if case.sphere else 'nx'} = {num.nx}{auto}   dt = {num.dt * u.time:.6g}"
+            f"   tolerance = {num.tolerance:g}"
             f"   accuracy = {num.accuracy:g}",
             f"solver: {solver_class(num.solver).describe(num)}; {steps}",
         ]

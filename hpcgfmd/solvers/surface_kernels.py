@@ -69,14 +69,10 @@ def _triangle(f1, f2, f3):
             da = THIRD + ja
             db = THIRD + jb
             dc = THIRD - js
-    d1 = d2 = d3 = 0.0
-    for index, value in ((ia, da), (ib, db), (ic, dc)):
-        if index == 0:
-            d1 = value
-        elif index == 1:
-            d2 = value
-        else:
-            d3 = value
+    # back to the vertices' order: the vertex of index 0 holds one of a, b, c, ...
+    d1 = da if ia == 0 else (db if ib == 0 else dc)
+    d2 = da if ia == 1 else (db if ib == 1 else dc)
+    d3 = da if ia == 2 else (db if ib == 2 else dc)
     return mean, d1, d2, d3
 
 
@@ -101,12 +97,42 @@ def square(f00, f10, f01, f11):
 
 
 @njit(cache=True)
+def _zone_columns(gap_ext, low, high, nx, dmax):
+    """(first, last) column of the squares between the rows starting at ``low`` and ``high``
+    (gap_ext offsets) that have a corner in the zone (g < dmax); (0, -1) for none. A zone
+    reaching a row's end (the periodic seam) gives the whole row: (0, nx - 1)."""
+    first = nx
+    for c in range(nx):
+        if gap_ext[low + c] < dmax or gap_ext[high + c] < dmax:
+            first = c
+            break
+    if first == nx:
+        return 0, -1
+    last = first
+    for c in range(nx - 1, first - 1, -1):
+        if gap_ext[low + c] < dmax or gap_ext[high + c] < dmax:
+            last = c
+            break
+    if first == 0 or last == nx - 1:
+        return 0, nx - 1
+    return first - 1, last  # square c joins columns c and c + 1
+
+
+@njit(cache=True)
+def _add(out, node, p, q, value):
+    if p <= node < q:
+        out[node] += value
+
+
+@njit(cache=True)
 def cohesive_traction(gap_ext, out, p, q, nx, dmax, sigma_a):
     """Nodal traction of the triangle-integrated Dugdale law on the nodes [p, q), into ``out``
     (stress): sigma_a times the sum of dS/df over the squares around each node.
 
-    Every square with a corner in [p, q) is visited once and gives its four corners their
-    shares; squares with no corner in the zone (g < dmax) give nothing and are passed over.
+    Every square with a corner in [p, q) and in the zone (g < dmax) is visited once and
+    gives its four corners their shares; in each pair of rows only the columns between the
+    first and the last such square are visited (:func:`_zone_columns`), and a square with
+    all four corners in the zone gives each a quarter without evaluating its triangles.
     """
     m = gap_ext.shape[0] - 2 * nx
     for i in range(p, q):
@@ -116,26 +142,69 @@ def cohesive_traction(gap_ext, out, p, q, nx, dmax, sigma_a):
     rows = m // nx
     first_row = max(p // nx - 1, -1)  # squares' lower rows, -1: the ghost row below
     last_row = min((q - 1) // nx, rows - 1)
+    quarter = 0.25 * sigma_a
     for r in range(first_row, last_row + 1):
         low = (r + 1) * nx  # the square's lower row in gap_ext
         high = low + nx
         node_low = r * nx  # ... as local node indices
         node_high = node_low + nx
-        for c in range(nx):
+        start, stop = _zone_columns(gap_ext, low, high, nx, dmax)
+        if start > stop:
+            continue
+        if p <= node_low and node_high + nx <= q and stop < nx - 1:
+            # both rows in [p, q) and no square across the seam: no checks in the loop
+            _row_pair(gap_ext, out, low, high, node_low, node_high, start, stop, dmax, sigma_a)
+            continue
+        for c in range(start, stop + 1):
             c1 = c + 1 if c + 1 < nx else 0
             g00, g10 = gap_ext[low + c], gap_ext[low + c1]
             g01, g11 = gap_ext[high + c], gap_ext[high + c1]
-            if not (g00 < dmax or g10 < dmax or g01 < dmax or g11 < dmax):
+            if g00 < dmax and g10 < dmax and g01 < dmax and g11 < dmax:
+                d00 = d10 = d01 = d11 = quarter
+            elif g00 < dmax or g10 < dmax or g01 < dmax or g11 < dmax:
+                _, d00, d10, d01, d11 = square(dmax - g00, dmax - g10, dmax - g01, dmax - g11)
+                d00, d10, d01, d11 = sigma_a * d00, sigma_a * d10, sigma_a * d01, sigma_a * d11
+            else:
                 continue
-            _, d00, d10, d01, d11 = square(dmax - g00, dmax - g10, dmax - g01, dmax - g11)
-            for node, share in (
-                (node_low + c, d00),
-                (node_low + c1, d10),
-                (node_high + c, d01),
-                (node_high + c1, d11),
+            _add(out, node_low + c, p, q, d00)
+            _add(out, node_low + c1, p, q, d10)
+            _add(out, node_high + c, p, q, d01)
+            _add(out, node_high + c1, p, q, d11)
+
+
+@njit(cache=True)
+def _row_pair(gap_ext, out, low, high, node_low, node_high, start, stop, dmax, sigma_a):
+    """The squares [start, stop] between two rows (no seam, both rows owned) add their
+    corners' shares to ``out``. A run of squares wholly in the zone gives each corner a
+    quarter of sigma_a per square, added as one pass per row (the inside of a contact is
+    such runs); the squares across the zone's edge are evaluated one by one."""
+    quarter = 0.25 * sigma_a
+    c = start
+    while c <= stop:
+        g00, g10 = gap_ext[low + c], gap_ext[low + c + 1]
+        g01, g11 = gap_ext[high + c], gap_ext[high + c + 1]
+        if g00 < dmax and g10 < dmax and g01 < dmax and g11 < dmax:
+            end = c + 1  # the run of wholly inside squares [c, end)
+            while (
+                end <= stop
+                and gap_ext[low + end + 1] < dmax
+                and gap_ext[high + end + 1] < dmax
             ):
-                if p <= node < q:
-                    out[node] += sigma_a * share
+                end += 1
+            for base in (node_low, node_high):
+                out[base + c] += quarter
+                for i in range(base + c + 1, base + end):
+                    out[i] += 2.0 * quarter
+                out[base + end] += quarter
+            c = end
+            continue
+        if g00 < dmax or g10 < dmax or g01 < dmax or g11 < dmax:
+            _, d00, d10, d01, d11 = square(dmax - g00, dmax - g10, dmax - g01, dmax - g11)
+            out[node_low + c] += sigma_a * d00
+            out[node_low + c + 1] += sigma_a * d10
+            out[node_high + c] += sigma_a * d01
+            out[node_high + c + 1] += sigma_a * d11
+        c += 1
 
 
 @njit(cache=True)
@@ -143,7 +212,7 @@ def cohesive_energy(gap_ext, nx, dmax):
     """Sum of S over the block's squares (those whose lower-left corner is a node of the
     block; the top row's squares reach into the ghost row above); the interface energy per
     node area is -sigma_a times it. Rows with no gap below dmax are found by scans from the
-    block's two ends and not visited."""
+    block's two ends and not visited, and within a row only the zone's columns."""
     m = gap_ext.shape[0] - 2 * nx
     top = m + nx  # the block and the ghost row above: gap_ext[nx:top + nx]
     first = nx
@@ -161,11 +230,14 @@ def cohesive_energy(gap_ext, nx, dmax):
     for r in range(first_row, last_row + 1):
         low = (r + 1) * nx
         high = low + nx
-        for c in range(nx):
+        start, stop = _zone_columns(gap_ext, low, high, nx, dmax)
+        for c in range(start, stop + 1):
             c1 = c + 1 if c + 1 < nx else 0
             g00, g10 = gap_ext[low + c], gap_ext[low + c1]
             g01, g11 = gap_ext[high + c], gap_ext[high + c1]
-            if g00 < dmax or g10 < dmax or g01 < dmax or g11 < dmax:
+            if g00 < dmax and g10 < dmax and g01 < dmax and g11 < dmax:
+                total += dmax - 0.25 * (g00 + g10 + g01 + g11)
+            elif g00 < dmax or g10 < dmax or g01 < dmax or g11 < dmax:
                 total += square(dmax - g00, dmax - g10, dmax - g01, dmax - g11)[0]
     return total
 

@@ -53,6 +53,15 @@ TARGETS = {
         "steps of a nearly relaxed case against its elastic counterpart's", 2.0, unit="x"
     ),
     "farm_ratio": Target("farm of equal cases, time on 2 ranks over time on 1", 1.0 / 1.9),
+    "sphere_iteration_pairs": Target(
+        "bare 2-D FFT-pair times per CG iteration of the sphere at 512^2 to 2048^2", 3.0
+    ),
+    "sphere_two_ranks": Target(
+        "2 ranks against 1 per CG iteration of the sphere at 2048^2", 1.7, ceiling=False, unit="x"
+    ),
+    "sphere_case_wall": Target(
+        "the documented sphere case on 2 ranks to detachment, wall time", 60.0, unit=" s"
+    ),
 }
 
 
