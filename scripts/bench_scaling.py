@@ -36,6 +36,13 @@ OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1``)
     Before the table the date, the machine and the commit are printed, after it the verdict
     on the target of 2 ranks against 1 per iteration at 2^22 and 2^24 (those measured).
 
+    ``--geometry sphere`` measures instead docs/examples/sphere.toml's sphere on n x n nodes,
+    ``--n`` the log2 of the nodes per side (from 6; the target: 2 ranks against 1 per
+    iteration at 2048^2, ``--n 11``)::
+
+        python scripts/bench_scaling.py --geometry sphere --launch 1 2 --n 10 11 --steps 5 \
+            --out sphere.csv
+
 How to read the table
     ``ms/iteration`` (timed wall time / inner CG iterations, per-step work included) is the
     figure to compare between rank counts: the iteration count of a step can differ by a few
@@ -77,6 +84,7 @@ from hpcgfmd.studies import report as targets  # (no MPI either)
 # environment.
 
 TWO_RANK_SIZES = (22, 24)  # log2 of the grids the two-rank target judges
+SPHERE_TWO_RANK_SIZES = (11,)  # ... of the sphere's nodes per side
 
 CASE = """[case]
 maugis = 7.0
@@ -88,11 +96,23 @@ adhesion = 5e-5
 [numerics]
 nx = {nx}
 """
+SPHERE_CASE = """[case]
+geometry = "sphere"
+maugis = 3.0
+modulus_ratio = 0.1
+velocity = 1.0
+depth = 0.01
+cell = 1.0
+adhesion = 1e-3
+[numerics]
+n = {nx}
+"""
 FIELDS = [
     "started",
     "other_cpu",
     "ranks",
     "nx",
+    "geometry",
     "planner",
     "steps",
     "iterations",
@@ -112,8 +132,9 @@ FIELDS = [
 ]
 
 
-def measure(comm, nx, steps, planner):
-    """Collective: time ``steps`` retraction steps of the default case on ``nx`` nodes.
+def measure(comm, nx, steps, planner, geometry="cylinder"):
+    """Collective: time ``steps`` retraction steps of the default case on ``nx`` nodes (the
+    sphere's on nx x nx).
 
     Parameters
     ----------
@@ -125,6 +146,8 @@ def measure(comm, nx, steps, planner):
         Retraction steps to time (fewer if the indenter detaches before).
     planner : str
         FFTW planner flag.
+    geometry : {"cylinder", "sphere"}
+        The default case, or docs/examples/sphere.toml's sphere.
 
     Returns
     -------
@@ -141,9 +164,10 @@ def measure(comm, nx, steps, planner):
         "started": datetime.datetime.now().isoformat(timespec="seconds"),
         "ranks": comm.Get_size(),
         "nx": nx,
+        "geometry": geometry,
         "planner": planner,
     }
-    case = parse_case(CASE.format(nx=nx))
+    case = parse_case((SPHERE_CASE if geometry == "sphere" else CASE).format(nx=nx))
     comm.Barrier()
     t0 = time.perf_counter()
     sim = Retraction(case, comm, planner_effort=planner)
@@ -241,7 +265,7 @@ def run_here(args):
     comm = MPI.COMM_WORLD
     root = comm.Get_rank() == 0
     for n in args.n:
-        row = measure(comm, 2**n, args.steps, args.planner)
+        row = measure(comm, 2**n, args.steps, args.planner, args.geometry)
         if root:
             append_row(args.out, row)
             print(
@@ -273,7 +297,9 @@ def _memory(row):
         return ""
     from hpcgfmd.runs.cost import BASE_MEMORY
 
-    peak, nodes = float(row["peak_memory"]), int(row["nx"]) / int(row["ranks"])
+    nx = int(row["nx"])
+    nodes = (nx * nx if row.get("geometry") == "sphere" else nx) / int(row["ranks"])
+    peak = float(row["peak_memory"])
     return f"{peak / 1e6:.0f} ({(peak - BASE_MEMORY) / nodes:.0f})"
 
 
@@ -309,6 +335,8 @@ def launch(args):
                 str(args.steps),
                 "--planner",
                 args.planner,
+                "--geometry",
+                args.geometry,
                 "--out",
                 args.out,
             ]
@@ -329,6 +357,11 @@ def latest_rows(path):
         for row in csv.DictReader(fh):
             table.setdefault(int(row["nx"]), {})[int(row["ranks"])] = row
     return table
+
+
+def _sphere_rows(table):
+    """The table holds the sphere's rows (the geometry of its rows; a CSV file holds one)."""
+    return any(r.get("geometry") == "sphere" for by in table.values() for r in by.values())
 
 
 def report(path, markdown=None, notes=()):
@@ -361,7 +394,7 @@ def report(path, markdown=None, notes=()):
             iterations = max(int(r["iterations"]), 1)
             load, load0 = float(r["load"]), float(base["load"])
             cells = [
-                grid_label(nx),
+                f"{nx}^2" if r.get("geometry") == "sphere" else grid_label(nx),
                 str(ranks),
                 r["steps"],
                 r["iterations"],
@@ -383,15 +416,24 @@ def report(path, markdown=None, notes=()):
             lines.append("| " + " | ".join(cells) + " |")
     table = latest_rows(path)
     started = sorted(r["started"] for by_ranks in table.values() for r in by_ranks.values())
-    head = targets.header(f"Scaling of the default case (scripts/bench_scaling.py, {path})")
+    subject = "the documented sphere" if _sphere_rows(latest_rows(path)) else "the default case"
+    head = targets.header(f"Scaling of {subject} (scripts/bench_scaling.py, {path})")
     measured = f"rows measured from {started[0]} to {started[-1]}" if started else "no rows"
+    sphere = _sphere_rows(table)
+    sizes, key, label = (
+        (SPHERE_TWO_RANK_SIZES, "sphere_two_ranks", lambda n: f"{2**n}^2")
+        if sphere
+        else (TWO_RANK_SIZES, "two_ranks", lambda n: f"2^{n}")
+    )
     judged = [
-        (f"2^{n}", float(by[1]["time_per_iteration"]) / float(by[2]["time_per_iteration"]))
-        for n, by in ((n, table.get(2**n, {})) for n in TWO_RANK_SIZES)
+        (label(n), float(by[1]["time_per_iteration"]) / float(by[2]["time_per_iteration"]))
+        for n, by in ((n, table.get(2**n, {})) for n in sizes)
         if 1 in by and 2 in by
     ]
     if judged:
-        verdict = targets.verdict("two_ranks", judged)
+        verdict = targets.verdict(key, judged)
+    elif sphere:
+        verdict = targets.no_target("2048^2 on 1 and 2 ranks not measured: --launch 1 2 --n 11")
     else:
         verdict = targets.no_target(
             "2^22 and 2^24 on 1 and 2 ranks not measured: --launch 1 2 --n 22 24"
@@ -422,6 +464,12 @@ def main():
     )
     parser.add_argument("--steps", type=int, default=20, help="timed retraction steps")
     parser.add_argument(
+        "--geometry",
+        choices=("cylinder", "sphere"),
+        default="cylinder",
+        help="the default case on a line, or the documented sphere on n x n nodes (--n: log2 n)",
+    )
+    parser.add_argument(
         "--planner",
         default="FFTW_MEASURE",
         help="FFTW planner flag (FFTW_ESTIMATE plans in no time)",
@@ -431,9 +479,10 @@ def main():
     args = parser.parse_args()
     if args.markdown and not (args.launch or args.report):
         parser.error("--markdown goes with --launch or --report")
-    if not (args.report or all(14 <= n <= 30 for n in args.n)):
+    low, high = (6, 15) if args.geometry == "sphere" else (14, 30)
+    if not (args.report or all(low <= n <= high for n in args.n)):
         # the default case's zone needs w/dx >= 0.5 (accepted here): 2^14 and finer
-        parser.error(f"--n {' '.join(map(str, args.n))}: expected exponents from 14 to 30")
+        parser.error(f"--n {' '.join(map(str, args.n))}: expected exponents from {low} to {high}")
     if args.report and not os.path.isfile(args.report):
         parser.error(f"--report {args.report}: no such file")
     if args.report:
