@@ -185,11 +185,7 @@ def _row_pair(gap_ext, out, low, high, node_low, node_high, start, stop, dmax, s
         g01, g11 = gap_ext[high + c], gap_ext[high + c + 1]
         if g00 < dmax and g10 < dmax and g01 < dmax and g11 < dmax:
             end = c + 1  # the run of wholly inside squares [c, end)
-            while (
-                end <= stop
-                and gap_ext[low + end + 1] < dmax
-                and gap_ext[high + end + 1] < dmax
-            ):
+            while end <= stop and gap_ext[low + end + 1] < dmax and gap_ext[high + end + 1] < dmax:
                 end += 1
             for base in (node_low, node_high):
                 out[base + c] += quarter
