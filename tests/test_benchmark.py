@@ -403,6 +403,7 @@ def test_cases_mode_runs_each_case_in_its_process_and_judges_the_targets(tmp_pat
         (("grid", "1:0.1"), "1:0.1: expected lambda0:k:V_z:h0/R"),
         (("convergence", "--cases", "7:0.45"), "give --nx or --dt-nx"),
         (("fft", "--sizes", "15"), "expected even lengths"),
+        (("fft2d", "--n", "15"), "expected even sides"),
     ],
 )
 def test_modes_refuse_bad_arguments_in_one_line(tmp_path, args, error):

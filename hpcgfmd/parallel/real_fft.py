@@ -1,4 +1,5 @@
-"""The real FFT of the periodic surface as the solvers see it: one base class, three layouts.
+"""The real FFT of the periodic surface as the solvers see it: one base class for a line of
+nodes (three layouts) and one for an ny x nx grid (:class:`RealFFT2D`, two layouts).
 
 The only operation the solvers need is a mode-diagonal operator applied to a real field,
 ``out = irfft(diag * rfft(v))``: the elastic stiffness, its inverse (the Green's function)
