@@ -210,6 +210,8 @@ VALID = {
     "numerics": {
         "accuracy": positive(1e-3, 0.05),
         "nx": st.sampled_from(["1024", "2048", "4096", "8192", "65536"]),
+        "n": st.sampled_from(["64", "128"]),  # a sphere's (a cylinder refuses it)
+        "ny": st.sampled_from(["2", "4"]),  # a cylinder's rows on a surface
         "dt": positive(1e-4, 0.1),
         "tolerance": positive(1e-10, 1e-3),
         "max_iterations": st.integers(1, 20000).map(str),
