@@ -140,7 +140,12 @@ class Retraction:
         started = time.monotonic()
         watch.enter(f"preload{_level(watch.levels, self.n)}")
         record = self.equilibrium.solve(surface.indenter)
-        _note_level(watch, self.n, record.iterations, time.monotonic() - started)
+        seconds = time.monotonic() - started
+        if self.surface_grid:
+            if seconds >= 1.0:
+                watch.note(_surface_line(self.domain.shape, record.iterations, seconds))
+        else:
+            _note_level(watch, self.n, record.iterations, seconds)
         self.edges.advance(record.edges)
         if self.spring is not None:  # the spring holds the start's load
             surface.drive = record.drive = self.spring.hold(surface.indenter, record.load)
@@ -333,6 +338,12 @@ def _level(levels, n) -> str:
     if not levels or n not in levels:
         return ""
     return f", level {levels.index(n) + 1} of {len(levels)} ({grid_label(n)} nodes)"
+
+
+def _surface_line(shape, iterations, seconds) -> str:
+    """The line after a surface's preload (one level: it starts flat)."""
+    label = " x ".join(grid_label(k) for k in shape)
+    return f"preload ({label} nodes): {iterations} iterations, {seconds:.1f} s"
 
 
 def _note_level(watch, n, iterations, seconds):
