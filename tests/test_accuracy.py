@@ -27,16 +27,16 @@ def predicted_errors(case, nx):
     "The accuracy knob"): the grid's pull-off error GRID_ERROR (dx / w)^GRID_ORDER, w/dx
     taken over the creep factor and times the fast widening; the contact's staircase
     CONTACT_ERROR dx / sqrt(2 R h0) in the load-area curve; and a widened grid's relaxed
-    start, RELAXED_ERROR (dx / w)^RELAXED_ORDER, unless the unwidened grid is coarser than
-    that floor (0 then, and 0 for a grid that is not widened)."""
+    start, C (dx / w)^RELAXED_ORDER with C = relaxed_error(lambda0), unless the unwidened
+    grid is coarser than that floor (0 then, and 0 for a grid that is not widened)."""
     dx = case.cell / nx
     widening = accuracy.fast_widening(case.chi_ve, case.modulus_ratio, case.maugis)
     creep = accuracy.creep_factor(case.chi_ve, case.modulus_ratio)
     points = case.zone_width / dx * widening / creep
     floored = widening > 1.0 and accuracy.relaxed_points(
-        case.numerics.accuracy
+        case.numerics.accuracy, case.maugis
     ) < accuracy.zone_points(case.numerics.accuracy, case.chi_ve, case.modulus_ratio, widen=False)
-    relaxed = accuracy.RELAXED_ERROR * (dx / case.zone_width) ** accuracy.RELAXED_ORDER
+    relaxed = accuracy.relaxed_error(case.maugis) * (dx / case.zone_width) ** accuracy.RELAXED_ORDER
     return (
         accuracy.GRID_ERROR * points**-accuracy.GRID_ORDER,
         accuracy.CONTACT_ERROR * dx / math.sqrt(2.0 * case.depth),
@@ -117,8 +117,8 @@ def test_fast_grid_resolves_the_zone_over_the_widening():
             adhesion=5e-5,
         )
     )
-    # its relaxed start's floor sets it (2.05 points across w at 5e-3; the widened zone's
-    # own law asks for 0.86)
+    # its relaxed start's floor sets it (1.31 points across w at 5e-3 at lambda0 <= 14; the
+    # widened zone's own law asks for 0.86)
     assert assert_smallest_grid_meeting_the_shares(case) == (False, False, True)
     relaxed = parse_case(
         case_text(
@@ -131,20 +131,20 @@ def test_fast_grid_resolves_the_zone_over_the_widening():
             adhesion=5e-5,
         )
     )
-    assert relaxed.numerics.nx == 2 * case.numerics.nx
+    assert relaxed.numerics.nx == 3 * case.numerics.nx
     assert accuracy.zone_points(
         5e-3, case.chi_ve, case.modulus_ratio, case.maugis, widen=False
     ) == accuracy.zone_points(5e-3)
 
 
 def test_a_given_grid_must_resolve_the_widened_zone():
-    # lambda0 = 14, V_z = 0.9 (widening 4.45): the knob's 9x2^14 nodes hold 2.2 points
-    # across the relaxed w (its floor at 5e-3), 9.7 across the widened zone; a given nx is
-    # held to one point across the latter, as the knob's grids resolve it
+    # lambda0 = 14, V_z = 0.9 (widening 4.45): the knob's 3x2^15 nodes hold 1.45 points
+    # across the relaxed w (its floor at 5e-3: 1.31), 6.5 across the widened zone; a given
+    # nx is held to one point across the latter, as the knob's grids resolve it
     groups = dict(maugis=14.0, modulus_ratio=0.1, velocity=0.9, depth=0.1, cell=10.0, adhesion=5e-5)
     chosen = parse_case(case_text("accuracy = 5e-3", **groups))
-    assert chosen.numerics.nx == 147456 and 2.05 < chosen.zone_width / chosen.dx < 2.2
-    assert parse_case(case_text("nx = 147456", **groups)).dx == chosen.dx
+    assert chosen.numerics.nx == 98304 and 1.31 < chosen.zone_width / chosen.dx < 1.5
+    assert parse_case(case_text("nx = 98304", **groups)).dx == chosen.dx
     widened = chosen.zone_width * accuracy.fast_widening(chosen.chi_ve, 0.1, 14.0)
     floor = 2 * math.ceil(10.0 / widened / 2)
     parse_case(case_text(f"nx = {floor}", **groups))
@@ -286,7 +286,7 @@ def test_study_references_skip_the_widening_and_runs_are_reused_by_their_code_on
     assert reference.zone_width / reference.dx >= accuracy.zone_points(1e-3)
     widened = parse_case(accuracy_study.case_text(spec, 1e-3, None, 5e-5))
     assert reference.numerics.nx > widened.numerics.nx
-    assert widened.zone_width / widened.dx >= accuracy.relaxed_points(1e-3)
+    assert widened.zone_width / widened.dx >= accuracy.relaxed_points(1e-3, 7.0)
     # on the knob's own grid when asked (--reference-widened)
     assert accuracy_study.reference_text(
         spec, 1e-3, None, 5e-5, widened=True
@@ -335,6 +335,38 @@ def test_a_study_keys_its_runs_by_the_code_it_started_with(tmp_path, monkeypatch
     argv = ["--out", str(tmp_path / "study"), "--cases", "1:0.1:1:0.02", "--accuracies", "1e-2"]
     assert accuracy_study.main(MPI.COMM_SELF, argv) == 0
     assert len(made) == 2  # the reference and the run at 1e-2
+
+
+def test_the_relaxed_floor_grows_with_lambda0_over_its_measurements():
+    # the widened grids' load-area curve errors at lambda0 <= 14 without the floor
+    # (docs/results.md, git history: (lambda0, w/dx, curve error)), whole errors, so upper
+    # bounds of the relaxed start's: the law lies above each
+    for lambda0, points, error in (
+        (7, 0.85, 4.0e-3),
+        (7, 1.13, 4.4e-3),
+        (14, 1.13, 4.3e-3),
+        (14, 1.51, 3.0e-3),
+    ):
+        assert accuracy.relaxed_error(lambda0) * points**-accuracy.RELAXED_ORDER >= error
+    # the large-lambda0 constant from lambda0 = 30 on, the low one up to 14, continuous and
+    # increasing between
+    low, high = accuracy.RELAXED_MAUGIS
+    assert accuracy.relaxed_error(high) == accuracy.relaxed_error(1e3) == accuracy.RELAXED_ERROR
+    assert accuracy.relaxed_error(low) == accuracy.relaxed_error(1.0) == accuracy.RELAXED_ERROR_LOW
+    between = [accuracy.relaxed_error(v) for v in np.linspace(low, high, 50)]
+    assert np.all(np.diff(between) > 0.0)
+    assert between[0] == pytest.approx(accuracy.RELAXED_ERROR_LOW, rel=1e-12)
+    assert between[-1] == pytest.approx(accuracy.RELAXED_ERROR, rel=1e-12)
+    # the paper's fast cases keep 1.31 points across w at 5e-3 (2.05 from lambda0 = 30)
+    assert accuracy.relaxed_points(5e-3, 14.0) == pytest.approx(1.31, abs=0.01)
+    # never below the coarsest measured grid (0.58 points) where the large-lambda0 law keeps
+    # that many: the accuracy beyond which the knob refuses a fast grid stays where it was
+    assert accuracy.relaxed_points(2e-2, 7.0) == accuracy.MIN_RELAXED_POINTS
+    for knob in (2e-2, 3.2e-2, 3.4e-2, 4e-2):
+        refused = [
+            accuracy.unvalidated(knob, 1e4, 0.1, lambda0) is not None for lambda0 in (7, 14, 30)
+        ]
+        assert refused == [knob > 0.033] * 3
 
 
 def test_a_fast_retraction_at_large_lambda0_keeps_the_relaxed_floor():

@@ -362,18 +362,22 @@ def test_creeping_retraction_time_error_within_the_steps_share():
     # lambda0 = 3.5, k = 0.1, V_z = 0.01 (chi_ve / k = 1.2): the contact edge creeps at the
     # retardation rate and steps grow to tens of tau. Against fine fixed-bound steps on the
     # same grid (the grid's error cancels), the default accuracy 5e-3 leaves at most its
-    # steps' share, 2.5e-3 (measured 1.5e-3 in 571 steps with the quadratic step; the linear
+    # steps' share, 2.5e-3 (measured 2.2e-3 in 560 steps with the quadratic step; the linear
     # one took 1409 steps to 1.9e-3). With the history's tolerance opened (time_tolerance = 1,
     # which also opens the tip's lag bound) the steps grow and the pull-off errs 3 % (measured
     # 3.4e-2 in 127 steps; before the lag bound existed the default itself did: 6.1e-2 at
-    # nx = 4096).
+    # nx = 4096). The bound is not conservative: four times the tip's lag allowance
+    # (time_tolerance four times the knob's 8.7e-3) leaves the steps' share (measured 8.1e-3
+    # in 215 steps; docs/results.md, "The tip's lag", on other creeping cases).
     def pull_off(numerics):
         return pull_off_run(case_text(numerics=numerics, velocity=0.01))
 
     reference, fine = pull_off("nx = 2048\naccuracy = 1e-3\ndt_max = 0.25")
     value, sim = pull_off("nx = 2048")
+    looser, _ = pull_off("nx = 2048\ntime_tolerance = 3.48e-2")
     loose, _ = pull_off("nx = 2048\ntime_tolerance = 1")
     assert abs(value / reference - 1) < 2.5e-3
+    assert abs(looser / reference - 1) > 2.5e-3
     assert abs(loose / reference - 1) > 2e-2
     assert sim.surface.step_index < fine.surface.step_index / 3
 

@@ -54,11 +54,16 @@ GLASSY_MAUGIS = 1.0
 
 # A fast retraction starts from the relaxed preload: until its edge is fast, its load-area
 # points see the relaxed zone, which the widening leaves coarse. Their error is about
-# RELAXED_ERROR (dx / w)^RELAXED_ORDER at large lambda0 (lambda0 = 30, k = 0.2, V_z = 0.26:
-# curve errors 3.4e-2, 1.4e-2, 8.6e-3, 3.5e-3, 1.9e-3 at w/dx = 0.58, 0.78, 1.17, 2.33, 3.11;
-# less at lambda0 <= 14: (7, 0.1, 2, 0.02) 4.0e-3 at 0.85), held to RELAXED_SHARE of the
-# accuracy by a floor under the widened grid (docs/results.md, "The knob at large lambda0").
+# C (dx / w)^RELAXED_ORDER, held to RELAXED_SHARE of the accuracy by a floor under the
+# widened grid (docs/results.md, "The knob at large lambda0"). C = RELAXED_ERROR from
+# lambda0 = 30 (lambda0 = 30, k = 0.2, V_z = 0.26: curve errors 3.4e-2, 1.4e-2, 8.6e-3,
+# 3.5e-3, 1.9e-3 at w/dx = 0.58, 0.78, 1.17, 2.33, 3.11), RELAXED_ERROR_LOW up to lambda0 =
+# 14 (the widened grids without the floor: (7, 0.1, 2, 0.02) 4.0e-3 at 0.85 and 4.4e-3 at
+# 1.13, (14, 0.2, 0.5, 0.02) 4.3e-3 at 1.13 and 3.0e-3 at 1.51, whole curve errors, up to
+# 5.6e-3 (dx / w)^1.5), log-linear in lambda0 between (:func:`relaxed_error`).
 RELAXED_ERROR, RELAXED_ORDER, RELAXED_SHARE = 1.1e-2, 1.5, 0.75
+RELAXED_ERROR_LOW = 5.6e-3
+RELAXED_MAUGIS = (14.0, 30.0)  # lambda0 up to which C is RELAXED_ERROR_LOW, from which ...
 
 
 def zone_points(accuracy, chi_ve=math.inf, k=1.0, lambda0=math.inf, widen=True):
@@ -72,7 +77,7 @@ def zone_points(accuracy, chi_ve=math.inf, k=1.0, lambda0=math.inf, widen=True):
     points = (GRID_ERROR / (GRID_SHARE * accuracy)) ** (1.0 / GRID_ORDER) * creep_factor(chi_ve, k)
     if not widen:
         return points
-    floor = min(points, relaxed_points(accuracy))
+    floor = min(points, relaxed_points(accuracy, lambda0))
     return max(points / fast_widening(chi_ve, k, lambda0), floor)
 
 
@@ -100,7 +105,7 @@ def unvalidated(accuracy, chi_ve=math.inf, k=1.0, lambda0=math.inf):
             f" {MIN_ELASTIC_POINTS:g} its error law was measured on; accuracy <= {_down(coarsest)}"
         )
     widened = elastic / fast_widening(chi_ve, k, lambda0)
-    floor = relaxed_points(accuracy)
+    floor = relaxed_points(accuracy, lambda0)
     if widened < floor < MIN_RELAXED_POINTS:
         coarsest = RELAXED_ERROR / RELAXED_SHARE / MIN_RELAXED_POINTS**RELAXED_ORDER
         return (
@@ -117,12 +122,32 @@ def _down(value) -> str:
     return f"{math.floor(value / scale) * scale:.2g}"
 
 
-def relaxed_points(accuracy):
+def relaxed_error(lambda0=math.inf):
+    """The coefficient C of the relaxed start's curve error C (dx / w)^RELAXED_ORDER on a
+    widened grid: RELAXED_ERROR_LOW up to lambda0 = 14, RELAXED_ERROR from lambda0 = 30,
+    log-linear in lambda0 between (0.89 a power of lambda0; the measurements are above the
+    constants and in docs/results.md, "The knob at large lambda0")."""
+    low, high = RELAXED_MAUGIS
+    if not lambda0 > low:
+        return RELAXED_ERROR_LOW
+    if lambda0 >= high:
+        return RELAXED_ERROR
+    power = math.log(RELAXED_ERROR / RELAXED_ERROR_LOW) / math.log(high / low)
+    return RELAXED_ERROR_LOW * (lambda0 / low) ** power
+
+
+def relaxed_points(accuracy, lambda0=math.inf):
     """The fewest points across the relaxed zone w a widened grid keeps:
-    (RELAXED_ERROR / (RELAXED_SHARE accuracy))^(1 / RELAXED_ORDER), so that the load-area
-    points of the retraction's relaxed start stay within the accuracy (0.81, 1.3, 2.1 and 6.0
-    points at 2e-2, 1e-2, 5e-3 and 1e-3)."""
-    return (RELAXED_ERROR / (RELAXED_SHARE * accuracy)) ** (1.0 / RELAXED_ORDER)
+    (C / (RELAXED_SHARE accuracy))^(1 / RELAXED_ORDER), C = :func:`relaxed_error`, so that
+    the load-area points of the retraction's relaxed start stay within the accuracy (from
+    lambda0 = 30: 0.81, 1.3, 2.1 and 6.0 points at 2e-2, 1e-2, 5e-3 and 1e-3; up to lambda0 =
+    14: 0.58, 0.82, 1.3 and 3.8). Never fewer than MIN_RELAXED_POINTS, the coarsest grid the
+    law was measured on, where the large-lambda0 law keeps that many: a smaller lambda0
+    lowers the floor but does not move the accuracy beyond which the knob refuses a grid
+    (:func:`unvalidated`)."""
+    points = (relaxed_error(lambda0) / (RELAXED_SHARE * accuracy)) ** (1.0 / RELAXED_ORDER)
+    largest = (RELAXED_ERROR / (RELAXED_SHARE * accuracy)) ** (1.0 / RELAXED_ORDER)
+    return max(points, min(MIN_RELAXED_POINTS, largest))
 
 
 def sphere_contact_points(accuracy):
