@@ -295,3 +295,26 @@ def test_a_slow_viscoelastic_retraction_follows_the_relaxed_curve():
     relaxed = sphere_theory.periodic_cell(radii, case.cell / case.beta, 1.0)[0].min()
     assert pull_offs[0] == pytest.approx(relaxed, rel=case.numerics.accuracy)
     assert pull_offs[1] < relaxed * (1.0 + 4.0 * case.numerics.accuracy)
+
+
+def test_the_damped_verlet_solver_gives_the_cg_solution_on_a_sphere():
+    # the paper's method (solver = "paper") on the same surface: the same series to its
+    # convergence (measured 4.3e-10 of the largest load at tolerance 1e-8)
+    import hpcgfmd
+
+    loads = []
+    for solver, extra in (("cg", {}), ("paper", {"equilibration_steps": 2000})):
+        numerics = {"n": 64, "step_control": "fixed", "solver": solver, "tolerance": 1e-8}
+        case = Case(
+            maugis=1.0,
+            modulus_ratio=0.5,
+            velocity=1.0,
+            depth=0.02,
+            cell=1.5,
+            adhesion=1e-3,
+            numerics={**numerics, **extra},
+            geometry="sphere",
+        )
+        loads.append(hpcgfmd.run(case, planner_effort="FFTW_ESTIMATE").series.load)
+    assert loads[0].shape == loads[1].shape and loads[0].size > 10
+    np.testing.assert_allclose(loads[1], loads[0], atol=1e-8 * np.abs(loads[0]).max())
