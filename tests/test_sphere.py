@@ -318,3 +318,23 @@ def test_the_damped_verlet_solver_gives_the_cg_solution_on_a_sphere():
         loads.append(hpcgfmd.run(case, planner_effort="FFTW_ESTIMATE").series.load)
     assert loads[0].shape == loads[1].shape and loads[0].size > 10
     np.testing.assert_allclose(loads[1], loads[0], atol=1e-8 * np.abs(loads[0]).max())
+
+
+def test_load_control_lets_a_sphere_go_at_its_displacement_controlled_pull_off():
+    # the elastic sphere's pull-off is the least load of its load-contact curve, reached
+    # under displacement control and where load control lets go (measured 1.5e-5 apart)
+    import hpcgfmd
+
+    groups = dict(maugis=1.0, modulus_ratio=1.0, velocity=1.0, depth=0.02, cell=1.5)
+    common = dict(adhesion=1e-3, numerics={"n": 64}, geometry="sphere")
+    displaced = hpcgfmd.run(Case(**groups, **common), planner_effort="FFTW_ESTIMATE").series
+    loaded = hpcgfmd.run(
+        Case(
+            **groups,
+            **common,
+            drive_stiffness=0.0,
+            protocol=[{"retract": -math.inf, "load_rate": 1e-3}],
+        ),
+        planner_effort="FFTW_ESTIMATE",
+    ).series
+    assert loaded.applied_load.min() == pytest.approx(displaced.load.min(), rel=1e-3)
