@@ -6,12 +6,11 @@ between two of them in one loop (numba, compiled once per machine and cached nex
 file), so an iteration makes a dozen calls instead of hundreds of numpy calls. The kernels
 are local (no MPI). Sums may be reassociated (``FAST``: LLVM vectorises them, as numpy's
 own SIMD sums do), which makes them depend on the machine's vector width but not on the
-run: the same block gives the same bits every time. Maxima and minima over a block run in
-four independent lanes (:func:`_max_min`): LLVM vectorises them only when NaN may be
-assumed away, and one running maximum waits a compare-and-select per node (three times
-slower measured); the extreme of a set does not depend on the order, so the lanes give the
-same value. Loops over a whole block are split into branch-free segments around the
-contact span so that they vectorise.
+run: the same block gives the same bits every time. Maxima and minima, and the first and
+last node below a level, are integer extremes (:mod:`.extremes`), which vectorise where
+floating ones do not; the extreme of a set does not depend on the order. Loops over a whole
+block are split into branch-free segments around the contact span, and loops over a span
+index its slice from 0, so that they vectorise.
 
 Index conventions: a block of m nodes; ``gap_ext`` holds its gaps with one ghost node each
 side (node i is ``gap_ext[i + 1]``); spans are half-open node ranges [lo, hi).
@@ -24,7 +23,8 @@ from numba import njit
 
 from ..model import history_kernels
 from ..parallel import fft_kernels
-from . import step_kernels
+from . import extremes, step_kernels
+from .extremes import KEY_INF, bits, low_key, low_scan, max_min, value
 from .step_kernels import FAST
 
 
@@ -105,24 +105,29 @@ def contact_reaction(gap, lo, hi, k_u, history, mean, out):
 
 
 @njit(cache=True)
+def _shifted_scan(base, d, length, out, level):
+    """out = base - length d; (first, last, smallest) of out as :func:`.extremes.low_scan`
+    gives them, in the same vectorised pass."""
+    m = base.shape[0]
+    first, last, lk = m, -1, KEY_INF
+    for i in range(m):
+        g = base[i] - length * d[i]
+        out[i] = g
+        near = g < level
+        first = min(first, i if near else m)
+        last = max(last, i if near else -1)
+        lk = min(lk, low_key(bits(g)))
+    return first, last, value(lk)
+
+
+@njit(cache=True)
 def shifted_gaps(base, d, length, out, level):
     """out = base - length d over the block (the gaps of u + length d, base = wall - u).
 
     Returns (first, last, smallest): the first and last node with a gap below ``level``
     (m, -1 when none) and the smallest gap of the block (+inf when empty).
     """
-    m = base.shape[0]
-    first, last, smallest = m, -1, np.inf
-    for i in range(m):
-        g = base[i] - length * d[i]
-        out[i] = g
-        if g < level:
-            if first == m:
-                first = i
-            last = i
-        if g < smallest:
-            smallest = g
-    return first, last, smallest
+    return _shifted_scan(base, d, length, out, level)
 
 
 @njit(cache=True)
@@ -134,15 +139,10 @@ def shifted_window(base, d, length, out, level, w0, w1):
     """
     m = base.shape[0]
     first, last, smallest = m, -1, np.inf
-    for i in range(w0, w1):
-        g = base[i] - length * d[i]
-        out[i] = g
-        if g < level:
-            if first == m:
-                first = i
-            last = i
-        if g < smallest:
-            smallest = g
+    if w1 > w0:
+        f, la, smallest = _shifted_scan(base[w0:w1], d[w0:w1], length, out[w0:w1], level)
+        if la >= 0:
+            first, last = w0 + f, w0 + la
     if m:
         out[0] = base[0] - length * d[0]
         out[m - 1] = base[m - 1] - length * d[m - 1]
@@ -171,8 +171,8 @@ def dot_and_entry(d, kd, gap, lo, hi, level, margin):
     total = 0.0
     for i in range(m):  # separate loops vectorise, one fused loop does not
         total += d[i] * kd[i]
-    rise, room = _max_min(d, gap, 0, a, 0.0, np.inf)
-    rise, room = _max_min(d, gap, b, m, rise, room)
+    rise, room = max_min(d, gap, 0, a, 0.0, np.inf)
+    rise, room = max_min(d, gap, b, m, rise, room)
     entry = (room - level) / rise if rise > 0.0 else np.inf
     entry = _entry_exact(d, gap, level, a, lo, entry)
     return total, _entry_exact(d, gap, level, hi, b, entry)
@@ -200,17 +200,7 @@ def update_and_residual(u, d, load, kd, gap, length, traction, p, q, lo, hi, r):
 @njit(cache=True)
 def near(gap, level):
     """(first, last, smallest) of :func:`shifted_gaps` for gaps already in place."""
-    m = gap.shape[0]
-    first, last, smallest = m, -1, np.inf
-    for i in range(m):
-        g = gap[i]
-        if g < level:
-            if first == m:
-                first = i
-            last = i
-        if g < smallest:
-            smallest = g
-    return first, last, smallest
+    return low_scan(gap, level)
 
 
 @njit(cache=True)
@@ -253,31 +243,10 @@ def span_dot(a, b, p, q):
 
 
 @njit(cache=True)
-def _max_min(a, b, first, last, high, low):
-    """(max(high, max a[first:last]), min(low, min b[first:last])) in four lanes.
-
-    NaN entries are passed over, as by one running ``max``/``min`` from a number.
-    """
-    h0 = h1 = h2 = h3 = high
-    l0 = l1 = l2 = l3 = low
-    i = first
-    while i + 4 <= last:  # four independent compare-and-selects per round
-        h0, h1 = max(h0, a[i]), max(h1, a[i + 1])
-        h2, h3 = max(h2, a[i + 2]), max(h3, a[i + 3])
-        l0, l1 = min(l0, b[i]), min(l1, b[i + 1])
-        l2, l3 = min(l2, b[i + 2]), min(l3, b[i + 3])
-        i += 4
-    while i < last:
-        h0, l0 = max(h0, a[i]), min(l0, b[i])
-        i += 1
-    return max(max(h0, h1), max(h2, h3)), min(min(l0, l1), min(l2, l3))
-
-
-@njit(cache=True)
 def _extremes(r, lo, hi):
     """max and min of r outside [lo, hi) (-inf, +inf when that is empty)."""
-    high, low = _max_min(r, r, 0, lo, -np.inf, np.inf)
-    return _max_min(r, r, hi, r.shape[0], high, low)
+    high, low = max_min(r, r, 0, lo, -np.inf, np.inf)
+    return max_min(r, r, hi, r.shape[0], high, low)
 
 
 @njit(cache=True, fastmath=FAST)
@@ -302,9 +271,10 @@ def residual(load, traction, p, q, lo, hi, r):
 @njit(cache=True)
 def on_wall(gap, lo, hi, tolerance, on):
     """on[k] = gap[lo + k] <= tolerance on the near span; returns the count."""
+    g = gap[lo:hi]
     count = 0
-    for k in range(hi - lo):
-        flag = gap[lo + k] <= tolerance
+    for k in range(g.shape[0]):
+        flag = g[k] <= tolerance
         on[k] = flag
         count += flag
     return count
@@ -327,17 +297,13 @@ def press(r, lo, hi, on, mu, pressed):
 def settle(r, lo, hi, pressed, before, mu):
     """Set r = mu on the pressed nodes; returns (max, min of r on the span, any node joined
     the pressed set since ``before``, the last iteration's set on the span)."""
-    high, low, joined = -np.inf, np.inf, False
-    for k in range(hi - lo):
+    span, was = r[lo:hi], before[lo:hi]
+    joined = False
+    for k in range(span.shape[0]):
         if pressed[k]:
-            r[lo + k] = mu
-            if not before[lo + k]:
-                joined = True
-        v = r[lo + k]
-        if v > high:
-            high = v
-        if v < low:
-            low = v
+            span[k] = mu
+            joined |= not was[k]
+    high, low = max_min(span, span, 0, span.shape[0], -np.inf, np.inf)
     return high, low, joined
 
 
@@ -402,6 +368,7 @@ def compile_all():
     (:mod:`hpcgfmd.parallel.fft_kernels`) and of the SLS history
     (:mod:`hpcgfmd.model.history_kernels`) too."""
     step_kernels.compile_all()
+    extremes.compile_all()
     fft_kernels.compile_all()
     history_kernels.compile_all()
     m = 8
