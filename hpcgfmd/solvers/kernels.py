@@ -198,6 +198,23 @@ def update_and_residual(u, d, load, kd, gap, length, traction, p, q, lo, hi, r):
 
 
 @njit(cache=True)
+def start_point(u, wall, k_u, linear, load, gap, level):
+    """The start of a solve in one pass: load = k_u + linear, gap = wall - u; returns
+    (first, last, smallest) of the gaps as :func:`near`."""
+    m = u.shape[0]
+    first, last, lk = m, -1, KEY_INF
+    for i in range(m):
+        load[i] = k_u[i] + linear[i]
+        g = wall[i] - u[i]
+        gap[i] = g
+        near = g < level
+        first = min(first, i if near else m)
+        last = max(last, i if near else -1)
+        lk = min(lk, low_key(bits(g)))
+    return first, last, value(lk)
+
+
+@njit(cache=True)
 def near(gap, level):
     """(first, last, smallest) of :func:`shifted_gaps` for gaps already in place."""
     return low_scan(gap, level)
@@ -383,6 +400,7 @@ def compile_all():
     dot_and_entry(a, b, c, 2, 6, 1.0, 1)
     update_and_residual(a, b, c, d, gap_ext[1:-1], 0.5, a, 0, m, 1, m - 1, b)
     near(a, 1.0)
+    start_point(a, b, c, d, a.copy(), b.copy(), 1.0)
     spans(first, last, m, True, False)
     traction_on_span(gap_ext, a, 0, m, 1, m - 1, 1.0, 1.0, b)
     span_dot(a, b, 0, m)

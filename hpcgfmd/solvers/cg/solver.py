@@ -64,7 +64,7 @@ from .. import kernels
 from ..active_set import ActiveSet
 from ..base import NO_WATCH, EdgeWatch, EquilibriumSolver, SolveResult, register
 from ..points import Point, PointEvaluator
-from ..projection import project_feasible
+from ..projection import project_in_place
 from ..step_problem import StepProblem
 from .moves import Moves
 from .wall_steps import WallSteps
@@ -250,26 +250,24 @@ class ConstrainedCG(EquilibriumSolver):
         Returns the linear term H - p_applied and the gap at or below which a node counts
         as on the wall (round-off of sums of steps).
         """
-        dom = self.domain
-        self._wall_scale = dom.max_abs(wall)
-        project_feasible(dom, u, wall, self._start, wall_scale=self._wall_scale)
-        np.copyto(u, self._start)
+        self._wall_scale = project_in_place(self.domain, u, wall, self._start)
         linear = history if applied is None else np.subtract(history, applied, out=self._linear)
-        if self.problem.recall(u, ops.stiffness, self._k_u):
+        k_u = self.problem.recalled(u, ops.stiffness)
+        if k_u is not None:
             self.count["recalled"] += 1
         else:
-            self.fft.apply_diagonal(u, ops.stiffness, self._k_u)
-        self.problem.forget()  # the kept vector lives within one step
-        np.add(self._k_u, linear, out=self._load)
+            k_u = self.fft.apply_diagonal(u, ops.stiffness, self._k_u)
         on_wall_tolerance = 1e-14 * self._wall_scale
         # Nodes that matter for the wall and the law: gap < level (PointEvaluator).
-        self._evaluator.level = max(
+        level = max(
             self.law.dmax if self.law.sigma_a > 0.0 else 0.0,
             np.nextafter(on_wall_tolerance, np.inf),
         )
+        self._evaluator.level = level
         cur = self._points[0]
-        np.subtract(wall, u, out=cur.gap)
-        cur.ready = False
+        scan = kernels.start_point(u, wall, k_u, linear, self._load, cur.gap, level)
+        self.problem.forget()  # the kept vector lives within one step (k_u was read above)
+        self._evaluator.evaluate_scanned(cur, scan)
         self._active.begin()
         return linear, on_wall_tolerance
 
