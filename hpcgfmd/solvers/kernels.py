@@ -287,25 +287,30 @@ def residual(load, traction, p, q, lo, hi, r):
 
 @njit(cache=True)
 def on_wall(gap, lo, hi, tolerance, on):
-    """on[k] = gap[lo + k] <= tolerance on the near span; returns the count."""
+    """on[k] = gap[lo + k] <= tolerance on the near span; returns (the count, the first and
+    the last node on the wall; hi and lo - 1 when none)."""
     g = gap[lo:hi]
-    count = 0
-    for k in range(g.shape[0]):
+    m = g.shape[0]
+    count, first, last = 0, m, -1
+    for k in range(m):
         flag = g[k] <= tolerance
         on[k] = flag
         count += flag
-    return count
+        first = min(first, k if flag else m)
+        last = max(last, k if flag else -1)
+    return count, lo + first, lo + last
 
 
 @njit(cache=True)
 def press(r, lo, hi, on, mu, pressed):
     """pressed = on and r > mu on the near span; returns (sum of r over pressed, count)."""
+    span = r[lo:hi]
     total, count = 0.0, 0
-    for k in range(hi - lo):
-        flag = on[k] and r[lo + k] > mu
+    for k in range(span.shape[0]):
+        flag = on[k] and span[k] > mu
         pressed[k] = flag
         if flag:
-            total += r[lo + k]
+            total += span[k]
             count += 1
     return total, count
 
@@ -327,11 +332,25 @@ def settle(r, lo, hi, pressed, before, mu):
 @njit(cache=True)
 def masked_sum(a, lo, hi, mask):
     """sum of a[lo + k] where mask[k], k < hi - lo."""
+    span = a[lo:hi]
     total = 0.0
-    for k in range(hi - lo):
+    for k in range(span.shape[0]):
         if mask[k]:
-            total += a[lo + k]
+            total += span[k]
     return total
+
+
+@njit(cache=True)
+def pushed(d, lo, hi, on, out):
+    """out = on and d > 0 on the near span (on-wall nodes the direction pushes into the
+    wall); returns their count."""
+    span = d[lo:hi]
+    count = 0
+    for k in range(span.shape[0]):
+        flag = on[k] and span[k] > 0.0
+        out[k] = flag
+        count += flag
+    return count
 
 
 @njit(cache=True, fastmath=FAST)
@@ -409,6 +428,7 @@ def compile_all():
     press(a, 0, m, flags, 0.0, flags2)
     settle(a, 0, m, flags2, flags, 0.0)
     masked_sum(a, 0, m, flags)
+    pushed(a, 0, m, flags, flags2)
     project_direction(a, 0.1, 0, m, flags, b, c, d, False)
     axpy(a, b, 0.5)
     axpy2(a, b, c, d, 0.5)

@@ -191,7 +191,7 @@ class ConstrainedCG(EquilibriumSolver):
                     local_max, 1.0 if joined else 0.0, interacting, watch.flag()
                 )
             else:  # the iterate's contact edges in the same reduction
-                left, right = self._active.contact_nodes(on_s, lo)
+                left, right = self._active.contact_nodes()
                 r_max, joined_any, interacting, stop, minus_left, right = self.domain.maxes(
                     local_max, 1.0 if joined else 0.0, interacting, watch.flag(), -left, right
                 )
