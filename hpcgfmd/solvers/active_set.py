@@ -76,20 +76,23 @@ class ActiveSet:
         before[lo:hi] = pressed_s
         self._before = (lo, hi)
 
+    def pushing(self, d, lo, hi, on_s):
+        """Local: the number of on-wall nodes that the direction d pushes into the wall (the
+        test of :meth:`hold`, whose reduction the caller makes)."""
+        return kernels.pushed(d, lo, hi, on_s, self.pushed[: hi - lo])
+
     def hold(self, r, mu, d, lo, hi, pressed_s, on_s):
         """Collective: hold the on-wall nodes the direction d pushes into the wall.
 
-        They cannot move this iteration: zero them in d and keep the zero mean on the others
-        (removing the mean can push another node in, so repeat). Returns r.d of the
-        projected direction, or, when that does not descend, sets d to the projected residual
-        r - mu (zero on the pressed nodes) and returns r.d of it. Returns None when no node
-        is pushed in (d unchanged).
+        Called when :meth:`pushing` found some on a rank. They cannot move this iteration:
+        zero them in d and keep the zero mean on the others (removing the mean can push
+        another node in, so repeat). Returns r.d of the projected direction, or, when that
+        does not descend, sets d to the projected residual r - mu (zero on the pressed
+        nodes) and returns r.d of it.
         """
         dom, n = self.domain, self._n
         d_s = d[lo:hi]
         pushed_s = self.pushed[: hi - lo]
-        if dom.max(1.0 if kernels.pushed(d, lo, hi, on_s, pushed_s) else 0.0) == 0.0:
-            return None
         self.held_steps += 1
         held_s = self._held[: d_s.size]
         excluded_s = self._excluded[: d_s.size]

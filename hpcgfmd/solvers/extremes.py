@@ -77,19 +77,26 @@ def value(k):
     return as_float(key(k))
 
 
-@njit(cache=True)
-def max_min(a, b, first, last, high, low):
-    """(max(high, max a[first:last]), min(low, min b[first:last])), NaN entries passed over.
-
-    ``a`` and ``b`` are contiguous float64 blocks; ``high`` and ``low`` numbers (not NaN).
-    """
-    hk, lk = key(bits(high)), key(bits(low))
+@njit(cache=True, inline="always")
+def key_extremes(a, b, first, last, hk, lk):
+    """(max(hk, keys of a[first:last]), min(lk, keys of b[first:last])): :func:`max_min` on
+    keys, for passes that gather extremes over several pieces."""
     if last > first:
         ka = a[first:last].view(np.int64)
         kb = b[first:last].view(np.int64)
         for i in range(ka.shape[0]):
             hk = max(hk, high_key(ka[i]))
             lk = min(lk, low_key(kb[i]))
+    return hk, lk
+
+
+@njit(cache=True)
+def max_min(a, b, first, last, high, low):
+    """(max(high, max a[first:last]), min(low, min b[first:last])), NaN entries passed over.
+
+    ``a`` and ``b`` are contiguous float64 blocks; ``high`` and ``low`` numbers (not NaN).
+    """
+    hk, lk = key_extremes(a, b, first, last, key(bits(high)), key(bits(low)))
     return value(hk), value(lk)
 
 

@@ -24,8 +24,10 @@ from numba import njit
 from ..model import history_kernels
 from ..parallel import fft_kernels
 from . import extremes, step_kernels
-from .extremes import KEY_INF, bits, low_key, low_scan, max_min, value
+from .extremes import KEY_INF, KEY_NEG_INF, bits, key_extremes, low_key, low_scan, max_min, value
 from .step_kernels import FAST
+
+CHUNK = 4096  # nodes per chunk of a pass that reads its output again (it stays in the L2 cache)
 
 
 @njit(cache=True)
@@ -135,7 +137,7 @@ def shifted_window(base, d, length, out, level, w0, w1):
     """:func:`shifted_gaps` on the window [w0, w1) and the block's two end nodes only.
 
     Valid when no node outside the window can come below ``level`` at this length (the
-    caller's bound :func:`dot_and_entry`); the ends feed the ghost exchange.
+    caller's bound :func:`entry_bound`); the ends feed the ghost exchange.
     """
     m = base.shape[0]
     first, last, smallest = m, -1, np.inf
@@ -149,18 +151,39 @@ def shifted_window(base, d, length, out, level, w0, w1):
     return first, last, smallest
 
 
-@njit(cache=True)
-def _entry_exact(d, gap, level, a, b, entry):
-    """min(entry, (gap - level) / d over nodes [a, b) with d > 0)."""
-    for i in range(a, b):
-        if d[i] > 0.0:
-            entry = min(entry, (gap[i] - level) / d[i])
+@njit(cache=True, inline="always")
+def _exact_entry(d, gap, first, last, level, entry):
+    """min(entry, keys of (gap - level) / d over the nodes [first, last) with d > 0)."""
+    if last > first:
+        ds, gs = d[first:last], gap[first:last]
+        for i in range(ds.shape[0]):
+            length = (gs[i] - level) / ds[i] if ds[i] > 0.0 else np.inf
+            entry = min(entry, low_key(bits(length)))
     return entry
 
 
-@njit(cache=True, fastmath=FAST)
-def dot_and_entry(d, kd, gap, lo, hi, level, margin):
-    """(d.kd, a length below which no node outside [lo, hi) comes below ``level`` along d).
+@njit(cache=True, inline="always")
+def _entry_pieces(d, gap, c, e, lo, hi, a, b, level, rise, room, entry):
+    """The parts of :func:`entry_bound` on the nodes [c, e), as keys: the far nodes' largest
+    d and smallest gap ([0, a) and [b, m)), the exact entry lengths of the nodes within the
+    margin ([a, lo) and [hi, b))."""
+    rise, room = key_extremes(d, gap, c, min(e, a), rise, room)
+    rise, room = key_extremes(d, gap, max(c, b), e, rise, room)
+    entry = _exact_entry(d, gap, max(c, a), min(e, lo), level, entry)
+    return rise, room, _exact_entry(d, gap, max(c, hi), min(e, b), level, entry)
+
+
+@njit(cache=True, inline="always")
+def _entry_length(rise, room, entry, level):
+    """The bound of :func:`entry_bound` from its parts' keys."""
+    rise, room = value(rise), value(room)
+    far = (room - level) / rise if rise > 0.0 else np.inf
+    return min(far, value(entry))
+
+
+@njit(cache=True)
+def entry_bound(d, gap, lo, hi, level, margin):
+    """A length below which no node outside [lo, hi) comes below ``level`` along d.
 
     Nodes within ``margin`` of the span (where the zone grows) contribute their exact entry
     length (gap - level) / d; farther nodes the bound min(gap - level) / max(d), which is
@@ -168,50 +191,89 @@ def dot_and_entry(d, kd, gap, lo, hi, level, margin):
     """
     m = d.shape[0]
     a, b = max(lo - margin, 0), min(hi + margin, m)
-    total = 0.0
-    for i in range(m):  # separate loops vectorise, one fused loop does not
-        total += d[i] * kd[i]
-    rise, room = max_min(d, gap, 0, a, 0.0, np.inf)
-    rise, room = max_min(d, gap, b, m, rise, room)
-    entry = (room - level) / rise if rise > 0.0 else np.inf
-    entry = _entry_exact(d, gap, level, a, lo, entry)
-    return total, _entry_exact(d, gap, level, hi, b, entry)
+    rise, room, entry = _entry_pieces(d, gap, 0, m, lo, hi, a, b, level, 0, KEY_INF, KEY_INF)
+    return _entry_length(rise, room, entry, level)
+
+
+@njit(cache=True)
+def axpy_entry(y, x, s, gap, lo, hi, level, margin):
+    """y += s x (the direction update), and the :func:`entry_bound` of the new y, in one pass
+    (chunk by chunk: each chunk's y is read again from the cache)."""
+    m = y.shape[0]
+    a, b = max(lo - margin, 0), min(hi + margin, m)
+    rise, room, entry = 0, KEY_INF, KEY_INF
+    for c in range(0, m, CHUNK):
+        e = min(c + CHUNK, m)
+        yc, xc = y[c:e], x[c:e]
+        for i in range(yc.shape[0]):
+            yc[i] += s * xc[i]
+        rise, room, entry = _entry_pieces(y, gap, c, e, lo, hi, a, b, level, rise, room, entry)
+    return _entry_length(rise, room, entry, level)
 
 
 @njit(cache=True, fastmath=FAST)
 def update_and_residual(u, d, load, kd, gap, length, traction, p, q, lo, hi, r):
     """The accepted step and the next residual in one pass: u += length d, load += length kd,
-    gap -= length d, then r as :func:`residual` (same returns)."""
+    gap -= length d, then r as :func:`residual` (same returns), chunk by chunk."""
+    m = u.shape[0]
     total = 0.0
-    for i in range(u.shape[0]):
-        u[i] += length * d[i]
-        gap[i] = gap[i] - length * d[i]
-        v = load[i] + length * kd[i]
+    high, low = KEY_NEG_INF, KEY_INF
+    for c in range(0, m, CHUNK):
+        e = min(c + CHUNK, m)
+        uc, dc, gc, lc, kc, rc = u[c:e], d[c:e], gap[c:e], load[c:e], kd[c:e], r[c:e]
+        for i in range(uc.shape[0]):
+            uc[i] += length * dc[i]
+            gc[i] = gc[i] - length * dc[i]
+            v = lc[i] + length * kc[i]
+            lc[i] = v
+            rc[i] = -v
+            total -= v
+        total = _add_span(r, traction, max(c, p), min(e, q), total)
+        high, low = key_extremes(r, r, c, min(e, lo), high, low)
+        high, low = key_extremes(r, r, max(c, hi), e, high, low)
+    return total, value(high), value(low)
+
+
+@njit(cache=True, fastmath=FAST, inline="always")
+def _add_span(r, traction, first, last, total):
+    """r += traction on [first, last); returns total plus the traction's sum there."""
+    if last > first:
+        rs, ts = r[first:last], traction[first:last]
+        for i in range(rs.shape[0]):
+            rs[i] += ts[i]
+            total += ts[i]
+    return total
+
+
+@njit(cache=True, fastmath=FAST)
+def start_point(u, wall, k_u, linear, load, gap, r, level):
+    """The start of a solve in one pass: load = k_u + linear, r = -load (the residual
+    before the cohesive traction, :func:`residual_span` adds it), gap = wall - u; returns
+    (the sum of r, (first, last, smallest) of the gaps as :func:`near`)."""
+    m = u.shape[0]
+    total = 0.0
+    first, last, lk = m, -1, KEY_INF
+    for i in range(m):
+        v = k_u[i] + linear[i]
         load[i] = v
         r[i] = -v
         total -= v
-    for i in range(p, q):
-        r[i] += traction[i]
-        total += traction[i]
-    high, low = _extremes(r, lo, hi)
-    return total, high, low
-
-
-@njit(cache=True)
-def start_point(u, wall, k_u, linear, load, gap, level):
-    """The start of a solve in one pass: load = k_u + linear, gap = wall - u; returns
-    (first, last, smallest) of the gaps as :func:`near`."""
-    m = u.shape[0]
-    first, last, lk = m, -1, KEY_INF
-    for i in range(m):
-        load[i] = k_u[i] + linear[i]
         g = wall[i] - u[i]
         gap[i] = g
         near = g < level
         first = min(first, i if near else m)
         last = max(last, i if near else -1)
         lk = min(lk, low_key(bits(g)))
-    return first, last, value(lk)
+    return total, (first, last, value(lk))
+
+
+@njit(cache=True, fastmath=FAST)
+def residual_span(r, traction, p, q, lo, hi, total):
+    """r += traction on [p, q) (zero elsewhere); returns (total plus its sum there, max and
+    min of r outside [lo, hi)) as :func:`residual`."""
+    total = _add_span(r, traction, p, q, total)
+    high, low = _extremes(r, lo, hi)
+    return total, high, low
 
 
 @njit(cache=True)
@@ -354,24 +416,37 @@ def pushed(d, lo, hi, on, out):
 
 
 @njit(cache=True, fastmath=FAST)
-def project_direction(z, shift, lo, hi, pressed, r, r_old, d_old, restart):
-    """z -= shift, z = 0 on the pressed nodes; returns (r.z, r_old.z, r.d_old) (the last two
-    0 when ``restart``): the Polak-Ribiere dots in the same pass."""
-    for i in range(z.shape[0]):
-        z[i] -= shift
-    for k in range(hi - lo):
-        if pressed[k]:
-            z[lo + k] = 0.0
+def project_direction(z, shift, lo, hi, pressed, r, r_old, d_old, restart, gap, level, margin):
+    """z -= shift, z = 0 on the pressed nodes (mask ``pressed`` of [lo, hi)), and the
+    Polak-Ribiere dots in the same pass, chunk by chunk: returns (r.z, r_old.z, r.d_old,
+    +inf); when ``restart`` (z is the direction) (r.z, 0, 0, the :func:`entry_bound` of z
+    with ``gap``, ``level`` and ``margin``)."""
+    m = z.shape[0]
+    a, b = max(lo - margin, 0), min(hi + margin, m)
     rz, r_old_z, r_d = 0.0, 0.0, 0.0
-    if restart:
-        for i in range(z.shape[0]):
-            rz += r[i] * z[i]
-    else:
-        for i in range(z.shape[0]):
-            rz += r[i] * z[i]
-            r_old_z += r_old[i] * z[i]
-            r_d += r[i] * d_old[i]
-    return rz, r_old_z, r_d
+    rise, room, entry = 0, KEY_INF, KEY_INF
+    for c in range(0, m, CHUNK):
+        e = min(c + CHUNK, m)
+        zc, rc = z[c:e], r[c:e]
+        for i in range(zc.shape[0]):
+            zc[i] -= shift
+        first, last = max(c, lo), min(e, hi)
+        if last > first:
+            zs, ps = z[first:last], pressed[first - lo : last - lo]
+            for k in range(zs.shape[0]):
+                if ps[k]:
+                    zs[k] = 0.0
+        if restart:
+            for i in range(zc.shape[0]):
+                rz += rc[i] * zc[i]
+            rise, room, entry = _entry_pieces(z, gap, c, e, lo, hi, a, b, level, rise, room, entry)
+        else:
+            oc, dc = r_old[c:e], d_old[c:e]
+            for i in range(zc.shape[0]):
+                rz += rc[i] * zc[i]
+                r_old_z += oc[i] * zc[i]
+                r_d += rc[i] * dc[i]
+    return rz, r_old_z, r_d, (_entry_length(rise, room, entry, level) if restart else np.inf)
 
 
 @njit(cache=True)
@@ -416,10 +491,12 @@ def compile_all():
     contact_reaction(a, 0, m, b, c, 0.1, d)
     first, last, smallest = shifted_gaps(b, c, 0.5, a, 1.0)
     shifted_window(b, c, 0.5, a, 1.0, 2, 6)
-    dot_and_entry(a, b, c, 2, 6, 1.0, 1)
+    entry_bound(a, c, 2, 6, 1.0, 1)
+    axpy_entry(a.copy(), b, 0.5, c, 2, 6, 1.0, 1)
     update_and_residual(a, b, c, d, gap_ext[1:-1], 0.5, a, 0, m, 1, m - 1, b)
     near(a, 1.0)
-    start_point(a, b, c, d, a.copy(), b.copy(), 1.0)
+    start_point(a, b, c, d, a.copy(), b.copy(), c.copy(), 1.0)
+    residual_span(a.copy(), b, 1, 7, 2, 6, 0.0)
     spans(first, last, m, True, False)
     traction_on_span(gap_ext, a, 0, m, 1, m - 1, 1.0, 1.0, b)
     span_dot(a, b, 0, m)
@@ -429,7 +506,8 @@ def compile_all():
     settle(a, 0, m, flags2, flags, 0.0)
     masked_sum(a, 0, m, flags)
     pushed(a, 0, m, flags, flags2)
-    project_direction(a, 0.1, 0, m, flags, b, c, d, False)
+    project_direction(a, 0.1, 0, m, flags, b, c, d, False, c, 1.0, 2)
+    project_direction(a, 0.1, 0, m, flags, b, c, d, True, c, 1.0, 2)
     axpy(a, b, 0.5)
     axpy2(a, b, c, d, 0.5)
     dot(a, b)

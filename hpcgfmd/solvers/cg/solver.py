@@ -70,6 +70,13 @@ from .moves import Moves
 from .wall_steps import WallSteps
 
 
+def _rows(n):
+    """Two zeroed aligned rows of n nodes, as a tuple of views of one buffer."""
+    rows = aligned_empty((2, n))
+    rows[...] = 0.0
+    return rows[0], rows[1]
+
+
 @dataclass
 class _Descent:
     """The state of one solve's iteration (CG rows, multiplier, restart flags, counts)."""
@@ -130,10 +137,10 @@ class ConstrainedCG(EquilibriumSolver):
         self._load = np.empty(n)  # K u + H - p_applied during a solve (updated by steps)
         self._linear = np.empty(n)  # H - p_applied when a traction is applied
         self._points = (Point(n), Point(n), Point(n))  # current, trial, line-search probe
-        self._residuals = aligned_empty((2, n))  # r and the previous r (rows swap roles)
-        self._directions = aligned_empty((2, n))  # z and d (rows swap roles)
-        self._residuals[...] = 0.0
-        self._directions[...] = 0.0
+        # r and the previous r, z and d (rows swap roles), kept as views: the transform
+        # recognises an array it has seen by identity (a new view costs it ~2 us to check)
+        self._residuals = _rows(n)
+        self._directions = _rows(n)
         self._moves = Moves(
             domain,
             fft,
@@ -179,8 +186,8 @@ class ConstrainedCG(EquilibriumSolver):
         ``watch``'s stop flag rides on the iteration's reduction of the residual.
         """
         watch = NO_WATCH if watch is None else watch
-        linear, on_wall_tolerance = self._begin(u, wall, ops, history, applied)
-        it = _Descent(*self._points)
+        linear, on_wall_tolerance, first = self._begin(u, wall, ops, history, applied)
+        it = _Descent(*self._points, pending=first)
         while True:
             r, lo, hi, count, n_free, on_s, pressed_s, local_max, joined = self._residual(
                 it, on_wall_tolerance
@@ -213,8 +220,10 @@ class ConstrainedCG(EquilibriumSolver):
                 it.restart = True
             it.first_pass = False
             self._active.remember(lo, hi, pressed_s)
-            d, rd, rz = self._moves.direction(it, r, ops, lo, hi, count, n_free, on_s, pressed_s)
-            self._moves.step(it, u, wall, r, d, rd, ops, linear, self._wall_scale)
+            d, rd, rz, entry = self._moves.direction(
+                it, r, ops, lo, hi, count, n_free, on_s, pressed_s
+            )
+            self._moves.step(it, u, wall, r, d, rd, entry, ops, linear, self._wall_scale)
             it.ir = 1 - it.ir
             it.rz_old = rz
             it.iteration += 1
@@ -247,8 +256,9 @@ class ConstrainedCG(EquilibriumSolver):
     def _begin(self, u, wall, ops, history, applied):
         """Collective: the feasible start, K u and the running load K u + H - p_applied.
 
-        Returns the linear term H - p_applied and the gap at or below which a node counts
-        as on the wall (round-off of sums of steps).
+        Returns the linear term H - p_applied, the gap at or below which a node counts as
+        on the wall (round-off of sums of steps) and the first residual's sums (in row 0 of
+        the residuals, :meth:`_residual`'s pending values).
         """
         self._wall_scale = project_in_place(self.domain, u, wall, self._start)
         linear = history if applied is None else np.subtract(history, applied, out=self._linear)
@@ -264,12 +274,13 @@ class ConstrainedCG(EquilibriumSolver):
             np.nextafter(on_wall_tolerance, np.inf),
         )
         self._evaluator.level = level
-        cur = self._points[0]
-        scan = kernels.start_point(u, wall, k_u, linear, self._load, cur.gap, level)
+        cur, r = self._points[0], self._residuals[0]
+        total, scan = kernels.start_point(u, wall, k_u, linear, self._load, cur.gap, r, level)
         self.problem.forget()  # the kept vector lives within one step (k_u was read above)
         self._evaluator.evaluate_scanned(cur, scan)
+        first = kernels.residual_span(r, cur.traction, *cur.traction_span, *cur.near, total)
         self._active.begin()
-        return linear, on_wall_tolerance
+        return linear, on_wall_tolerance, first
 
     def _detached_minimum(self, u, wall, ops, linear, it):
         """Collective: jump to the detached equilibrium when the iterate is detached.
