@@ -23,7 +23,7 @@ from numba import njit
 
 from ..model import history_kernels
 from ..parallel import fft_kernels
-from . import extremes, step_kernels
+from . import extremes, step_kernels, verlet_kernels
 from .extremes import KEY_INF, KEY_NEG_INF, bits, key_extremes, low_key, low_scan, max_min, value
 from .step_kernels import FAST
 
@@ -480,6 +480,7 @@ def compile_all():
     (:mod:`hpcgfmd.model.history_kernels`) too."""
     step_kernels.compile_all()
     extremes.compile_all()
+    verlet_kernels.compile_all()
     fft_kernels.compile_all()
     history_kernels.compile_all()
     m = 8
