@@ -33,24 +33,30 @@ backtracking trial and for the residual direction when a step reaches the wall (
 solve, one pair at the start unless the predictor evaluated the start
 (:meth:`~hpcgfmd.solvers.step_problem.StepProblem.recall`). K u is updated incrementally,
 through the running load K u + H - p_applied, also for the solution (its exact K u differs by
-round-off). The elementwise work is about 15 passes over the block: r = t - (K u + H -
-p_applied), its sum and extrema, the mean of z, one pass for the three CG dot products (a
-2 x 2 matmul of the stacked r, r_old and z, d_old), one axpy for d, d.Kd, the trial point's
-gaps, the axpy on u and the one on K u + H - p_applied, plus the point's gaps and its span
-per line-search extension. Everything about the wall, the active set and the cohesive law
-works on the span of nodes with gap < dmax (:mod:`.points`), and the traction of a trial
-point that is taken is not evaluated again. Buffers are swapped, not copied, and no array
-of the block's size is allocated in a CG iteration or a line-search extension; the rare
-projected step evaluates the energy, whose cohesive part makes temporaries of the
-interaction span's size. docs/results.md has the measured cost.
+round-off). Between the transforms, four compiled passes over the block
+(:mod:`hpcgfmd.solvers.kernels`), each reading every vector once (chunk by chunk, so that
+what a pass reads again comes from the cache): after K^-1 r the projection of z (mean
+removed, pressed nodes zeroed) with the three Polak-Ribiere dots (r.z, r_old.z, r.d_old), and
+after their reduction d = z + beta d_old with the entry bound of d (how far d may go before a
+node outside the near span enters the zone); after K d, d.K d; after the line search the
+step on u, the gaps and K u + H - p_applied with the next residual, its sum and its extrema.
+Everything about the wall, the active set and the cohesive law works on the span of nodes
+with gap < dmax (:mod:`.points`): the trial point's and each line-search point's gaps and law,
+the multiplier's fixed point; the traction of a trial point that is taken is not evaluated
+again. Per solve: one read-only pass that finds a feasible start feasible (it is left in
+place), the comparison with the predictor's kept vector, one pass forming the gaps, K u + H -
+p_applied and the first residual, one for its extrema, and K u at the end. Buffers are
+swapped, not copied, and no array of the block's size is allocated in a CG iteration or a
+line-search extension; the rare projected step evaluates the energy, whose cohesive part
+makes temporaries of the interaction span's size. docs/results.md has the measured cost.
 
 Parallel layout. Every real-space vector is this rank's block of nodes
 (:class:`hpcgfmd.parallel.domain.Domain`); the transforms inside ``fft.apply_diagonal`` are
 the only bulk communication. An iteration adds reductions of one to four doubles (the
 multiplier's fixed point, the residual's maximum with the restart test and the edge watch,
-the mean of z, the CG dot products, the hold test, d.K d, the trial point's slope; one per
-line-search extension) and one ghost-node exchange per point evaluated; every branch is
-decided on those reduced values, so all ranks take it.
+the mean of z, the CG dot products, the hold test with the entry bound, d.K d, the trial
+point's slope; one per line-search extension) and one ghost-node exchange per point
+evaluated; every branch is decided on those reduced values, so all ranks take it.
 """
 
 from __future__ import annotations
