@@ -450,13 +450,6 @@ def project_direction(z, shift, lo, hi, pressed, r, r_old, d_old, restart, gap, 
 
 
 @njit(cache=True)
-def axpy(y, x, a):
-    """y += a x."""
-    for i in range(y.shape[0]):
-        y[i] += a * x[i]
-
-
-@njit(cache=True)
 def axpy2(y1, x1, y2, x2, a):
     """y1 += a x1 and y2 += a x2 in one pass."""
     for i in range(y1.shape[0]):
@@ -509,6 +502,5 @@ def compile_all():
     pushed(a, 0, m, flags, flags2)
     project_direction(a, 0.1, 0, m, flags, b, c, d, False, c, 1.0, 2)
     project_direction(a, 0.1, 0, m, flags, b, c, d, True, c, 1.0, 2)
-    axpy(a, b, 0.5)
     axpy2(a, b, c, d, 0.5)
     dot(a, b)
