@@ -134,8 +134,8 @@ class Domain:
     def sums(self, *values):
         """Collective: global sums of several local scalars (one message), as floats."""
         if self.serial:
-            return tuple(float(v) for v in values)
-        return tuple(float(v) for v in self._allreduce(values, MPI.SUM))
+            return tuple(map(float, values))
+        return tuple(map(float, self._allreduce(values, MPI.SUM)))
 
     def sum(self, value) -> float:
         """Collective: global sum of a local scalar."""
@@ -152,8 +152,8 @@ class Domain:
     def maxes(self, *values):
         """Collective: global maxima of several local scalars (one message), as floats."""
         if self.serial:
-            return tuple(float(v) for v in values)
-        return tuple(float(v) for v in self._allreduce(values, MPI.MAX))
+            return tuple(map(float, values))
+        return tuple(map(float, self._allreduce(values, MPI.MAX)))
 
     def max(self, value) -> float:
         """Collective: global maximum of a local scalar (-inf for 'nothing here')."""

@@ -34,6 +34,7 @@ class ActiveSet:
         self._excluded = np.empty(n, dtype=bool)
         self._pressed_before = np.zeros(n, dtype=bool)  # the active set of the last iteration
         self._before = (0, 0)
+        self._contact = (0, -1)  # first and last node on the wall (multiplier)
         self.held_steps = 0  # iterations whose direction held on-wall nodes
 
     def begin(self):
@@ -52,7 +53,7 @@ class ActiveSet:
         """
         n = self._n
         on_s = self.on_wall[: hi - lo]
-        kernels.on_wall(gap, lo, hi, on_wall_tolerance, on_s)
+        _, *self._contact = kernels.on_wall(gap, lo, hi, on_wall_tolerance, on_s)
         pressed_s = self.pressed[: hi - lo]
         for _ in range(10):
             pressed_sum, count = kernels.press(r, lo, hi, on_s, mu, pressed_s)
@@ -75,22 +76,23 @@ class ActiveSet:
         before[lo:hi] = pressed_s
         self._before = (lo, hi)
 
+    def pushing(self, d, lo, hi, on_s):
+        """Local: the number of on-wall nodes that the direction d pushes into the wall (the
+        test of :meth:`hold`, whose reduction the caller makes)."""
+        return kernels.pushed(d, lo, hi, on_s, self.pushed[: hi - lo])
+
     def hold(self, r, mu, d, lo, hi, pressed_s, on_s):
         """Collective: hold the on-wall nodes the direction d pushes into the wall.
 
-        They cannot move this iteration: zero them in d and keep the zero mean on the others
-        (removing the mean can push another node in, so repeat). Returns r.d of the
-        projected direction, or, when that does not descend, sets d to the projected residual
-        r - mu (zero on the pressed nodes) and returns r.d of it. Returns None when no node
-        is pushed in (d unchanged).
+        Called when :meth:`pushing` found some on a rank. They cannot move this iteration:
+        zero them in d and keep the zero mean on the others (removing the mean can push
+        another node in, so repeat). Returns r.d of the projected direction, or, when that
+        does not descend, sets d to the projected residual r - mu (zero on the pressed
+        nodes) and returns r.d of it.
         """
         dom, n = self.domain, self._n
         d_s = d[lo:hi]
         pushed_s = self.pushed[: hi - lo]
-        np.greater(d_s, 0.0, out=pushed_s)
-        pushed_s &= on_s
-        if not dom.any(pushed_s):
-            return None
         self.held_steps += 1
         held_s = self._held[: d_s.size]
         excluded_s = self._excluded[: d_s.size]
@@ -115,18 +117,14 @@ class ActiveSet:
             rd = dom.dot(d, d)
         return rd
 
-    def contact_nodes(self, on_s, lo):
-        """Local: positions of this rank's first and last node on the wall (+inf, -inf if none).
-
-        ``on_s`` is the on-wall mask of the near span starting at node ``lo``; argmax finds
-        the first True without allocating.
-        """
-        if on_s.size == 0 or not on_s.any():
+    def contact_nodes(self):
+        """Local: positions of this rank's first and last node on the wall at the last
+        :meth:`multiplier` (+inf, -inf if none)."""
+        first, last = self._contact
+        if first > last:
             return math.inf, -math.inf
         x = self.domain.x
-        return float(x[lo + int(on_s.argmax())]), float(
-            x[lo + on_s.size - 1 - int(on_s[::-1].argmax())]
-        )
+        return float(x[first]), float(x[last])
 
     def strayed(self, watch, left, right):
         """True when an edge of the iterate's contact is farther than ``watch.limit`` away.

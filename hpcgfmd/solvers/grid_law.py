@@ -76,26 +76,6 @@ class GridLaw:
         else:
             kernels.cohesive_traction(gap_ext, out, p, q, law.dmax, law.sigma_a)
 
-    def whole_traction(self, gap_ext, out, work, law=None):
-        """The traction of ``law`` (this object's by default) on every node of the block into
-        ``out`` (stress; ``work``: a bool scratch buffer of shape (3, gap_ext.size)). On a
-        line the vectorised law (:meth:`hpcgfmd.model.interface.DugdaleMaugis.traction`),
-        which finds the zone's span itself; on a surface the compiled one on the zone's span."""
-        law = self.law if law is None else law
-        m = out.shape[0]
-        if not self.surface:
-            law.traction(gap_ext, out=out, work=work)
-            return out
-        if law.sigma_a == 0.0 or m == 0:
-            out[:] = 0.0
-            return out
-        first, last, _ = kernels.near(self.inner(gap_ext), law.dmax)
-        _, _, p, q = self.spans(first, last, m, gap_ext, law.dmax)
-        out[:p] = 0.0
-        out[q:] = 0.0
-        surface_kernels.cohesive_traction(gap_ext, out, p, q, self.nx, law.dmax, law.sigma_a)
-        return out
-
     def traction_on_span(self, gap_ext, traction, old_p, old_q, p, q, d):
         """Zero the old span outside [p, q), the law's traction on [p, q); return t.d there."""
         law = self.law

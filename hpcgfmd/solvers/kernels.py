@@ -6,12 +6,11 @@ between two of them in one loop (numba, compiled once per machine and cached nex
 file), so an iteration makes a dozen calls instead of hundreds of numpy calls. The kernels
 are local (no MPI). Sums may be reassociated (``FAST``: LLVM vectorises them, as numpy's
 own SIMD sums do), which makes them depend on the machine's vector width but not on the
-run: the same block gives the same bits every time. Maxima and minima over a block run in
-four independent lanes (:func:`_max_min`): LLVM vectorises them only when NaN may be
-assumed away, and one running maximum waits a compare-and-select per node (three times
-slower measured); the extreme of a set does not depend on the order, so the lanes give the
-same value. Loops over a whole block are split into branch-free segments around the
-contact span so that they vectorise.
+run: the same block gives the same bits every time. Maxima and minima, and the first and
+last node below a level, are integer extremes (:mod:`.extremes`), which vectorise where
+floating ones do not; the extreme of a set does not depend on the order. Loops over a whole
+block are split into branch-free segments around the contact span, and loops over a span
+index its slice from 0, so that they vectorise.
 
 Index conventions: a block of m nodes; ``gap_ext`` holds its gaps with one ghost node each
 side (node i is ``gap_ext[i + 1]``); spans are half-open node ranges [lo, hi).
@@ -24,8 +23,11 @@ from numba import njit
 
 from ..model import history_kernels
 from ..parallel import fft_kernels
-from . import step_kernels
+from . import extremes, step_kernels, verlet_kernels
+from .extremes import KEY_INF, KEY_NEG_INF, bits, key_extremes, low_key, low_scan, max_min, value
 from .step_kernels import FAST
+
+CHUNK = 4096  # nodes per chunk of a pass that reads its output again (it stays in the L2 cache)
 
 
 @njit(cache=True)
@@ -105,24 +107,29 @@ def contact_reaction(gap, lo, hi, k_u, history, mean, out):
 
 
 @njit(cache=True)
+def _shifted_scan(base, d, length, out, level):
+    """out = base - length d; (first, last, smallest) of out as :func:`.extremes.low_scan`
+    gives them, in the same vectorised pass."""
+    m = base.shape[0]
+    first, last, lk = m, -1, KEY_INF
+    for i in range(m):
+        g = base[i] - length * d[i]
+        out[i] = g
+        near = g < level
+        first = min(first, i if near else m)
+        last = max(last, i if near else -1)
+        lk = min(lk, low_key(bits(g)))
+    return first, last, value(lk)
+
+
+@njit(cache=True)
 def shifted_gaps(base, d, length, out, level):
     """out = base - length d over the block (the gaps of u + length d, base = wall - u).
 
     Returns (first, last, smallest): the first and last node with a gap below ``level``
     (m, -1 when none) and the smallest gap of the block (+inf when empty).
     """
-    m = base.shape[0]
-    first, last, smallest = m, -1, np.inf
-    for i in range(m):
-        g = base[i] - length * d[i]
-        out[i] = g
-        if g < level:
-            if first == m:
-                first = i
-            last = i
-        if g < smallest:
-            smallest = g
-    return first, last, smallest
+    return _shifted_scan(base, d, length, out, level)
 
 
 @njit(cache=True)
@@ -130,37 +137,53 @@ def shifted_window(base, d, length, out, level, w0, w1):
     """:func:`shifted_gaps` on the window [w0, w1) and the block's two end nodes only.
 
     Valid when no node outside the window can come below ``level`` at this length (the
-    caller's bound :func:`dot_and_entry`); the ends feed the ghost exchange.
+    caller's bound :func:`entry_bound`); the ends feed the ghost exchange.
     """
     m = base.shape[0]
     first, last, smallest = m, -1, np.inf
-    for i in range(w0, w1):
-        g = base[i] - length * d[i]
-        out[i] = g
-        if g < level:
-            if first == m:
-                first = i
-            last = i
-        if g < smallest:
-            smallest = g
+    if w1 > w0:
+        f, la, smallest = _shifted_scan(base[w0:w1], d[w0:w1], length, out[w0:w1], level)
+        if la >= 0:
+            first, last = w0 + f, w0 + la
     if m:
         out[0] = base[0] - length * d[0]
         out[m - 1] = base[m - 1] - length * d[m - 1]
     return first, last, smallest
 
 
-@njit(cache=True)
-def _entry_exact(d, gap, level, a, b, entry):
-    """min(entry, (gap - level) / d over nodes [a, b) with d > 0)."""
-    for i in range(a, b):
-        if d[i] > 0.0:
-            entry = min(entry, (gap[i] - level) / d[i])
+@njit(cache=True, inline="always")
+def _exact_entry(d, gap, first, last, level, entry):
+    """min(entry, keys of (gap - level) / d over the nodes [first, last) with d > 0)."""
+    if last > first:
+        ds, gs = d[first:last], gap[first:last]
+        for i in range(ds.shape[0]):
+            length = (gs[i] - level) / ds[i] if ds[i] > 0.0 else np.inf
+            entry = min(entry, low_key(bits(length)))
     return entry
 
 
-@njit(cache=True, fastmath=FAST)
-def dot_and_entry(d, kd, gap, lo, hi, level, margin):
-    """(d.kd, a length below which no node outside [lo, hi) comes below ``level`` along d).
+@njit(cache=True, inline="always")
+def _entry_pieces(d, gap, c, e, lo, hi, a, b, level, rise, room, entry):
+    """The parts of :func:`entry_bound` on the nodes [c, e), as keys: the far nodes' largest
+    d and smallest gap ([0, a) and [b, m)), the exact entry lengths of the nodes within the
+    margin ([a, lo) and [hi, b))."""
+    rise, room = key_extremes(d, gap, c, min(e, a), rise, room)
+    rise, room = key_extremes(d, gap, max(c, b), e, rise, room)
+    entry = _exact_entry(d, gap, max(c, a), min(e, lo), level, entry)
+    return rise, room, _exact_entry(d, gap, max(c, hi), min(e, b), level, entry)
+
+
+@njit(cache=True, inline="always")
+def _entry_length(rise, room, entry, level):
+    """The bound of :func:`entry_bound` from its parts' keys."""
+    rise, room = value(rise), value(room)
+    far = (room - level) / rise if rise > 0.0 else np.inf
+    return min(far, value(entry))
+
+
+@njit(cache=True)
+def entry_bound(d, gap, lo, hi, level, margin):
+    """A length below which no node outside [lo, hi) comes below ``level`` along d.
 
     Nodes within ``margin`` of the span (where the zone grows) contribute their exact entry
     length (gap - level) / d; farther nodes the bound min(gap - level) / max(d), which is
@@ -168,31 +191,87 @@ def dot_and_entry(d, kd, gap, lo, hi, level, margin):
     """
     m = d.shape[0]
     a, b = max(lo - margin, 0), min(hi + margin, m)
-    total = 0.0
-    for i in range(m):  # separate loops vectorise, one fused loop does not
-        total += d[i] * kd[i]
-    rise, room = _max_min(d, gap, 0, a, 0.0, np.inf)
-    rise, room = _max_min(d, gap, b, m, rise, room)
-    entry = (room - level) / rise if rise > 0.0 else np.inf
-    entry = _entry_exact(d, gap, level, a, lo, entry)
-    return total, _entry_exact(d, gap, level, hi, b, entry)
+    rise, room, entry = _entry_pieces(d, gap, 0, m, lo, hi, a, b, level, 0, KEY_INF, KEY_INF)
+    return _entry_length(rise, room, entry, level)
+
+
+@njit(cache=True)
+def axpy_entry(y, x, s, gap, lo, hi, level, margin):
+    """y += s x (the direction update), and the :func:`entry_bound` of the new y, in one pass
+    (chunk by chunk: each chunk's y is read again from the cache)."""
+    m = y.shape[0]
+    a, b = max(lo - margin, 0), min(hi + margin, m)
+    rise, room, entry = 0, KEY_INF, KEY_INF
+    for c in range(0, m, CHUNK):
+        e = min(c + CHUNK, m)
+        yc, xc = y[c:e], x[c:e]
+        for i in range(yc.shape[0]):
+            yc[i] += s * xc[i]
+        rise, room, entry = _entry_pieces(y, gap, c, e, lo, hi, a, b, level, rise, room, entry)
+    return _entry_length(rise, room, entry, level)
 
 
 @njit(cache=True, fastmath=FAST)
 def update_and_residual(u, d, load, kd, gap, length, traction, p, q, lo, hi, r):
     """The accepted step and the next residual in one pass: u += length d, load += length kd,
-    gap -= length d, then r as :func:`residual` (same returns)."""
+    gap -= length d, then r as :func:`residual` (same returns), chunk by chunk."""
+    m = u.shape[0]
     total = 0.0
-    for i in range(u.shape[0]):
-        u[i] += length * d[i]
-        gap[i] = gap[i] - length * d[i]
-        v = load[i] + length * kd[i]
+    high, low = KEY_NEG_INF, KEY_INF
+    for c in range(0, m, CHUNK):
+        e = min(c + CHUNK, m)
+        uc, dc, gc, lc, kc, rc = u[c:e], d[c:e], gap[c:e], load[c:e], kd[c:e], r[c:e]
+        for i in range(uc.shape[0]):
+            uc[i] += length * dc[i]
+            gc[i] = gc[i] - length * dc[i]
+            v = lc[i] + length * kc[i]
+            lc[i] = v
+            rc[i] = -v
+            total -= v
+        total = _add_span(r, traction, max(c, p), min(e, q), total)
+        high, low = key_extremes(r, r, c, min(e, lo), high, low)
+        high, low = key_extremes(r, r, max(c, hi), e, high, low)
+    return total, value(high), value(low)
+
+
+@njit(cache=True, fastmath=FAST, inline="always")
+def _add_span(r, traction, first, last, total):
+    """r += traction on [first, last); returns total plus the traction's sum there."""
+    if last > first:
+        rs, ts = r[first:last], traction[first:last]
+        for i in range(rs.shape[0]):
+            rs[i] += ts[i]
+            total += ts[i]
+    return total
+
+
+@njit(cache=True, fastmath=FAST)
+def start_point(u, wall, k_u, linear, load, gap, r, level):
+    """The start of a solve in one pass: load = k_u + linear, r = -load (the residual
+    before the cohesive traction, :func:`residual_span` adds it), gap = wall - u; returns
+    (the sum of r, (first, last, smallest) of the gaps as :func:`near`)."""
+    m = u.shape[0]
+    total = 0.0
+    first, last, lk = m, -1, KEY_INF
+    for i in range(m):
+        v = k_u[i] + linear[i]
         load[i] = v
         r[i] = -v
         total -= v
-    for i in range(p, q):
-        r[i] += traction[i]
-        total += traction[i]
+        g = wall[i] - u[i]
+        gap[i] = g
+        near = g < level
+        first = min(first, i if near else m)
+        last = max(last, i if near else -1)
+        lk = min(lk, low_key(bits(g)))
+    return total, (first, last, value(lk))
+
+
+@njit(cache=True, fastmath=FAST)
+def residual_span(r, traction, p, q, lo, hi, total):
+    """r += traction on [p, q) (zero elsewhere); returns (total plus its sum there, max and
+    min of r outside [lo, hi)) as :func:`residual`."""
+    total = _add_span(r, traction, p, q, total)
     high, low = _extremes(r, lo, hi)
     return total, high, low
 
@@ -200,17 +279,7 @@ def update_and_residual(u, d, load, kd, gap, length, traction, p, q, lo, hi, r):
 @njit(cache=True)
 def near(gap, level):
     """(first, last, smallest) of :func:`shifted_gaps` for gaps already in place."""
-    m = gap.shape[0]
-    first, last, smallest = m, -1, np.inf
-    for i in range(m):
-        g = gap[i]
-        if g < level:
-            if first == m:
-                first = i
-            last = i
-        if g < smallest:
-            smallest = g
-    return first, last, smallest
+    return low_scan(gap, level)
 
 
 @njit(cache=True)
@@ -253,31 +322,10 @@ def span_dot(a, b, p, q):
 
 
 @njit(cache=True)
-def _max_min(a, b, first, last, high, low):
-    """(max(high, max a[first:last]), min(low, min b[first:last])) in four lanes.
-
-    NaN entries are passed over, as by one running ``max``/``min`` from a number.
-    """
-    h0 = h1 = h2 = h3 = high
-    l0 = l1 = l2 = l3 = low
-    i = first
-    while i + 4 <= last:  # four independent compare-and-selects per round
-        h0, h1 = max(h0, a[i]), max(h1, a[i + 1])
-        h2, h3 = max(h2, a[i + 2]), max(h3, a[i + 3])
-        l0, l1 = min(l0, b[i]), min(l1, b[i + 1])
-        l2, l3 = min(l2, b[i + 2]), min(l3, b[i + 3])
-        i += 4
-    while i < last:
-        h0, l0 = max(h0, a[i]), min(l0, b[i])
-        i += 1
-    return max(max(h0, h1), max(h2, h3)), min(min(l0, l1), min(l2, l3))
-
-
-@njit(cache=True)
 def _extremes(r, lo, hi):
     """max and min of r outside [lo, hi) (-inf, +inf when that is empty)."""
-    high, low = _max_min(r, r, 0, lo, -np.inf, np.inf)
-    return _max_min(r, r, hi, r.shape[0], high, low)
+    high, low = max_min(r, r, 0, lo, -np.inf, np.inf)
+    return max_min(r, r, hi, r.shape[0], high, low)
 
 
 @njit(cache=True, fastmath=FAST)
@@ -301,24 +349,30 @@ def residual(load, traction, p, q, lo, hi, r):
 
 @njit(cache=True)
 def on_wall(gap, lo, hi, tolerance, on):
-    """on[k] = gap[lo + k] <= tolerance on the near span; returns the count."""
-    count = 0
-    for k in range(hi - lo):
-        flag = gap[lo + k] <= tolerance
+    """on[k] = gap[lo + k] <= tolerance on the near span; returns (the count, the first and
+    the last node on the wall; hi and lo - 1 when none)."""
+    g = gap[lo:hi]
+    m = g.shape[0]
+    count, first, last = 0, m, -1
+    for k in range(m):
+        flag = g[k] <= tolerance
         on[k] = flag
         count += flag
-    return count
+        first = min(first, k if flag else m)
+        last = max(last, k if flag else -1)
+    return count, lo + first, lo + last
 
 
 @njit(cache=True)
 def press(r, lo, hi, on, mu, pressed):
     """pressed = on and r > mu on the near span; returns (sum of r over pressed, count)."""
+    span = r[lo:hi]
     total, count = 0.0, 0
-    for k in range(hi - lo):
-        flag = on[k] and r[lo + k] > mu
+    for k in range(span.shape[0]):
+        flag = on[k] and span[k] > mu
         pressed[k] = flag
         if flag:
-            total += r[lo + k]
+            total += span[k]
             count += 1
     return total, count
 
@@ -327,56 +381,72 @@ def press(r, lo, hi, on, mu, pressed):
 def settle(r, lo, hi, pressed, before, mu):
     """Set r = mu on the pressed nodes; returns (max, min of r on the span, any node joined
     the pressed set since ``before``, the last iteration's set on the span)."""
-    high, low, joined = -np.inf, np.inf, False
-    for k in range(hi - lo):
+    span, was = r[lo:hi], before[lo:hi]
+    joined = False
+    for k in range(span.shape[0]):
         if pressed[k]:
-            r[lo + k] = mu
-            if not before[lo + k]:
-                joined = True
-        v = r[lo + k]
-        if v > high:
-            high = v
-        if v < low:
-            low = v
+            span[k] = mu
+            joined |= not was[k]
+    high, low = max_min(span, span, 0, span.shape[0], -np.inf, np.inf)
     return high, low, joined
 
 
 @njit(cache=True)
 def masked_sum(a, lo, hi, mask):
     """sum of a[lo + k] where mask[k], k < hi - lo."""
+    span = a[lo:hi]
     total = 0.0
-    for k in range(hi - lo):
+    for k in range(span.shape[0]):
         if mask[k]:
-            total += a[lo + k]
+            total += span[k]
     return total
 
 
-@njit(cache=True, fastmath=FAST)
-def project_direction(z, shift, lo, hi, pressed, r, r_old, d_old, restart):
-    """z -= shift, z = 0 on the pressed nodes; returns (r.z, r_old.z, r.d_old) (the last two
-    0 when ``restart``): the Polak-Ribiere dots in the same pass."""
-    for i in range(z.shape[0]):
-        z[i] -= shift
-    for k in range(hi - lo):
-        if pressed[k]:
-            z[lo + k] = 0.0
-    rz, r_old_z, r_d = 0.0, 0.0, 0.0
-    if restart:
-        for i in range(z.shape[0]):
-            rz += r[i] * z[i]
-    else:
-        for i in range(z.shape[0]):
-            rz += r[i] * z[i]
-            r_old_z += r_old[i] * z[i]
-            r_d += r[i] * d_old[i]
-    return rz, r_old_z, r_d
-
-
 @njit(cache=True)
-def axpy(y, x, a):
-    """y += a x."""
-    for i in range(y.shape[0]):
-        y[i] += a * x[i]
+def pushed(d, lo, hi, on, out):
+    """out = on and d > 0 on the near span (on-wall nodes the direction pushes into the
+    wall); returns their count."""
+    span = d[lo:hi]
+    count = 0
+    for k in range(span.shape[0]):
+        flag = on[k] and span[k] > 0.0
+        out[k] = flag
+        count += flag
+    return count
+
+
+@njit(cache=True, fastmath=FAST)
+def project_direction(z, shift, lo, hi, pressed, r, r_old, d_old, restart, gap, level, margin):
+    """z -= shift, z = 0 on the pressed nodes (mask ``pressed`` of [lo, hi)), and the
+    Polak-Ribiere dots in the same pass, chunk by chunk: returns (r.z, r_old.z, r.d_old,
+    +inf); when ``restart`` (z is the direction) (r.z, 0, 0, the :func:`entry_bound` of z
+    with ``gap``, ``level`` and ``margin``)."""
+    m = z.shape[0]
+    a, b = max(lo - margin, 0), min(hi + margin, m)
+    rz, r_old_z, r_d = 0.0, 0.0, 0.0
+    rise, room, entry = 0, KEY_INF, KEY_INF
+    for c in range(0, m, CHUNK):
+        e = min(c + CHUNK, m)
+        zc, rc = z[c:e], r[c:e]
+        for i in range(zc.shape[0]):
+            zc[i] -= shift
+        first, last = max(c, lo), min(e, hi)
+        if last > first:
+            zs, ps = z[first:last], pressed[first - lo : last - lo]
+            for k in range(zs.shape[0]):
+                if ps[k]:
+                    zs[k] = 0.0
+        if restart:
+            for i in range(zc.shape[0]):
+                rz += rc[i] * zc[i]
+            rise, room, entry = _entry_pieces(z, gap, c, e, lo, hi, a, b, level, rise, room, entry)
+        else:
+            oc, dc = r_old[c:e], d_old[c:e]
+            for i in range(zc.shape[0]):
+                rz += rc[i] * zc[i]
+                r_old_z += oc[i] * zc[i]
+                r_d += rc[i] * dc[i]
+    return rz, r_old_z, r_d, (_entry_length(rise, room, entry, level) if restart else np.inf)
 
 
 @njit(cache=True)
@@ -402,6 +472,8 @@ def compile_all():
     (:mod:`hpcgfmd.parallel.fft_kernels`) and of the SLS history
     (:mod:`hpcgfmd.model.history_kernels`) too."""
     step_kernels.compile_all()
+    extremes.compile_all()
+    verlet_kernels.compile_all()
     fft_kernels.compile_all()
     history_kernels.compile_all()
     m = 8
@@ -413,9 +485,12 @@ def compile_all():
     contact_reaction(a, 0, m, b, c, 0.1, d)
     first, last, smallest = shifted_gaps(b, c, 0.5, a, 1.0)
     shifted_window(b, c, 0.5, a, 1.0, 2, 6)
-    dot_and_entry(a, b, c, 2, 6, 1.0, 1)
+    entry_bound(a, c, 2, 6, 1.0, 1)
+    axpy_entry(a.copy(), b, 0.5, c, 2, 6, 1.0, 1)
     update_and_residual(a, b, c, d, gap_ext[1:-1], 0.5, a, 0, m, 1, m - 1, b)
     near(a, 1.0)
+    start_point(a, b, c, d, a.copy(), b.copy(), c.copy(), 1.0)
+    residual_span(a.copy(), b, 1, 7, 2, 6, 0.0)
     spans(first, last, m, True, False)
     traction_on_span(gap_ext, a, 0, m, 1, m - 1, 1.0, 1.0, b)
     span_dot(a, b, 0, m)
@@ -424,7 +499,8 @@ def compile_all():
     press(a, 0, m, flags, 0.0, flags2)
     settle(a, 0, m, flags2, flags, 0.0)
     masked_sum(a, 0, m, flags)
-    project_direction(a, 0.1, 0, m, flags, b, c, d, False)
-    axpy(a, b, 0.5)
+    pushed(a, 0, m, flags, flags2)
+    project_direction(a, 0.1, 0, m, flags, b, c, d, False, c, 1.0, 2)
+    project_direction(a, 0.1, 0, m, flags, b, c, d, True, c, 1.0, 2)
     axpy2(a, b, c, d, 0.5)
     dot(a, b)

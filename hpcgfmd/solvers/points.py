@@ -70,6 +70,11 @@ class PointEvaluator:
         first, last, smallest = kernels.near(point.gap, self.level)
         return self._finish(point, first, last, smallest, d)
 
+    def evaluate_scanned(self, point, scan):
+        """Collective: :meth:`evaluate` of gaps whose (first, last, smallest) ``scan``, as
+        :func:`kernels.near` gives it, was made when they were formed."""
+        return self._finish(point, *scan, None)
+
     def evaluate_shifted(self, point, base, d, length, window=None):
         """Collective: ``point`` at gaps base - length d (the gaps of u + length d when base is
         the gaps of u), evaluated as :meth:`evaluate` with the slope along d.

@@ -6,7 +6,9 @@ the damped dynamics) and by the predictor's guesses.
 
 from __future__ import annotations
 
-from .step_kernels import below_wall
+import numpy as np
+
+from .step_kernels import below_wall, feasibility
 
 
 def project_feasible(domain, u, wall, out, wall_scale=None, shift=0.0, hold_contact=False):
@@ -66,3 +68,26 @@ def project_feasible(domain, u, wall, out, wall_scale=None, shift=0.0, hold_cont
             return c + step
         c += step
     return c
+
+
+def project_in_place(domain, u, wall, scratch):
+    """Collective: replace ``u`` by its projection :func:`project_feasible` (from shift 0);
+    returns the wall scale max |wall| (global).
+
+    A start that is feasible already (no node above the wall and zero mean to the Newton
+    iteration's tolerance: the predictor's projected guesses, an equilibrium under a wall
+    that rose) is its own projection: one pass that only reads u and the wall finds it so,
+    and u is left as it is. Otherwise u is projected through ``scratch`` and copied back.
+    Either way u ends as project_feasible's output (to the sign of a zero), found with the
+    same sums; two reductions, as the wall scale and the first Newton step take.
+    """
+    moved, free, wall_max = feasibility(u, wall)
+    wall_scale, moved = domain.maxes(wall_max, float(moved))
+    if moved == 0.0:
+        # the first Newton step's sum: of min(u, wall) = u, numpy's pairwise sum as there
+        total, count = domain.sums(u.sum(), free)
+        if count > 0 and abs(total / count) <= 1e-15 * (wall_scale + 1e-300):
+            return wall_scale
+    project_feasible(domain, u, wall, scratch, wall_scale=wall_scale)
+    np.copyto(u, scratch)
+    return wall_scale

@@ -14,6 +14,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .extremes import INF_BITS, MAGNITUDE, as_float, bits
+
 FAST = {"reassoc"}  # reductions may be reassociated (vectorised); inf and NaN keep their meaning
 
 
@@ -140,6 +142,35 @@ def below_wall(u, shift, wall, out, hold):
 
 
 @njit(cache=True)
+def feasibility(u, wall):
+    """What :func:`below_wall` at shift 0 would do, without writing: returns (the nodes it
+    would move, u > wall or a NaN wall under a number; the free nodes, u < wall; max |wall|,
+    NaN passed over). With no node to move its output is u (to the sign of a zero)."""
+    moved, free, high = 0, 0, 0
+    for i in range(u.shape[0]):
+        v, w = u[i], wall[i]
+        free += v < w
+        moved += (not v <= w) and v == v
+        b = bits(w) & MAGNITUDE  # |w|: the bits of a non-negative double are its key
+        high = max(high, b if b <= INF_BITS else 0)
+    return moved, free, as_float(high)
+
+
+@njit(cache=True)
+def equal(a, b):
+    """True when the blocks are equal node by node (as numbers: NaN is equal to nothing);
+    compared in vectorised chunks, stopping at the first chunk that differs."""
+    for start in range(0, a.shape[0], 1024):
+        x, y = a[start : start + 1024], b[start : start + 1024]  # (slices: indices from 0)
+        differ = 0
+        for i in range(x.shape[0]):
+            differ += x[i] != y[i]
+        if differ:
+            return False
+    return True
+
+
+@njit(cache=True)
 def all_beyond(wall, u, level):
     """True when every gap wall - u exceeds ``level`` (stops at the first that does not)."""
     for i in range(u.shape[0]):  # noqa: SIM110 (a compiled loop: no generator in all())
@@ -162,3 +193,5 @@ def compile_all():
     contact_sums(a, b, states[0])
     all_beyond(a, b, 0.5)
     below_wall(a, 0.1, b, c, False)
+    feasibility(a, b)
+    equal(a, b)

@@ -25,8 +25,8 @@ from .active_set import ActiveSet
 from .base import SolveResult
 from .grid_law import GridLaw
 from .points import Point, PointEvaluator
-from .projection import project_feasible
-from .step_kernels import energy_terms
+from .projection import project_in_place
+from .step_kernels import energy_terms, equal
 
 
 class StepProblem:
@@ -50,14 +50,12 @@ class StepProblem:
         self._gap_ext = self.grid_law.extended(n)
         self._gap = self.grid_law.inner(self._gap_ext)
         self._k_u = aligned_empty(n)
-        self._mask = np.empty(n, dtype=bool)
         # The lowest-energy vector passed to energy() since the last solve began (the
         # predictor's start of the next solve) and its K: see recall.
         self._guess = np.empty(n)
         self._k_guess = np.empty(n)
         self._guess_stiffness = None
         self._guess_energy = np.inf
-        self._spectrum_mask = None
         self._measure = None  # the buffers of measure(), made on its first use
 
     # --- the energy --------------------------------------------------------------------
@@ -117,13 +115,21 @@ class StepProblem:
         checkpoint does the same transforms as an uninterrupted one. A miss costs a sample
         comparison, a match a full one (~0.1 pair).
         """
+        kept = self.recalled(u, stiffness)
+        if kept is None:
+            return False
+        np.copyto(out, kept)
+        return True
+
+    def recalled(self, u, stiffness):
+        """Collective: :meth:`recall` without the copy: the kept K u (valid until the next
+        :meth:`energy`), or None."""
         same = self._guess_energy < np.inf and self._matches(
             u, self._guess, self._guess_stiffness, stiffness
         )
         if self.domain.max(0.0 if same else 1.0) > 0.0:
-            return False
-        np.copyto(out, self._k_guess)
-        return True
+            return None
+        return self._k_guess
 
     def _matches(self, u, kept_u, kept_stiffness, stiffness):
         """Local: u and the stiffness are bitwise the kept ones (a sample of u first)."""
@@ -132,11 +138,7 @@ class StepProblem:
         sample = max(1, self._n // 256)
         if np.not_equal(u[::sample], kept_u[::sample]).any():
             return False
-        if np.not_equal(u, kept_u, out=self._mask).any():
-            return False
-        if self._spectrum_mask is None or self._spectrum_mask.shape != stiffness.shape:
-            self._spectrum_mask = np.empty(stiffness.shape, dtype=bool)
-        return not np.not_equal(kept_stiffness, stiffness, out=self._spectrum_mask).any()
+        return equal(u, kept_u) and equal(kept_stiffness.ravel(), stiffness.ravel())
 
     # --- the traction at equilibrium -----------------------------------------------------
     def interface_traction(self, u, k_u, wall, history, mean_traction, out, applied=None):
@@ -188,9 +190,7 @@ class StepProblem:
             )
         start, linear_buffer, k_u, point, evaluator, active = self._measure
         dom = self.domain
-        wall_scale = dom.max_abs(wall)
-        project_feasible(dom, u, wall, start, wall_scale=wall_scale)
-        np.copyto(u, start)
+        wall_scale = project_in_place(dom, u, wall, start)
         linear = history if applied is None else np.subtract(history, applied, out=linear_buffer)
         if not self.recall(u, ops.stiffness, k_u):
             self.fft.apply_diagonal(u, ops.stiffness, k_u)

@@ -117,11 +117,12 @@ Real-space formulation (one FFT pair per pseudo step)
     that decreases with the count (measured in docs/results.md, "The paper's method").
 
     Work per pseudo step besides the two FFTs: the serial transform's copy in and copy out
-    (the spectrum stays in the transform's own buffer), four passes over the n/2 complex
-    modes (a0 U, a1 U, - V, - P, done on interleaved floats: a complex-times-real multiply
-    would cast through a numpy buffer), the wall minimum (in place), the free-node test and
-    the sum; with adhesion also the gap, the cohesive law and one addition. Nothing is
-    allocated per pseudo step by this module (the cohesive law makes its own temporaries).
+    (the spectrum stays in the transform's own buffer), one compiled pass over the modes (a0
+    U and a1 U - V - P on interleaved floats, :func:`.verlet_kernels.modes`) and one over the
+    nodes (the wall minimum, the free count and, with adhesion, the next step's gaps with
+    their scan for the interaction span: :mod:`.verlet_kernels`), numpy's sum of u; with
+    adhesion the cohesive law on the span of nodes within the zone (:mod:`.points`, as the
+    CG evaluates it) and the addition of the traction. Nothing is allocated per pseudo step.
 
 Per solve (not per pseudo step): an exact zero-mean projection of the start, the global
 stability limit (one reduction), and the step problem's measure of the result
@@ -144,9 +145,10 @@ import math
 import numpy as np
 
 from ..model.interface import DugdaleMaugis
+from . import kernels, verlet_kernels
 from .base import NO_WATCH, EquilibriumSolver, SolveResult, SolverKey, register
 from .cg import ConstrainedCG
-from .grid_law import GridLaw
+from .points import Point, PointEvaluator
 from .projection import project_feasible
 from .step_problem import StepProblem
 
@@ -282,14 +284,9 @@ class DampedVerletGFMD(EquilibriumSolver):
         self.problem = StepProblem(domain, fft, law, traction_scale)
         self._k_u = None
         n = domain.local_n
-        self._grid_law = GridLaw(domain, law)
-        self._gap_ext = self._grid_law.extended(n)
-        self._gap = self._grid_law.inner(self._gap_ext)
-        self._traction = np.zeros(n)
+        self._point = Point(n, domain.halo)  # the gaps and the cohesive traction of u
         self._linear = np.zeros(n)  # g = irfft(G)
         self._load = np.zeros(n)  # h^2 (H - applied) / n
-        self._free = np.zeros(n, dtype=bool)
-        self._work = np.zeros((3, self._gap_ext.size), dtype=bool)
         shape = fft.spectrum_shape
         # The transform's own spectrum buffer (saves the copies in the serial transform).
         self._spectrum = fft.spectrum
@@ -421,49 +418,52 @@ class DampedVerletGFMD(EquilibriumSolver):
             load -= (h2 / dom.n) * applied
         load_hat = fft.forward(load, self._load_hat)
         adhesive = self.law.sigma_a > 0.0
-        if adhesive:
-            law = DugdaleMaugis(self.law.sigma_a * h2, self.law.dmax)  # traction times h^2
-        spectrum, a1, a0 = self._spectrum, self._a1_pairs, self._a0_pairs
-        v_old, v_new = self._v_old, self._v_new
+        # the cohesive traction times h^2, on the span of nodes within the zone (g < dmax)
+        evaluator = PointEvaluator(dom, DugdaleMaugis(self.law.sigma_a * h2, self.law.dmax))
+        level = evaluator.level = self.law.dmax
+        spectrum, a1, a0 = self._spectrum, self._a1_pairs.ravel(), self._a0_pairs.ravel()
+        v_old, v_new = self._v_old.ravel(), self._v_new.ravel()  # (views: contiguous)
         pairs = np.float64  # the spectra as interleaved floats (see __init__)
-        spectrum_f, load_hat_f = spectrum.view(pairs), load_hat.view(pairs)
-        g, gap, gap_ext, traction = self._linear, self._gap, self._gap_ext, self._traction
-        free, work, zero = self._free, self._work, self._zero_mode
-        multiply, subtract, minimum = np.multiply, np.subtract, np.minimum
+        spectrum_f, load_hat_f = spectrum.view(pairs).ravel(), load_hat.view(pairs).ravel()
+        g, point = self._linear, self._point
+        zero = self._zero_mode
         s = self._mean_traction * h2  # warm start: the last solve's multiplier
         wall_scale = dom.max_abs(wall)  # the shift's tolerance is 1e-15 of it
+        scan = None  # the gaps of u and their scan, when the last step's pass formed them
         for k in range(steps):
             first = k == 0
             # The first and the last step project exactly (see the module docstring: the
             # last one so that the result has zero mean with the contact ON the wall).
             exact = first or k == steps - 1
             fft.forward(u, spectrum)  # U = rfft(u)
-            multiply(spectrum_f, a0, out=v_new)  # a0 U / n, the next step's "old" term
-            if first:
-                np.copyto(v_old, v_new)  # start at rest: u_old = u
-            multiply(spectrum_f, a1, out=spectrum_f)
-            subtract(spectrum_f, v_old, out=spectrum_f)  # G = (a1 U - a0 U_old) / n
-            subtract(spectrum_f, load_hat_f, out=spectrum_f)  # - h^2 (H - applied)^ / n
+            # a0 U / n, the next step's "old" term, and G = (a1 U - a0 U_old) / n
+            # - h^2 (H - applied)^ / n; at rest (the first step) U_old = U
+            verlet_kernels.modes(spectrum_f, a1, a0, v_new if first else v_old, load_hat_f, v_new)
             if zero is not None and not exact:
                 spectrum[zero] -= s  # the uniform shift, through the q = 0 mode
             v_old, v_new = v_new, v_old
             if adhesive:  # the cohesive traction of the current u, before it is replaced
-                subtract(wall, u, out=gap)
-                dom.fill_halo(gap_ext)
-                self._grid_law.whole_traction(gap_ext, traction, work, law)
+                if scan is None:
+                    scan = kernels.shifted_gaps(wall, u, 1.0, point.gap, level)  # wall - u
+                evaluator.evaluate_scanned(point, scan)
             # The first and the last step keep the unshifted update v = g (+ t) and project
-            # it exactly (Newton from the current s); the others write it into u and take
-            # one Newton step on the shift.
+            # it exactly (Newton from the current s); the others write it into u, meet the
+            # wall (and form the next step's gaps) and take one Newton step on the shift.
             v = g if exact else u
             fft.inverse(spectrum, v)
-            if adhesive:
-                v += traction
             if exact:
+                if adhesive:
+                    v += point.traction
                 s = project_feasible(dom, v, wall, u, wall_scale=wall_scale, shift=s)
+                scan = None
             else:
-                minimum(u, wall, out=u)  # the hard wall
-                np.less(u, wall, out=free)
-                total, count, stop = dom.sums(u.sum(), np.count_nonzero(free), watch.flag())
+                if adhesive:
+                    count, scan = verlet_kernels.hard_wall_adhesive(
+                        u, point.traction, wall, point.gap, level
+                    )
+                else:
+                    count = verlet_kernels.hard_wall(u, wall)
+                total, count, stop = dom.sums(u.sum(), count, watch.flag())
                 if stop:
                     return None
                 if count == 0:

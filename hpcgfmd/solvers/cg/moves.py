@@ -22,7 +22,7 @@ class Moves:
     active : hpcgfmd.solvers.active_set.ActiveSet
     walls : hpcgfmd.solvers.cg.wall_steps.WallSteps
         The steps that reach the wall.
-    residuals, directions : ndarray, shape (2, local_n)
+    residuals, directions : tuple of two ndarray
         The solve's rows of r and r_old, and of z and d_old (rows swap roles).
     load : ndarray
         The running K u + H - p_applied (the steps update it).
@@ -42,20 +42,24 @@ class Moves:
         self.extensions = 0
 
     def direction(self, it, r, ops, lo, hi, count, n_free, on_s, pressed_s):
-        """Collective: the search direction d (row iz) and r.d, r.z.
+        """Collective: the search direction d (row iz), r.d, r.z and the entry length of d.
 
         z = K^-1 r projected on the free nodes with zero mean (z has zero sum: K^-1 has no
         q = 0 mode); d = z + beta d_old (Polak-Ribiere+), formed in z's row by one axpy once
         r.d = r.z + beta r.d_old says it descends, else d = z. On-wall nodes that d pushes
-        into the wall are held (:meth:`ActiveSet.hold`).
+        into the wall are held (:meth:`ActiveSet.hold`). The entry length (global): no node
+        outside the near span [lo, hi) of the current point comes within the interaction
+        range along d before it (:func:`kernels.entry_bound`), formed in the pass that
+        forms d and reduced with the hold test.
         """
         dom, R, Z = self.domain, self._residuals, self._directions
         ir, iz = it.ir, it.iz
         z = Z[iz]
+        gap, level, margin = it.cur.gap, self._evaluator.level, max(hi - lo, 16)
         self.fft.apply_diagonal(r, ops.compliance, z)
         shift = dom.sum(-kernels.masked_sum(z, lo, hi, pressed_s) if count else 0.0) / n_free
-        rz, r_old_z, r_d = kernels.project_direction(
-            z, shift, lo, hi, pressed_s, r, R[1 - ir], Z[1 - iz], it.restart
+        rz, r_old_z, r_d, entry = kernels.project_direction(
+            z, shift, lo, hi, pressed_s, r, R[1 - ir], Z[1 - iz], it.restart, gap, level, margin
         )
         if it.restart:
             rz = rd = dom.sum(rz)
@@ -67,29 +71,32 @@ class Moves:
             rd = beta * r_d + rz
             if rd <= 0.0 or beta == 0.0:  # not a descent direction any more: steepest
                 rd = rz
+                entry = kernels.entry_bound(z, gap, lo, hi, level, margin)
             else:
-                kernels.axpy(z, Z[1 - iz], beta)
+                entry = kernels.axpy_entry(z, Z[1 - iz], beta, gap, lo, hi, level, margin)
         it.iz = 1 - it.iz
-        held = self._active.hold(r, it.mu, z, lo, hi, pressed_s, on_s)
-        return z, (rd if held is None else held), rz
+        pushing = self._active.pushing(z, lo, hi, on_s)
+        pushing, minus_entry = dom.maxes(1.0 if pushing else 0.0, -entry)
+        if pushing > 0.0:
+            rd = self._active.hold(r, it.mu, z, lo, hi, pressed_s, on_s)
+            minus_entry = -dom.min(kernels.entry_bound(z, gap, lo, hi, level, margin))
+        return z, rd, rz, -minus_entry
 
-    def step(self, it, u, wall, r, d, rd, ops, linear, wall_scale):
+    def step(self, it, u, wall, r, d, rd, entry, ops, linear, wall_scale):
         """Collective: move u along d to the trial point, on by the line search, or to the wall.
 
         The trial point u + alpha d (alpha = r.d / d.K d, the quadratic bound's minimiser)
         is evaluated; with adhesion phi'(alpha) = -((t(u + alpha d) - t(u)).d + r.d - alpha
         d.K d) needs two dots on the spans of the tractions. Off the wall the line search
         goes on from it and the point reached becomes the current one; a trial point
-        beyond the wall hands the step to :class:`WallSteps` (CG restarts).
+        beyond the wall hands the step to :class:`WallSteps` (CG restarts). ``entry`` is
+        the entry length of d (:meth:`direction`).
         """
         dom, k_d, cur, trial = self.domain, self._k_d, it.cur, it.trial
         adhesive = self.law.sigma_a > 0.0
         self.fft.apply_diagonal(d, ops.stiffness, k_d)
         lo, hi = cur.near
-        d_kd, entry = kernels.dot_and_entry(
-            d, k_d, cur.gap, lo, hi, self._evaluator.level, max(hi - lo, 16)
-        )
-        d_kd, entry = dom.sum(d_kd), dom.min(entry)
+        d_kd = dom.sum(kernels.dot(d, k_d))
         alpha = rd / d_kd
         # Points along d are formed on a window around the near span while no node from
         # outside can enter the zone (length < entry), and only their gaps: u follows if

@@ -33,24 +33,30 @@ backtracking trial and for the residual direction when a step reaches the wall (
 solve, one pair at the start unless the predictor evaluated the start
 (:meth:`~hpcgfmd.solvers.step_problem.StepProblem.recall`). K u is updated incrementally,
 through the running load K u + H - p_applied, also for the solution (its exact K u differs by
-round-off). The elementwise work is about 15 passes over the block: r = t - (K u + H -
-p_applied), its sum and extrema, the mean of z, one pass for the three CG dot products (a
-2 x 2 matmul of the stacked r, r_old and z, d_old), one axpy for d, d.Kd, the trial point's
-gaps, the axpy on u and the one on K u + H - p_applied, plus the point's gaps and its span
-per line-search extension. Everything about the wall, the active set and the cohesive law
-works on the span of nodes with gap < dmax (:mod:`.points`), and the traction of a trial
-point that is taken is not evaluated again. Buffers are swapped, not copied, and no array
-of the block's size is allocated in a CG iteration or a line-search extension; the rare
-projected step evaluates the energy, whose cohesive part makes temporaries of the
-interaction span's size. docs/results.md has the measured cost.
+round-off). Between the transforms, four compiled passes over the block
+(:mod:`hpcgfmd.solvers.kernels`), each reading every vector once (chunk by chunk, so that
+what a pass reads again comes from the cache): after K^-1 r the projection of z (mean
+removed, pressed nodes zeroed) with the three Polak-Ribiere dots (r.z, r_old.z, r.d_old), and
+after their reduction d = z + beta d_old with the entry bound of d (how far d may go before a
+node outside the near span enters the zone); after K d, d.K d; after the line search the
+step on u, the gaps and K u + H - p_applied with the next residual, its sum and its extrema.
+Everything about the wall, the active set and the cohesive law works on the span of nodes
+with gap < dmax (:mod:`.points`): the trial point's and each line-search point's gaps and law,
+the multiplier's fixed point; the traction of a trial point that is taken is not evaluated
+again. Per solve: one read-only pass that finds a feasible start feasible (it is left in
+place), the comparison with the predictor's kept vector, one pass forming the gaps, K u + H -
+p_applied and the first residual, one for its extrema, and K u at the end. Buffers are
+swapped, not copied, and no array of the block's size is allocated in a CG iteration or a
+line-search extension; the rare projected step evaluates the energy, whose cohesive part
+makes temporaries of the interaction span's size. docs/results.md has the measured cost.
 
 Parallel layout. Every real-space vector is this rank's block of nodes
 (:class:`hpcgfmd.parallel.domain.Domain`); the transforms inside ``fft.apply_diagonal`` are
 the only bulk communication. An iteration adds reductions of one to four doubles (the
 multiplier's fixed point, the residual's maximum with the restart test and the edge watch,
-the mean of z, the CG dot products, the hold test, d.K d, the trial point's slope; one per
-line-search extension) and one ghost-node exchange per point evaluated; every branch is
-decided on those reduced values, so all ranks take it.
+the mean of z, the CG dot products, the hold test with the entry bound, d.K d, the trial
+point's slope; one per line-search extension) and one ghost-node exchange per point
+evaluated; every branch is decided on those reduced values, so all ranks take it.
 """
 
 from __future__ import annotations
@@ -64,10 +70,17 @@ from .. import kernels
 from ..active_set import ActiveSet
 from ..base import NO_WATCH, EdgeWatch, EquilibriumSolver, SolveResult, register
 from ..points import Point, PointEvaluator
-from ..projection import project_feasible
+from ..projection import project_in_place
 from ..step_problem import StepProblem
 from .moves import Moves
 from .wall_steps import WallSteps
+
+
+def _rows(n):
+    """Two zeroed aligned rows of n nodes, as a tuple of views of one buffer."""
+    rows = aligned_empty((2, n))
+    rows[...] = 0.0
+    return rows[0], rows[1]
 
 
 @dataclass
@@ -129,13 +142,12 @@ class ConstrainedCG(EquilibriumSolver):
         self._k_u = aligned_empty(n)  # K u at the start and the end of a solve (elastic_traction)
         self._load = np.empty(n)  # K u + H - p_applied during a solve (updated by steps)
         self._linear = np.empty(n)  # H - p_applied when a traction is applied
-        self._points = tuple(
-            Point(n, domain.halo) for _ in range(3)
-        )  # current, trial, line-search probe
-        self._residuals = aligned_empty((2, n))  # r and the previous r (rows swap roles)
-        self._directions = aligned_empty((2, n))  # z and d (rows swap roles)
-        self._residuals[...] = 0.0
-        self._directions[...] = 0.0
+        # current, trial, line-search probe
+        self._points = tuple(Point(n, domain.halo) for _ in range(3))
+        # r and the previous r, z and d (rows swap roles), kept as views: the transform
+        # recognises an array it has seen by identity (a new view costs it ~2 us to check)
+        self._residuals = _rows(n)
+        self._directions = _rows(n)
         self._moves = Moves(
             domain,
             fft,
@@ -181,8 +193,8 @@ class ConstrainedCG(EquilibriumSolver):
         ``watch``'s stop flag rides on the iteration's reduction of the residual.
         """
         watch = NO_WATCH if watch is None else watch
-        linear, on_wall_tolerance = self._begin(u, wall, ops, history, applied)
-        it = _Descent(*self._points)
+        linear, on_wall_tolerance, first = self._begin(u, wall, ops, history, applied)
+        it = _Descent(*self._points, pending=first)
         while True:
             r, lo, hi, count, n_free, on_s, pressed_s, local_max, joined = self._residual(
                 it, on_wall_tolerance
@@ -193,7 +205,7 @@ class ConstrainedCG(EquilibriumSolver):
                     local_max, 1.0 if joined else 0.0, interacting, watch.flag()
                 )
             else:  # the iterate's contact edges in the same reduction
-                left, right = self._active.contact_nodes(on_s, lo)
+                left, right = self._active.contact_nodes()
                 r_max, joined_any, interacting, stop, minus_left, right = self.domain.maxes(
                     local_max, 1.0 if joined else 0.0, interacting, watch.flag(), -left, right
                 )
@@ -215,8 +227,10 @@ class ConstrainedCG(EquilibriumSolver):
                 it.restart = True
             it.first_pass = False
             self._active.remember(lo, hi, pressed_s)
-            d, rd, rz = self._moves.direction(it, r, ops, lo, hi, count, n_free, on_s, pressed_s)
-            self._moves.step(it, u, wall, r, d, rd, ops, linear, self._wall_scale)
+            d, rd, rz, entry = self._moves.direction(
+                it, r, ops, lo, hi, count, n_free, on_s, pressed_s
+            )
+            self._moves.step(it, u, wall, r, d, rd, entry, ops, linear, self._wall_scale)
             it.ir = 1 - it.ir
             it.rz_old = rz
             it.iteration += 1
@@ -249,31 +263,31 @@ class ConstrainedCG(EquilibriumSolver):
     def _begin(self, u, wall, ops, history, applied):
         """Collective: the feasible start, K u and the running load K u + H - p_applied.
 
-        Returns the linear term H - p_applied and the gap at or below which a node counts
-        as on the wall (round-off of sums of steps).
+        Returns the linear term H - p_applied, the gap at or below which a node counts as
+        on the wall (round-off of sums of steps) and the first residual's sums (in row 0 of
+        the residuals, :meth:`_residual`'s pending values).
         """
-        dom = self.domain
-        self._wall_scale = dom.max_abs(wall)
-        project_feasible(dom, u, wall, self._start, wall_scale=self._wall_scale)
-        np.copyto(u, self._start)
+        self._wall_scale = project_in_place(self.domain, u, wall, self._start)
         linear = history if applied is None else np.subtract(history, applied, out=self._linear)
-        if self.problem.recall(u, ops.stiffness, self._k_u):
+        k_u = self.problem.recalled(u, ops.stiffness)
+        if k_u is not None:
             self.count["recalled"] += 1
         else:
-            self.fft.apply_diagonal(u, ops.stiffness, self._k_u)
-        self.problem.forget()  # the kept vector lives within one step
-        np.add(self._k_u, linear, out=self._load)
+            k_u = self.fft.apply_diagonal(u, ops.stiffness, self._k_u)
         on_wall_tolerance = 1e-14 * self._wall_scale
         # Nodes that matter for the wall and the law: gap < level (PointEvaluator).
-        self._evaluator.level = max(
+        level = max(
             self.law.dmax if self.law.sigma_a > 0.0 else 0.0,
             np.nextafter(on_wall_tolerance, np.inf),
         )
-        cur = self._points[0]
-        np.subtract(wall, u, out=cur.gap)
-        cur.ready = False
+        self._evaluator.level = level
+        cur, r = self._points[0], self._residuals[0]
+        total, scan = kernels.start_point(u, wall, k_u, linear, self._load, cur.gap, r, level)
+        self.problem.forget()  # the kept vector lives within one step (k_u was read above)
+        self._evaluator.evaluate_scanned(cur, scan)
+        first = kernels.residual_span(r, cur.traction, *cur.traction_span, *cur.near, total)
         self._active.begin()
-        return linear, on_wall_tolerance
+        return linear, on_wall_tolerance, first
 
     def _detached_minimum(self, u, wall, ops, linear, it):
         """Collective: jump to the detached equilibrium when the iterate is detached.
