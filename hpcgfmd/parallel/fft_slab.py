@@ -47,6 +47,10 @@ Transport and synchronisation
     node (``"shared"``: the gathers read the peers' blocks in place, a synchronisation is a
     ``Win.Sync`` and a ``Barrier``) or are moved by one ``Alltoallv`` each (``"messages"``)
     (:class:`~hpcgfmd.parallel.transport.StageBuffers`); both give bitwise equal results.
+    ``"auto"`` takes the window where it can: on two ranks of one node the messages made a
+    pair 1.03-1.2 times slower at 512^2 to 2048^2 (``python -m hpcgfmd bench fft2d``, its
+    ``msgs`` column), as each message is one more copy of the block. On one rank there is
+    neither a synchronisation nor any other MPI call.
     Each rank reads ``16 (nx/2 + 1) ny (P - 1) / P**2`` bytes of the other ranks' blocks per
     transform. After a synchronisation the peers may read a stage's blocks until the next
     one, so a rank about to write the blocks of the stage synchronised last waits first
@@ -233,7 +237,6 @@ class SlabRealFFT2D(RealFFT2D):
         slices the caller's arrays."""
         rank = self.comm.Get_rank()
         rows, cols = self.row_blocks, self._cols
-        row0 = rows[rank][0]
         mine = {stage: self._buffers.mine[stage].blocks for stage in ("xt", "z")}
         # what this rank reads of each rank's blocks (its own in mine, the peers' in read)
         read = {
@@ -261,7 +264,6 @@ class SlabRealFFT2D(RealFFT2D):
                     [(mine["z"][s][a:b, : q - p], work[:, p:q]) for s, (p, q) in enumerate(rows)],
                 )
             )
-        self._row0 = row0
 
     # --- the synchronisations ------------------------------------------------------------
     def _write(self, stage):
