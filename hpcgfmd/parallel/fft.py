@@ -24,9 +24,14 @@ Two more (:class:`~.real_fft.RealFFT2D`) transform an ny x nx grid (``n`` a shap
 * :class:`SerialRealFFT2D`: FFTW's plans of the whole 2-D transform on one rank
   (:mod:`hpcgfmd.parallel.fft_serial2d`), up to ``WHOLE_PLAN_NODES`` nodes.
 
-On one rank FFTW's whole plan is 1.1-1.2 times faster than the slab transform up to 1024^2
+On one rank FFTW's whole plan is 1.05-1.2 times faster than the slab transform up to 1024^2
 nodes, whose arrays fit the 32 MB L3 cache, and the slab one 1.15-1.4 times faster at
-2048^2, where they do not (``python -m hpcgfmd bench fft2d``).
+2048^2, where they do not; two ranks are 1.8-2.1 times faster than one at 2048^2 on an idle
+machine (``python -m hpcgfmd bench fft2d``). mpi4py-fft's PFFT of the same grid (measured by
+that bench where installed; no dependency) was 1.1-2.2 times slower than the slab transform
+on one rank and 1.9-4.4 times on two: it transforms the strided axis in place and moves its
+transpose through ``Alltoallw`` with derived datatypes, where the slab transform gathers
+cache-sized chunks and reads the peer's blocks in a shared window.
 """
 
 from __future__ import annotations
