@@ -29,9 +29,10 @@ nodes, whose arrays fit the 32 MB L3 cache, and the slab one 1.15-1.4 times fast
 2048^2, where they do not; two ranks are 1.8-2.1 times faster than one at 2048^2 on an idle
 machine (``python -m hpcgfmd bench fft2d``). mpi4py-fft's PFFT of the same grid (measured by
 that bench where installed; no dependency) was 1.1-2.2 times slower than the slab transform
-on one rank and 1.9-4.4 times on two: it transforms the strided axis in place and moves its
-transpose through ``Alltoallw`` with derived datatypes, where the slab transform gathers
-cache-sized chunks and reads the peer's blocks in a shared window.
+on one rank (one plan per axis over the whole array, on its own FFTW build) and 1.9-4.4
+times on two, where its transpose goes through ``Alltoallw`` with subarray datatypes (MPI
+packs and unpacks the strided blocks) while the slab transform reads the peer's blocks in
+a shared window.
 """
 
 from __future__ import annotations
