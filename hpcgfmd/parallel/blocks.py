@@ -33,3 +33,12 @@ def block_range(n: int, size: int, rank: int) -> tuple[int, int]:
     base, extra = divmod(n, size)
     start = rank * base + min(rank, extra)
     return start, start + base + (rank < extra)
+
+
+def chunks(count: int, size: int) -> list[tuple[int, int]]:
+    """``range(count)`` split into balanced ``(start, stop)`` chunks of at most ``size`` items
+    (none for ``count`` 0): the cache-sized pieces a transform works through."""
+    if count == 0:
+        return []
+    number = -(-count // max(1, size))
+    return [block_range(count, number, i) for i in range(number)]

@@ -66,7 +66,7 @@ import time
 import numpy as np
 import pyfftw
 
-from .blocks import block_range
+from .blocks import block_range, chunks
 from .fft_kernels import scale
 from .real_fft import RealFFT2D, fftw_plan, grid_shape, signed_modes
 from .transport import TRANSPORTS, StageBuffers, padded_width
@@ -78,14 +78,6 @@ from .transport import TRANSPORTS, StageBuffers, padded_width
 # up to 1.2 times slower).
 _ROW_CHUNK = 2**15
 _COLUMN_CHUNK = 2**16
-
-
-def _chunks(count, size):
-    """Split ``range(count)`` into balanced ``(start, stop)`` chunks of at most ``size``."""
-    if count == 0:
-        return []
-    number = -(-count // max(1, size))
-    return [block_range(count, number, i) for i in range(number)]
 
 
 class SlabRealFFT2D(RealFFT2D):
@@ -178,8 +170,8 @@ class SlabRealFFT2D(RealFFT2D):
         self.transport = self._buffers.transport
         self._synchronised = None  # the stage of the last synchronisation (see _write)
 
-        self._row_chunks = _chunks(R, max(1, _ROW_CHUNK // half))
-        self._col_chunks = _chunks(C, max(1, _COLUMN_CHUNK // ny))
+        self._row_chunks = chunks(R, max(1, _ROW_CHUNK // half))
+        self._col_chunks = chunks(C, max(1, _COLUMN_CHUNK // ny))
         self._plan(planner_effort)
         self._views()
         self.spectrum = pyfftw.zeros_aligned(self.spectrum_shape, dtype=np.complex128)

@@ -78,7 +78,7 @@ import time
 import numpy as np
 import pyfftw
 
-from .blocks import block_range
+from .blocks import block_range, chunks
 from .real_fft import RealFFT, fftw_plan
 from .transport import TRANSPORTS, StageBuffers, padded_width
 
@@ -113,14 +113,6 @@ def split_length(n):
     root = math.sqrt(n)
     n1 = min((d for d in range(2, n + 1, 2) if n % d == 0), key=lambda d: (abs(d - root), d))
     return n1, n // n1
-
-
-def _chunks(count, size):
-    """Split ``range(count)`` into balanced ``(start, stop)`` chunks of at most ``size``."""
-    if count == 0:
-        return []
-    number = -(-count // max(1, size))
-    return [block_range(count, number, i) for i in range(number)]
 
 
 class TransposedRealFFT(RealFFT):
@@ -205,9 +197,9 @@ class TransposedRealFFT(RealFFT):
 
         # Chunks, work arrays and FFTW plans (one pair per distinct chunk height; pyfftw
         # refuses zero-size arrays, so a rank without columns or mode rows has none).
-        col_chunks = _chunks(C, min(_MAX_COLUMNS, max(1, _COLUMN_CHUNK // n1)))
-        row_chunks = _chunks(M, max(1, _ROW_CHUNK // n2))
-        self._row_blocks = _chunks(R, _ROW_BLOCK)
+        col_chunks = chunks(C, min(_MAX_COLUMNS, max(1, _COLUMN_CHUNK // n1)))
+        row_chunks = chunks(M, max(1, _ROW_CHUNK // n2))
+        self._row_blocks = chunks(R, _ROW_BLOCK)
         work_real, work_half, work_rows, column_plans, row_plans = _plans(
             col_chunks, row_chunks, n1, n2, planner_effort
         )
