@@ -21,52 +21,27 @@ import time
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import numpy as np
-
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-# (lambda0, L/R, n, h0/R): >= 5 points across w0, cells of 4.6-18 starting contact radii
-RUNS = ((0.5, 3.0, 256, 0.01), (1.0, 1.5, 256, 0.01), (3.0, 0.8, 384, 0.005))
 ACCURACY = 5e-3
 
 
 def measure(maugis, cell, n, depth):
-    """One run's figures: (n, w/dx, a0/dx, steps, CPU s, pull-off, its reference, curve)."""
+    """One run's figures: (n, w/dx, a0/dx, steps, CPU s, its MaugisDugdaleCheck)."""
     import hpcgfmd
-    from hpcgfmd.model import sphere_theory
-    from hpcgfmd.studies.distance import polyline_distances
+    from hpcgfmd.studies.sphere_check import elastic_sphere, maugis_dugdale_check
 
-    case = hpcgfmd.Case(
-        maugis=maugis,
-        modulus_ratio=1.0,
-        velocity=1.0,
-        depth=depth,
-        cell=cell,
-        adhesion=1e-3,
-        numerics={"n": n, "accuracy": ACCURACY},
-        geometry="sphere",
-    )
+    case = elastic_sphere(maugis, cell, n, depth, ACCURACY)
     started = time.process_time()
     series = hpcgfmd.run(case, planner_effort="FFTW_ESTIMATE").series
     cpu = time.process_time() - started
-    load = series.load / case.load_scale
-    depth_bar = -series.indenter / case.depth_scale
-    start = series.contact_half_width[0] / case.beta
-    radii = np.linspace(0.02, 1.05 * start, 400)
-    ref_load, ref_depth = sphere_theory.periodic_cell(radii, case.cell / case.beta, maugis)
-    scale = np.array([np.abs(ref_depth).max(), abs(ref_load.min())])
-    attached = series.contact_half_width > 0
-    points = np.c_[depth_bar[attached], load[attached]] / scale
-    curve = polyline_distances(points, np.c_[ref_depth, ref_load] / scale).max()
     return (
         n,
         case.zone_width / case.dx,
         series.contact_half_width[0] / case.dx,
         series.time.size - 1,
         cpu,
-        load.min(),
-        ref_load.min(),
-        curve,
+        maugis_dugdale_check(case, series),
     )
 
 
@@ -77,9 +52,14 @@ def main():
     )
     args = parser.parse_args()
     from hpcgfmd.studies import report
+    from hpcgfmd.studies.sphere_check import MAUGIS_RUNS
 
     print(report.header("The sphere against Maugis-Dugdale (scripts/sphere_validation.py)"))
-    runs = [(1.0, 1.5, n, 0.01) for n in args.grids] if args.grids else RUNS
+    runs = (
+        [(1.0, 1.5, n, 0.01) for n in args.grids]
+        if args.grids
+        else [(maugis, *values) for maugis, values in sorted(MAUGIS_RUNS.items())]
+    )
     print(
         "| lambda0 | L/R | n | w0/dx | a0/dx | steps | CPU s | pull-off Pbar | Maugis-Dugdale"
         " in the cell | pull-off error | curve error |"
@@ -87,7 +67,8 @@ def main():
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     worst = 0.0
     for maugis, cell, n, depth in runs:
-        n, zone, contact, steps, cpu, pull, ref, curve = measure(maugis, cell, n, depth)
+        n, zone, contact, steps, cpu, check = measure(maugis, cell, n, depth)
+        pull, ref, curve = check.pull_off, check.reference, check.curve
         error = abs(pull / ref - 1.0)
         worst = max(worst, error / ACCURACY, curve / ACCURACY)
         print(

@@ -20,6 +20,7 @@ from hpcgfmd.parallel.fft import plan_real_fft
 from hpcgfmd.runs.protocol import Retraction
 from hpcgfmd.solvers import kernels, surface_kernels
 from hpcgfmd.solvers.cg import ConstrainedCG
+from hpcgfmd.studies.sphere_check import MAUGIS_RUNS, elastic_sphere, maugis_dugdale_check
 
 # Sum over the square lattice's nodes R != 0 of 1 / |R|, less the integral of 1 / r over the
 # plane (Ewald; 4 zeta(1/2) beta(1/2), Glasser and Zucker's lattice sums): the zero-mean
@@ -200,47 +201,21 @@ def test_a_sphere_case_file_runs_and_opens_in_xarray_with_x_and_y(tmp_path):
     snaps.close()
 
 
-# (lambda, L/R, n, h0/R): grids with >= 5 points across the relaxed zone w0 and cells of
-# 4.6-18 contact radii at the start; the elastic sphere retracted at accuracy 5e-3
-MAUGIS_RUNS = {0.5: (3.0, 256, 0.01), 1.0: (1.5, 256, 0.01), 3.0: (0.8, 384, 0.005)}
-
-
 @pytest.mark.parametrize("maugis", sorted(MAUGIS_RUNS))
 def test_elastic_adhesive_sphere_on_the_maugis_dugdale_curve(maugis):
-    # The load against the indenter's depth (both exact observables, unlike the radius of
-    # a node count) against the Maugis-Dugdale sphere in the periodic cell (M56), (M59), and
-    # the pull-off (the most tensile load) against its least load: within the accuracy.
-    # Measured: pull-off 1.1e-3, 6.3e-4, 9.0e-4 off; curve 1.8e-3, 2.7e-3, 4.9e-3.
+    # The pull-off against the Maugis-Dugdale sphere's least load in the periodic cell
+    # (M56), (M59), and the load against the indenter's depth against its curve: within the
+    # accuracy (hpcgfmd/studies/sphere_check.py). Measured: pull-off 1.1e-3, 6.3e-4,
+    # 9.0e-4 off; curve 1.8e-3, 2.6e-3, 4.8e-3.
     import hpcgfmd
-    from hpcgfmd.model import sphere_theory
-    from hpcgfmd.studies.distance import polyline_distances
 
-    cell, n, depth = MAUGIS_RUNS[maugis]
-    accuracy = 5e-3
-    case = Case(
-        maugis=maugis,
-        modulus_ratio=1.0,
-        velocity=1.0,
-        depth=depth,
-        cell=cell,
-        adhesion=1e-3,
-        numerics={"n": n, "accuracy": accuracy},
-        geometry="sphere",
-    )
-    series = hpcgfmd.run(case, planner_effort="FFTW_ESTIMATE").series
-    load = series.load / case.load_scale
-    depth_bar = -series.indenter / case.depth_scale
-    start = series.contact_half_width[0] / case.beta
-    radii = np.linspace(0.02, 1.05 * start, 400)
-    ref_load, ref_depth = sphere_theory.periodic_cell(radii, case.cell / case.beta, maugis)
-    assert load.min() == pytest.approx(ref_load.min(), rel=accuracy)
-    scale = np.array([np.abs(ref_depth).max(), abs(ref_load.min())])
-    attached = series.contact_half_width > 0
-    points = np.c_[depth_bar[attached], load[attached]] / scale
-    assert polyline_distances(points, np.c_[ref_depth, ref_load] / scale).max() < accuracy
+    case = elastic_sphere(maugis, *MAUGIS_RUNS[maugis])
+    accuracy = case.numerics.accuracy
+    check = maugis_dugdale_check(case, hpcgfmd.run(case, planner_effort="FFTW_ESTIMATE").series)
+    assert check.pull_off == pytest.approx(check.reference, rel=accuracy)
+    assert check.curve < accuracy
     if maugis == 3.0:  # JKR's limit -3/2 (in the cell) approached from below: 1.2 % at 3
-        jkr = sphere_theory.periodic_cell(radii, case.cell / case.beta)[0].min()
-        assert 1.02 * jkr < load.min() < jkr
+        assert 1.02 * check.jkr < check.pull_off < check.jkr
 
 
 def test_equal_groups_give_equal_scaled_responses():

@@ -1,0 +1,64 @@
+"""The elastic adhesive sphere against the Maugis-Dugdale sphere in its periodic cell: the
+cases and the comparison that tests/test_sphere.py asserts and scripts/sphere_validation.py
+tabulates (docs/results.md, "The sphere").
+
+The run's pull-off (its most tensile load) is compared with the least load of the
+Maugis-Dugdale curve in the cell (docs/model.md, (M56), (M59)); its load against the
+indenter's depth, both exact observables (not the radius of a node count), with that curve:
+the largest distance of the run's attached points to it, in the curve's largest depth and
+its |pull-off|.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from ..case import Case
+from ..model import sphere_theory
+from .distance import polyline_distances
+
+# lambda0: (L/R, n, h0/R): >= 5 points across w0, cells of 4.6-18 starting contact radii
+MAUGIS_RUNS = {0.5: (3.0, 256, 0.01), 1.0: (1.5, 256, 0.01), 3.0: (0.8, 384, 0.005)}
+
+
+class MaugisDugdaleCheck(NamedTuple):
+    """A run against the curve (Pbar, the load in pi dgamma0 R)."""
+
+    pull_off: float  # the run's most tensile Pbar
+    reference: float  # the Maugis-Dugdale curve's least Pbar in the cell
+    curve: float  # the largest distance of the run's (depth, load) points to the curve
+    jkr: float  # JKR's least Pbar in the same cell (lambda0 -> infinity)
+
+
+def elastic_sphere(maugis, cell, n, depth, accuracy=5e-3) -> Case:
+    """The elastic sphere (k = 1, V_z = 1, alpha = 1e-3) of Maugis's ``maugis`` on an n x n
+    cell of side ``cell`` (R), preloaded to ``depth`` (R)."""
+    return Case(
+        maugis=maugis,
+        modulus_ratio=1.0,
+        velocity=1.0,
+        depth=depth,
+        cell=cell,
+        adhesion=1e-3,
+        numerics={"n": n, "accuracy": accuracy},
+        geometry="sphere",
+    )
+
+
+def maugis_dugdale_check(case, series) -> MaugisDugdaleCheck:
+    """The run ``series`` (a :class:`~hpcgfmd.storage.reader.Series` of ``case``, a sphere)
+    against the Maugis-Dugdale curve of its lambda0 in its cell."""
+    load = series.load / case.load_scale
+    depth = -series.indenter / case.depth_scale
+    start = series.contact_half_width[0] / case.beta
+    radii = np.linspace(0.02, 1.05 * start, 400)
+    cell = case.cell / case.beta
+    ref_load, ref_depth = sphere_theory.periodic_cell(radii, cell, case.maugis)
+    scale = np.array([np.abs(ref_depth).max(), abs(ref_load.min())])
+    attached = series.contact_half_width > 0
+    points = np.c_[depth[attached], load[attached]] / scale
+    curve = polyline_distances(points, np.c_[ref_depth, ref_load] / scale).max()
+    jkr = sphere_theory.periodic_cell(radii, cell)[0].min()
+    return MaugisDugdaleCheck(float(load.min()), float(ref_load.min()), float(curve), float(jkr))
