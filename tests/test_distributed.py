@@ -179,9 +179,10 @@ def test_prony_spring_and_protocols_same_answer_on_two_ranks(tmp_path, groups):
     assert_same(answers[0], answers[1], 1e-10, edge_tolerance=EDGE)
 
 
-def interrupt(tmp_path, ranks, signum):
-    """Start a run, signal it at a random step after its first checkpoint, return the result."""
-    (tmp_path / "case.toml").write_text(case(checkpoint_steps=5))
+def interrupt(tmp_path, ranks, signum, text=None, delay=0.4):
+    """Start a run of ``text`` (the tests' case by default), signal it at a random step after
+    its first checkpoint (at most ``delay`` s later), return (status, stdout, stderr)."""
+    (tmp_path / "case.toml").write_text(text or case(checkpoint_steps=5))
     process = subprocess.Popen(
         command(ranks, "run", "case.toml", "-o", "out.h5"),
         cwd=tmp_path,
@@ -194,7 +195,7 @@ def interrupt(tmp_path, ranks, signum):
     while not (tmp_path / "out.checkpoint.h5").exists():
         assert process.poll() is None and time.monotonic() < deadline, process.communicate()
         time.sleep(0.02)
-    time.sleep(random.uniform(0.0, 0.4))
+    time.sleep(random.uniform(0.0, delay))
     process.send_signal(signum)  # mpirun forwards SIGUSR1 to every rank
     stdout, stderr = process.communicate(timeout=120)
     return process.returncode, stdout, stderr

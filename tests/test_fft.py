@@ -193,11 +193,8 @@ def test_block_range(n, size):
 MPI_RUNS = [(2, []), (3, []), (6, ["64", "16"])]
 
 
-@pytest.mark.mpi
-@pytest.mark.skipif(shutil.which("mpirun") is None, reason="mpirun not found")
-@pytest.mark.parametrize("ranks, sizes", MPI_RUNS)
-def test_transposed_fft_under_mpirun(ranks, sizes):
-    script = Path(__file__).parent / "mpi" / "check_fft.py"
+def mpi_check(script, ranks, *args):
+    """Run tests/mpi/``script`` under ``mpirun -n ranks`` (as root too); its completed process."""
     env = dict(
         os.environ,
         OMPI_ALLOW_RUN_AS_ROOT="1",
@@ -205,6 +202,14 @@ def test_transposed_fft_under_mpirun(ranks, sizes):
         OPENBLAS_NUM_THREADS="1",
         OMP_NUM_THREADS="1",
     )
-    command = ["mpirun", "--oversubscribe", "-n", str(ranks), sys.executable, str(script), *sizes]
-    result = subprocess.run(command, env=env, capture_output=True, text=True, timeout=60)
+    path = Path(__file__).parent / "mpi" / script
+    command = ["mpirun", "--oversubscribe", "-n", str(ranks), sys.executable, str(path), *args]
+    return subprocess.run(command, env=env, capture_output=True, text=True, timeout=60)
+
+
+@pytest.mark.mpi
+@pytest.mark.skipif(shutil.which("mpirun") is None, reason="mpirun not found")
+@pytest.mark.parametrize("ranks, sizes", MPI_RUNS)
+def test_transposed_fft_under_mpirun(ranks, sizes):
+    result = mpi_check("check_fft.py", ranks, *sizes)
     assert result.returncode == 0, result.stdout + result.stderr

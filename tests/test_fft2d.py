@@ -7,16 +7,13 @@ Tolerances: FFTW's round-off on these grids (at most 2^14 nodes) is about eps lo
 field's largest value, under 1e-14 relative; 1e-13 leaves a factor of ten and still catches
 any wrong mode, sign or layout (errors of order one)."""
 
-import os
 import shutil
-import subprocess
-import sys
 import tracemalloc
-from pathlib import Path
 
 import numpy as np
 import pytest
 from mpi4py import MPI
+from test_fft import mpi_check
 
 from hpcgfmd.parallel.fft import (
     WHOLE_PLAN_NODES,
@@ -187,15 +184,6 @@ def test_plan_real_fft_takes_a_shape():
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="mpirun not found")
 @pytest.mark.parametrize("ranks", [1, 2, 3])
 def test_slab_fft_under_mpirun(ranks):
-    script = Path(__file__).parent / "mpi" / "check_fft2d.py"
-    env = dict(
-        os.environ,
-        OMPI_ALLOW_RUN_AS_ROOT="1",
-        OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-        OPENBLAS_NUM_THREADS="1",
-        OMP_NUM_THREADS="1",
-    )
-    command = ["mpirun", "--oversubscribe", "-n", str(ranks), sys.executable, str(script)]
-    result = subprocess.run(command, env=env, capture_output=True, text=True, timeout=60)
+    result = mpi_check("check_fft2d.py", ranks)
     assert result.returncode == 0, result.stdout + result.stderr
     assert f"ok: 8 grids x 3 transports on {ranks} ranks" in result.stdout

@@ -7,13 +7,11 @@ those of tests/test_distributed.py's line (assert_same there).
 """
 
 import signal
-import subprocess
-import time
 
 import h5py
 import numpy as np
 import pytest
-from test_distributed import MPIRUN, command, environment, relative, run
+from test_distributed import MPIRUN, interrupt, relative, run
 from test_sphere import SPHERE_CASE
 
 pytestmark = [
@@ -62,22 +60,8 @@ def test_sphere_same_answer_on_any_rank_count(serial_sphere, tmp_path, ranks):
 
 def test_sphere_stopped_on_two_ranks_resumes_on_three(serial_sphere, tmp_path):
     text = SPHERE_CASE.replace("[output]\n", "[output]\ncheckpoint_steps = 5\n")
-    (tmp_path / "case.toml").write_text(text)
-    process = subprocess.Popen(
-        command(2, "run", "case.toml", "-o", "out.h5"),
-        cwd=tmp_path,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=environment(),
-    )
-    deadline = time.monotonic() + 120
-    while not (tmp_path / "out.checkpoint.h5").exists():
-        assert process.poll() is None and time.monotonic() < deadline, process.communicate()
-        time.sleep(0.02)
-    process.send_signal(signal.SIGUSR1)  # mpirun forwards it to every rank
-    stdout, stderr = process.communicate(timeout=120)
-    assert process.returncode == 75, (stdout, stderr)
+    status, stdout, stderr = interrupt(tmp_path, 2, signal.SIGUSR1, text, delay=0.0)
+    assert status == 75, (stdout, stderr)
     with h5py.File(tmp_path / "out.h5", "r") as f:
         stopped = int(f.attrs["steps_complete"]) - 1
     assert stopped < serial_sphere[0]["time"].size - 1  # stopped mid-run
@@ -93,14 +77,7 @@ def test_a_farm_of_sphere_cases_on_two_ranks(tmp_path):
         for line in SPHERE_CASE.splitlines(keepends=True)
     )
     (tmp_path / "sweep.toml").write_text(base + "\n[grid]\nvelocity = [0.5, 2.0]\n")
-    done = subprocess.run(
-        command(2, "farm", "sweep.toml", "-o", "study"),
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=300,
-        env=environment(),
-    )
+    done = run(2, "farm", "sweep.toml", "-o", "study", cwd=tmp_path, timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr
     files = sorted((tmp_path / "study").glob("velocity_*.h5"))
     assert [f.name for f in files] == ["velocity_0.5.h5", "velocity_2.0.h5"]
