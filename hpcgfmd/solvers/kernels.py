@@ -449,14 +449,6 @@ def project_direction(z, shift, lo, hi, pressed, r, r_old, d_old, restart, gap, 
     return rz, r_old_z, r_d, (_entry_length(rise, room, entry, level) if restart else np.inf)
 
 
-@njit(cache=True)
-def axpy2(y1, x1, y2, x2, a):
-    """y1 += a x1 and y2 += a x2 in one pass."""
-    for i in range(y1.shape[0]):
-        y1[i] += a * x1[i]
-        y2[i] += a * x2[i]
-
-
 @njit(cache=True, fastmath=FAST)
 def dot(a, b):
     """a.b, summed in order."""
@@ -502,5 +494,4 @@ def compile_all():
     pushed(a, 0, m, flags, flags2)
     project_direction(a, 0.1, 0, m, flags, b, c, d, False, c, 1.0, 2)
     project_direction(a, 0.1, 0, m, flags, b, c, d, True, c, 1.0, 2)
-    axpy2(a, b, c, d, 0.5)
     dot(a, b)
