@@ -1,7 +1,9 @@
-"""The elastic adhesive sphere against the Maugis-Dugdale sphere in its periodic cell.
+"""The elastic adhesive sphere against the Maugis-Dugdale sphere in its periodic cell, and the
+collapse of viscoelastic retractions at equal chi_ve.
 
     python scripts/sphere_validation.py                 # lambda0 0.5, 1, 3 (the tests' runs)
     python scripts/sphere_validation.py --grids 128 256 512   # lambda0 = 1 on three grids
+    python scripts/sphere_validation.py --collapse      # equal chi_ve, lambda0 and 2 lambda0
 
 Each run is the elastic sphere (k = 1) of Maugis's lambda0 retracted at accuracy 5e-3 on its
 n x n grid; its pull-off (the most tensile load) and its load against the indenter's depth
@@ -9,8 +11,12 @@ n x n grid; its pull-off (the most tensile load) and its load against the indent
 Maugis-Dugdale curve of docs/model.md (M56) in the periodic cell (M59). The curve error is
 the largest distance of the run's (depth, load) points to the reference curve, in the
 reference's largest depth and its |pull-off|. ``--grids`` refines lambda0 = 1's grid: the
-order of the triangle law's error (docs/model.md, (M60)). Prints the date, the machine and
-the commit first, a Markdown table after.
+order of the triangle law's error (docs/model.md, (M60)). ``--collapse``: for each pair of
+hpcgfmd/studies/sphere_check.py's COLLAPSE_PAIRS, lambda0 and 2 lambda0 each retracted at
+chi_ve = 0.1 and 0.4 (k = 0.2; V_z = 3 chi_ve / (pi lambda0^2), (M53)), the largest distance
+between the two curves of equal chi_ve, the smallest between the curves of chi_ve 0.1 and
+0.4, and their ratio (the paper's Fig. 9 check, hpcgfmd/paper/checks.py). Prints the date,
+the machine and the commit first, a Markdown table after.
 """
 
 import argparse
@@ -45,13 +51,58 @@ def measure(maugis, cell, n, depth):
     )
 
 
+def collapse():
+    """The table of --collapse: one row per pair of lambda0 (both chi_ve)."""
+    import hpcgfmd
+    from hpcgfmd.studies.sphere_check import (
+        COLLAPSE_CHI,
+        COLLAPSE_PAIRS,
+        collapse_check,
+        collapse_sphere,
+    )
+
+    low, high = COLLAPSE_CHI
+    print(
+        f"| lambda0 | n | w0/dx | pull-off Pbar, chi_ve {low:g} | pull-off Pbar, chi_ve {high:g}"
+        f" | within, {low:g} | within, {high:g} | between | ratio | CPU s |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for pair in COLLAPSE_PAIRS:
+        series, pulls, cpu = [], {}, 0.0
+        for maugis, n in pair:
+            for chi in COLLAPSE_CHI:
+                case = collapse_sphere(maugis, chi, n, ACCURACY)
+                started = time.process_time()
+                series.append(hpcgfmd.run(case, planner_effort="FFTW_ESTIMATE").series)
+                cpu += time.process_time() - started
+                pulls.setdefault(chi, []).append(f"{series[-1].lbar.min():.4f}")
+        values = collapse_check(series).values
+        zones = ", ".join(f"{0.1 * n / maugis**2:.2f}" for maugis, n in pair)
+        print(
+            f"| {', '.join(f'{m:g}' for m, _ in pair)} | {', '.join(str(n) for _, n in pair)}"
+            f" | {zones} | {', '.join(pulls[low])} | {', '.join(pulls[high])}"
+            f" | {values[f'chi_ve={low:.3g}']:.4f} | {values[f'chi_ve={high:.3g}']:.4f}"
+            f" | {values[f'chi_ve={low:.3g} vs {high:.3g}']:.4f} | {values['ratio']:.3f}"
+            f" | {cpu:.0f} |",
+            flush=True,
+        )
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument(
         "--grids", type=int, nargs="+", help="lambda0 = 1's grid on these n instead"
     )
+    parser.add_argument(
+        "--collapse", action="store_true", help="the collapse at equal chi_ve instead"
+    )
     args = parser.parse_args()
     from hpcgfmd.studies import report
+
+    if args.collapse:
+        print(report.header("The sphere's collapse at equal chi_ve (scripts/sphere_validation.py)"))
+        collapse()
+        return
     from hpcgfmd.studies.sphere_check import MAUGIS_RUNS
 
     print(report.header("The sphere against Maugis-Dugdale (scripts/sphere_validation.py)"))

@@ -5,6 +5,9 @@ abar = a_c / beta, Lbar = L_n / (R dgamma0^2 E0)^(1/3), the scaled curve
 (x, y) = (Lbar / sqrt(abar), (pi/4) abar^(3/2)) of Figs. 4, 5a, 8a and 9, and the effective
 work of adhesion of a point, dgamma_eff / dgamma0 = (y - x)^2 / (2 pi) (the intercept of the
 slope-1 line through it; paper Sec. 5.1, :func:`hpcgfmd.model.theory.effective_work_ratio`).
+A sphere's retraction is in its own scaling (docs/model.md, "The sphere"): abar = Abar = a / a_s,
+lbar = Pbar (M47), (x, y) = (Pbar / Abar^(3/2), Abar^(3/2)) and (y - x)^2 / 6 (M55), and its
+peeling velocity (M58) (:mod:`hpcgfmd.model.sphere_theory`).
 """
 
 from __future__ import annotations
@@ -13,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import theory
+from ..model import sphere_theory, theory
 from ..studies.distance import load_area_distances
 
 
@@ -36,7 +39,9 @@ class Retraction:
     groups : dict
         lambda0, k, Vz, chi_ve, depth and cell (the file's attributes; lengths in R).
     beta : float
-        (R^2 dgamma0 / E0)^(1/3) (R).
+        (R^2 dgamma0 / E0)^(1/3) (R); a sphere's a_s (M47).
+    sphere : bool
+        A sphere's retraction: abar, lbar, x, y in its scaling (M47), (M55).
     """
 
     time: np.ndarray
@@ -48,6 +53,13 @@ class Retraction:
     pull_off: int
     groups: dict
     beta: float
+    sphere: bool = False
+
+    @property
+    def theory(self):
+        """The closed forms of the retraction's geometry: :mod:`~hpcgfmd.model.theory` (the
+        cylinder) or :mod:`~hpcgfmd.model.sphere_theory`."""
+        return sphere_theory if self.sphere else theory
 
     @classmethod
     def from_series(cls, series) -> Retraction:
@@ -63,7 +75,8 @@ class Retraction:
         lbar = series.lbar[:last][keep]
         rhodot = -np.gradient(half_width, time) if time.size > 1 else np.zeros_like(time)
         groups = {key: float(a[key]) for key in ("lambda0", "k", "Vz", "chi_ve", "depth", "cell")}
-        x, y = theory.scaled_curve(abar, lbar)
+        sphere = bool(series.sphere)
+        x, y = (sphere_theory if sphere else theory).scaled_curve(abar, lbar)
         return cls(
             time=time,
             abar=abar,
@@ -74,6 +87,7 @@ class Retraction:
             pull_off=int(np.argmin(lbar)) if lbar.size else 0,
             groups=groups,
             beta=beta,
+            sphere=sphere,
         )
 
     def label(self) -> str:
@@ -82,8 +96,8 @@ class Retraction:
         return f"lambda0 = {g['lambda0']:g}, V_z = {g['Vz']:g}, h0/R = {g['depth']:g}"
 
     def effective_work(self) -> np.ndarray:
-        """dgamma_eff / dgamma0 of every point (paper Sec. 5.1)."""
-        return theory.effective_work_ratio(self.x, self.y)
+        """dgamma_eff / dgamma0 of every point (paper Sec. 5.1; a sphere's (M55))."""
+        return self.theory.effective_work_ratio(self.x, self.y)
 
     def vbar(self, convention: str) -> np.ndarray:
         """The peeling velocity in Eq. 8's scaling vbar = 2 pi rhodot tau_c / c0.
@@ -93,7 +107,8 @@ class Retraction:
         (the paper's wording), k times smaller.
         """
         k = self.groups["k"]
-        retardation = theory.peel_velocity(self.rhodot, 1.0, k, self.groups["lambda0"], self.beta)
+        lambda0 = self.groups["lambda0"]
+        retardation = self.theory.peel_velocity(self.rhodot, 1.0, k, lambda0, self.beta)
         if convention == "retardation":
             return retardation
         if convention == "relaxation":
