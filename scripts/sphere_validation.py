@@ -68,16 +68,17 @@ def collapse():
     )
     print("|---|---|---|---|---|---|---|---|---|---|")
     for pair in COLLAPSE_PAIRS:
-        series, pulls, cpu = [], {}, 0.0
+        series, pulls, zones, cpu = [], {}, {}, 0.0
         for maugis, n in pair:
             for chi in COLLAPSE_CHI:
                 case = collapse_sphere(maugis, chi, n, ACCURACY)
+                zones[maugis] = f"{case.zone_width / case.dx:.2f}"
                 started = time.process_time()
                 series.append(hpcgfmd.run(case, planner_effort="FFTW_ESTIMATE").series)
                 cpu += time.process_time() - started
                 pulls.setdefault(chi, []).append(f"{series[-1].lbar.min():.4f}")
         values = collapse_check(series).values
-        zones = ", ".join(f"{0.1 * n / maugis**2:.2f}" for maugis, n in pair)
+        zones = ", ".join(zones.values())
         print(
             f"| {', '.join(f'{m:g}' for m, _ in pair)} | {', '.join(str(n) for _, n in pair)}"
             f" | {zones} | {', '.join(pulls[low])} | {', '.join(pulls[high])}"
