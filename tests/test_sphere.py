@@ -319,14 +319,13 @@ def test_load_control_lets_a_sphere_go_at_its_displacement_controlled_pull_off()
 def test_equal_chi_ve_collapses_the_scaled_curves():
     # The sphere's Fig. 9 (M53): lambda0 = 3 and 6 at chi_ve = 0.4 (V_z four times smaller at
     # 6) against lambda0 = 3 at chi_ve = 0.1 (the control: the distance a change of chi_ve
-    # by 4 makes), k = 0.2, equal h0/R, L/R and alpha (hpcgfmd/studies/sphere_check.py). The
-    # distance of the pair at equal chi_ve, measured 0.058 here, is the finite lambda0's
-    # 0.038 (the relaxed preloads already 0.020 apart; 0.040 and 0.038 on grids 2 and 3 times
-    # finer, docs/results.md "The sphere") plus the grid's 0.02 (first order in dx: lambda0 =
-    # 6 has 1.06 points across w0 here). Unequal chi_ve: 0.29 and more on every grid. The
-    # collapse: at most 0.08, under a quarter of the control's distance, which stays above
-    # 0.2 (a chi_ve that did not set the response, e.g. V_z alone, would put the pair at the
-    # control's distance).
+    # by 4 makes), k = 0.2, equal h0/R, L/R and alpha (hpcgfmd/studies/sphere_check.py).
+    # The pair of equal chi_ve is measured 0.058 apart here, 0.040 and 0.038 on grids 2 and 3
+    # (lambda0 = 3: 4) times finer (docs/results.md "The sphere"): the grid's share here is
+    # about 0.02 (lambda0 = 6 has 1.06 points across w0), and 0.020 of what stays is the
+    # relaxed preloads' (lambda0's own Maugis-Dugdale start); the bound 0.08 allows the
+    # grid's share twice. Unequal chi_ve: 0.32 here, 0.33 on the finer grids. A chi_ve that
+    # did not set the response (V_z alone, say) would put the pair at the control's distance.
     import hpcgfmd
     from hpcgfmd.studies.sphere_check import collapse_check, collapse_sphere
 
