@@ -176,18 +176,7 @@ def measure(comm, nx, steps, planner, geometry="cylinder"):
     comm.Barrier()
     t2 = time.perf_counter()
     before = _counters(sim)
-    done = 0
-    record = preload
-    comm.Barrier()
-    busy, own = busy_seconds(), time.process_time()
-    t3 = time.perf_counter()
-    while done < steps and not sim.detached():
-        record = sim.step()
-        done += 1
-    comm.Barrier()
-    t4 = time.perf_counter()
-    own = comm.allreduce(time.process_time() - own, op=MPI.SUM)  # busy-waiting included
-    busy = busy_seconds() - busy
+    done, record, t3, t4, own, busy = _timed_steps(comm, sim, steps, preload)
     after = _counters(sim)
     iterations, pairs, messages = (a - b for a, b in zip(after[:3], before[:3]))
     # Slowest rank decides; the barriers make the ranks' wall times nearly equal anyway.
@@ -215,6 +204,27 @@ def measure(comm, nx, steps, planner, geometry="cylinder"):
         load=repr(record.load),
     )
     return row
+
+
+def _timed_steps(comm, sim, steps, record):
+    """Collective: up to ``steps`` steps of ``sim`` (fewer if it detaches) between barriers.
+
+    Returns the steps done, the last record, the wall clock at the start and the end, the
+    ranks' summed CPU seconds (busy-waiting included) and this node's busy CPU seconds.
+    """
+    from mpi4py import MPI
+
+    done = 0
+    comm.Barrier()
+    busy, own = busy_seconds(), time.process_time()
+    start = time.perf_counter()
+    while done < steps and not sim.detached():
+        record = sim.step()
+        done += 1
+    comm.Barrier()
+    end = time.perf_counter()
+    own = comm.allreduce(time.process_time() - own, op=MPI.SUM)
+    return done, record, start, end, own, busy_seconds() - busy
 
 
 def _counters(sim):

@@ -225,6 +225,52 @@ def _parser():
     return parser
 
 
+def time_rows(n, planning, ours, gap, load):
+    """The timing table's rows of one grid: hpcgfmd's solve and Tamaas's two."""
+    rows = []
+    solves = (
+        ("hpcgfmd, displacement control", ours, TOLERANCE),
+        ("Tamaas, gap control", gap, TOLERANCE),
+        ("Tamaas, load control", load, PRESSURE_TOLERANCE),
+    )
+    for name, solved, tolerance in solves:
+        best = min(solved.cpu)
+        setup = f"{planning:.2f} + {solved.setup:.2f}" if solved is ours else f"{solved.setup:.2f}"
+        rows.append(
+            [
+                f"{n}^2",
+                name,
+                f"{tolerance:.0e} / {solved.reached:.1e}",
+                setup,
+                f"{best:.3f}",
+                f"{max(solved.cpu):.3f}",
+                solved.iterations,
+                f"{1e3 * best / max(solved.iterations, 1):.1f}",
+                f"{solved.load:.10e}",
+                solved.contact,
+                f"{best / min(ours.cpu):.1f}",
+            ]
+        )
+    return rows
+
+
+def accuracy_rows(n, ours, gap, load, reference):
+    """The agreement table's rows of one grid: each solve against the others and the
+    reference."""
+    pairs = (
+        ("Tamaas, gap control", gap, "hpcgfmd", ours),
+        ("Tamaas, load control", load, "hpcgfmd", ours),
+        ("hpcgfmd", ours, "reference", reference),
+        ("Tamaas, gap control", gap, "reference", reference),
+        ("Tamaas, load control", load, "reference", reference),
+    )
+    rows = []
+    for name, a, other, b in pairs:
+        dload, dmax, drms, nodes = difference(a, b, reference)
+        rows.append([f"{n}^2", name, other, f"{dload:.1e}", f"{dmax:.1e}", f"{drms:.1e}", nodes])
+    return rows
+
+
 def main():
     parser = _parser()
     args = parser.parse_args()
@@ -257,45 +303,8 @@ def main():
             load = tamaas_solves(
                 tm, n, "pressure", reference.load / CELL**2, PRESSURE_TOLERANCE, args.repeats, log
             )
-            rows = (
-                ("hpcgfmd, displacement control", ours, TOLERANCE),
-                ("Tamaas, gap control", gap, TOLERANCE),
-                ("Tamaas, load control", load, PRESSURE_TOLERANCE),
-            )
-            for name, solved, tolerance in rows:
-                best = min(solved.cpu)
-                setup = (
-                    f"{planning:.2f} + {solved.setup:.2f}"
-                    if solved is ours
-                    else f"{solved.setup:.2f}"
-                )
-                times.append(
-                    [
-                        f"{n}^2",
-                        name,
-                        f"{tolerance:.0e} / {solved.reached:.1e}",
-                        setup,
-                        f"{best:.3f}",
-                        f"{max(solved.cpu):.3f}",
-                        solved.iterations,
-                        f"{1e3 * best / max(solved.iterations, 1):.1f}",
-                        f"{solved.load:.10e}",
-                        solved.contact,
-                        f"{best / min(ours.cpu):.1f}",
-                    ]
-                )
-            pairs = (
-                ("Tamaas, gap control", gap, "hpcgfmd", ours),
-                ("Tamaas, load control", load, "hpcgfmd", ours),
-                ("hpcgfmd", ours, "reference", reference),
-                ("Tamaas, gap control", gap, "reference", reference),
-                ("Tamaas, load control", load, "reference", reference),
-            )
-            for name, a, other, b in pairs:
-                dload, dmax, drms, nodes = difference(a, b, reference)
-                accuracy.append(
-                    [f"{n}^2", name, other, f"{dload:.1e}", f"{dmax:.1e}", f"{drms:.1e}", nodes]
-                )
+            times += time_rows(n, planning, ours, gap, load)
+            accuracy += accuracy_rows(n, ours, gap, load, reference)
             print(
                 f"n = {n}: reference (hpcgfmd at {REFERENCE_TOLERANCE:g}) load"
                 f" {reference.load:.12e}, {reference.contact} contact nodes,"

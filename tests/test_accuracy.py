@@ -433,3 +433,8 @@ def test_persson_brener_ratio_is_one_on_a_jkr_curve_with_their_work():
     assert accuracy_study.persson_brener_ratio(result) == pytest.approx(1.0, abs=1e-9)
     elastic = dict(result, case=parse_case(case_text("nx = 1024", modulus_ratio=1.0)))
     assert math.isnan(accuracy_study.persson_brener_ratio(elastic))
+    # the same curve reached within the retardation time tau / k = 5: no relaxed far field
+    i = int(np.argmin(result["lbar"]))
+    assert 5.0 < result["time"][i] < 50.0
+    hurried = dict(result, time=result["time"] * (4.9 / result["time"][i]))
+    assert math.isnan(accuracy_study.persson_brener_ratio(hurried))

@@ -199,6 +199,30 @@ def test_a_sphere_case_file_runs_and_opens_in_xarray_with_x_and_y(tmp_path):
     np.testing.assert_allclose(inner, inner.T, atol=1e-12)
     series.close()
     snaps.close()
+    drawn = subprocess.run(
+        [sys.executable, "-m", "hpcgfmd", "plot", "sphere.h5", "-o", "sphere.png"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert drawn.returncode == 0, drawn.stderr
+    assert (tmp_path / "sphere.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_plot_s_maugis_dugdale_limits_tend_to_jkr_s_lines():
+    # (M56) -> (M55) as lambda -> infinity (differences ~ 1/lambda^2): at lambda0 = 100 in a
+    # cell of 2000 a_s (images ~ (a/L)^3 < 1e-8) the relaxed and instantaneous (r = 1/k = 5)
+    # curves lie on the lines y = x + sqrt(6 r) of (M55)'s form within 1e-2 of their height
+    # (measured 7.6e-4 and 5.0e-3: r = 5 has its own lambda0 r^(-1/3) = 58; at lambda0 = 10,
+    # 8e-2 and 0.6)
+    from hpcgfmd.storage.plot import _maugis_dugdale_form
+
+    alpha = 1e-3
+    attrs = {"lambda0": 100.0, "alpha": alpha, "cell": 2000.0 * (0.75 * math.pi * alpha) ** (1 / 3)}
+    for ratio in (1.0, 5.0):
+        x, y = _maugis_dugdale_form(attrs, ratio, 3.0)
+        np.testing.assert_allclose(y, x + math.sqrt(6.0 * ratio), atol=1e-2 * y.max())
 
 
 @pytest.mark.parametrize("maugis", sorted(MAUGIS_RUNS))

@@ -258,7 +258,7 @@ def solver_tolerance(accuracy, compliant=False):
     (4.4e-3 with half of it, 4.3e-3 with a fifth). A drive that lets go where its spring
     line touches the load curve is decided at a fold of the curve, where a load error moves
     the let-go point by its square root: the compliant drive keeps the tighter share. The
-    measurements are in docs/results.md ("The quadratic guess and the solver's share", and
+    measurements are in docs/results.md ("The solver's share", and
     "The paper's four cases" for the soft spring).
     """
     low, high = SOLVER_RANGE_COMPLIANT if compliant else SOLVER_RANGE

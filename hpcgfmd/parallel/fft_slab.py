@@ -80,6 +80,70 @@ _ROW_CHUNK = 2**15
 _COLUMN_CHUNK = 2**16
 
 
+class _ChunkPlans:
+    """The cache-sized work arrays of the chunked stages and their FFTW plans: one pair per
+    distinct chunk height (pyfftw refuses zero-size arrays, so a rank without rows or
+    columns has none).
+
+    Attributes
+    ----------
+    real : ndarray of float64, shape (tallest row chunk, nx)
+    half : ndarray of complex128, shape (tallest row chunk, nx/2 + 1)
+        Stages A and C: a chunk of rows and its half spectrum along x.
+    work : ndarray of complex128, shape (widest column chunk, ny)
+        Stage B: a chunk of spectrum columns along y.
+    rows, columns : dict of int to (plan, plan)
+        (forward, backward) plans of each row-chunk height and column-chunk width.
+    alignment : int
+        Byte alignment the row plans need of an array used in place of ``real``.
+    """
+
+    def __init__(self, shape, row_chunks, col_chunks, planner_effort):
+        ny, nx = shape
+        tall = max((b - a for a, b in row_chunks), default=1)
+        wide = max((b - a for a, b in col_chunks), default=1)
+        self.real = pyfftw.zeros_aligned((tall, nx), dtype=np.float64)
+        self.half = pyfftw.zeros_aligned((tall, nx // 2 + 1), dtype=np.complex128)
+        self.work = pyfftw.zeros_aligned((wide, ny), dtype=np.complex128)
+        flags = (planner_effort, "FFTW_DESTROY_INPUT")
+        backward = "FFTW_BACKWARD"
+        # The rfft keeps its input (FFTW's default for r2c): it may be the caller's field.
+        self.rows = {
+            h: (
+                fftw_plan(self.real[:h], self.half[:h], axes=(1,), flags=(planner_effort,)),
+                fftw_plan(self.half[:h], self.real[:h], axes=(1,), direction=backward, flags=flags),
+            )
+            for h in {b - a for a, b in row_chunks}
+        }
+        self.columns = {
+            w: (
+                fftw_plan(self.work[:w], self.work[:w], axes=(1,), flags=flags),
+                fftw_plan(self.work[:w], self.work[:w], axes=(1,), direction=backward, flags=flags),
+            )
+            for w in {b - a for a, b in col_chunks}
+        }
+        plans = [plan for pair in self.rows.values() for plan in pair]
+        self.alignment = max(
+            [pyfftw.simd_alignment]
+            + [p.input_alignment for p in plans]
+            + [p.output_alignment for p in plans]
+        )
+
+    def direct(self, array, start, nx):
+        """True when the rows from ``start`` of the flat block ``array`` (rows of ``nx``) can
+        be the row plans' real array in place (aligned as theirs, C-contiguous float64)."""
+        return (
+            array.dtype == np.float64
+            and array.flags.c_contiguous
+            and (array.ctypes.data + 8 * start * nx) % self.alignment == 0
+        )
+
+
+def _check_size(name, array, size):
+    if array.size != size:
+        raise ValueError(f"{name} has {array.size} values, this rank's block has {size}")
+
+
 class SlabRealFFT2D(RealFFT2D):
     """Real 2-D FFT of an ny x nx periodic grid over ``comm`` in row and column slabs.
 
@@ -172,58 +236,14 @@ class SlabRealFFT2D(RealFFT2D):
 
         self._row_chunks = chunks(R, max(1, _ROW_CHUNK // half))
         self._col_chunks = chunks(C, max(1, _COLUMN_CHUNK // ny))
-        self._plan(planner_effort)
+        self._plans = _ChunkPlans((ny, nx), self._row_chunks, self._col_chunks, planner_effort)
+        self._real, self._half, self._work = self._plans.real, self._plans.half, self._plans.work
         self._views()
         self.spectrum = pyfftw.zeros_aligned(self.spectrum_shape, dtype=np.complex128)
         self.pairs = 0
         self.communication_time = 0.0
 
     # --- construction ------------------------------------------------------------------
-    def _plan(self, planner_effort):
-        """Work arrays and FFTW plans: one pair per distinct chunk height (pyfftw refuses
-        zero-size arrays, so a rank without rows or columns has none)."""
-        ny, nx = self.shape
-        half = nx // 2 + 1
-        tall = max((b - a for a, b in self._row_chunks), default=1)
-        wide = max((b - a for a, b in self._col_chunks), default=1)
-        self._real = pyfftw.zeros_aligned((tall, nx), dtype=np.float64)
-        self._half = pyfftw.zeros_aligned((tall, half), dtype=np.complex128)
-        self._work = pyfftw.zeros_aligned((wide, ny), dtype=np.complex128)
-        flags = (planner_effort, "FFTW_DESTROY_INPUT")
-        # The rfft keeps its input (FFTW's default for r2c): it may be the caller's field.
-        self._row_plans = {
-            h: (
-                fftw_plan(self._real[:h], self._half[:h], axes=(1,), flags=(planner_effort,)),
-                fftw_plan(
-                    self._half[:h],
-                    self._real[:h],
-                    axes=(1,),
-                    direction="FFTW_BACKWARD",
-                    flags=flags,
-                ),
-            )
-            for h in {b - a for a, b in self._row_chunks}
-        }
-        self._col_plans = {
-            w: (
-                fftw_plan(self._work[:w], self._work[:w], axes=(1,), flags=flags),
-                fftw_plan(
-                    self._work[:w],
-                    self._work[:w],
-                    axes=(1,),
-                    direction="FFTW_BACKWARD",
-                    flags=flags,
-                ),
-            )
-            for w in {b - a for a, b in self._col_chunks}
-        }
-        plans = [plan for pair in self._row_plans.values() for plan in pair]
-        self._alignment = max(
-            [pyfftw.simd_alignment]
-            + [p.input_alignment for p in plans]
-            + [p.output_alignment for p in plans]
-        )
-
     def _views(self):
         """The (destination, source) views of the stages, built once, so that a call only
         slices the caller's arrays."""
@@ -280,15 +300,6 @@ class SlabRealFFT2D(RealFFT2D):
         self.communication_time += time.perf_counter() - started
 
     # --- the stages ----------------------------------------------------------------------
-    def _direct(self, array, start):
-        """True when the rows from ``start`` of the flat block ``array`` can be the FFT's
-        real array in place (aligned as the plans' arrays, C-contiguous float64)."""
-        return (
-            array.dtype == np.float64
-            and array.flags.c_contiguous
-            and (array.ctypes.data + 8 * start * self.shape[1]) % self._alignment == 0
-        )
-
     def _rows_forward(self, field):
         """Stage A: the rfft of the own rows along x into the ``xt`` blocks; synchronise."""
         self._write("xt")
@@ -296,8 +307,8 @@ class SlabRealFFT2D(RealFFT2D):
         source = field.reshape(self._R, nx)
         copy = np.copyto
         for (a, b), writes in zip(self._row_chunks, self._stage_a):
-            forward = self._row_plans[b - a][0]
-            if self._direct(field, a):
+            forward = self._plans.rows[b - a][0]
+            if self._plans.direct(field, a, nx):
                 forward.update_arrays(source[a:b], self._half[: b - a])
             else:
                 copy(self._real[: b - a], source[a:b])
@@ -313,20 +324,16 @@ class SlabRealFFT2D(RealFFT2D):
         target = out.reshape(self._R, nx)
         copy = np.copyto
         for (a, b), gathers in zip(self._row_chunks, self._stage_c):
-            backward = self._row_plans[b - a][1]
+            backward = self._plans.rows[b - a][1]
             for to, part in gathers:
                 copy(to, part)
-            if self._direct(out, a):
+            if self._plans.direct(out, a, nx):
                 backward.update_arrays(self._half[: b - a], target[a:b])
                 backward.execute()
             else:
                 backward.update_arrays(self._half[: b - a], self._real[: b - a])
                 backward.execute()
                 copy(target[a:b], self._real[: b - a])
-
-    def _check(self, name, array, size):
-        if array.size != size:
-            raise ValueError(f"{name} has {array.size} values, this rank's block has {size}")
 
     # --- the transforms ------------------------------------------------------------------
     def apply_diagonal(self, field, diagonal, out):
@@ -349,12 +356,12 @@ class SlabRealFFT2D(RealFFT2D):
         -------
         out : ndarray
         """
-        self._check("field", field, self._R * self.shape[1])
-        self._check("out", out, self._R * self.shape[1])
+        _check_size("field", field, self._R * self.shape[1])
+        _check_size("out", out, self._R * self.shape[1])
         self._rows_forward(field)
         copy = np.copyto
         for (a, b), (gathers, writes) in zip(self._col_chunks, self._stage_b):
-            forward, backward = self._col_plans[b - a]
+            forward, backward = self._plans.columns[b - a]
             for to, part in gathers:
                 copy(to, part)
             forward.execute()
@@ -387,13 +394,13 @@ class SlabRealFFT2D(RealFFT2D):
         -------
         spectrum_out : ndarray
         """
-        self._check("field", field, self._R * self.shape[1])
+        _check_size("field", field, self._R * self.shape[1])
         self._rows_forward(field)
         copy = np.copyto
         for (a, b), (gathers, _) in zip(self._col_chunks, self._stage_b):
             for to, part in gathers:
                 copy(to, part)
-            self._col_plans[b - a][0].execute()
+            self._plans.columns[b - a][0].execute()
             copy(spectrum_out[a:b], self._work[: b - a])
         return spectrum_out
 
@@ -414,12 +421,12 @@ class SlabRealFFT2D(RealFFT2D):
         -------
         field_out : ndarray
         """
-        self._check("field_out", field_out, self._R * self.shape[1])
+        _check_size("field_out", field_out, self._R * self.shape[1])
         self._write("z")
         copy = np.copyto
         for (a, b), (_, writes) in zip(self._col_chunks, self._stage_b):
             copy(self._work[: b - a], spectrum[a:b])
-            self._col_plans[b - a][1].execute()
+            self._plans.columns[b - a][1].execute()
             for to, part in writes:
                 copy(to, part)
         self._exchange("z")

@@ -28,7 +28,8 @@ LINES = {
 def plot_case(path, output):
     """Write ``output`` (PNG): (a) the load-area curve in the coordinates where JKR is a line of
     slope 1, with the relaxed (dgamma0) and instantaneous (dgamma0/k) lines (the cylinder's
-    paper Eq. 10, (M25); the sphere's (M55), (M57)); (b) load against u_z; for a sphere a row
+    paper Eq. 10, (M25); the sphere's (M55), (M57)) and for a sphere the Maugis-Dugdale
+    curves of its lambda0 in its cell ((M56), (M59)); (b) load against u_z; for a sphere a row
     of maps of the contact (g <= 0), cohesive (g <= dmax) and free regions at its first
     snapshots."""
     result = read_result(path)
@@ -49,6 +50,15 @@ def plot_case(path, output):
     xs = np.linspace(min(lowest, -2 * np.sqrt(intercept / k)), max(x.max(), 1.0), 50)
     ax1.plot(xs, xs + np.sqrt(intercept), "k:", label="JKR relaxed (dgamma0)")
     ax1.plot(xs, xs + np.sqrt(intercept / k), "r:", label="JKR instantaneous (dgamma0/k)")
+    if s.sphere:  # at finite lambda0 the limits are Maugis-Dugdale's, not JKR's lines
+        top = max(3.0, 1.2 * s.abar.max())
+        for ratio, style, name in ((1.0, "k-", "relaxed"), (1.0 / k, "r-", "instantaneous")):
+            ax1.plot(
+                *_maugis_dugdale_form(s.attrs, ratio, top),
+                style,
+                lw=0.8,
+                label=f"Maugis-Dugdale {name}",
+            )
     ax1.set_xlabel(xlabel)
     ax1.set_ylabel(ylabel)
     ax1.set_ylim(0, 1.1 * y.max() if y.size else 1)
@@ -72,6 +82,18 @@ def plot_case(path, output):
         save_figure(fig, output, dpi=120, format="png")
     finally:
         plt.close(fig)
+
+
+def _maugis_dugdale_form(attrs, work_ratio, top):
+    """The sphere's Maugis-Dugdale curve of work ``work_ratio`` dgamma0 at its sigma_a in its
+    periodic cell ((M56), (M59); 1/k: the instantaneous limit (M57)) as (M55)'s line form
+    (Pbar / Abar^(3/2), Abar^(3/2)), contact radii up to ``top`` a_s."""
+    from ..model import sphere_theory
+
+    cell = attrs["cell"] * (0.75 * np.pi * attrs["alpha"]) ** (-1.0 / 3.0)  # L / a_s (M52)
+    radii = np.geomspace(0.05 * work_ratio ** (1.0 / 3.0), top, 120)
+    pbar, _ = sphere_theory.periodic_cell(radii, cell, attrs["lambda0"], work_ratio)
+    return pbar / radii**1.5, radii**1.5
 
 
 def _maps(fig, snapshots, dmax, count):

@@ -118,7 +118,10 @@ def _cached(text, comm, folder, identity):
 
 def persson_brener_ratio(result):
     """An SLS run's effective work of adhesion at its pull-off over Persson and Brener's at
-    its edge speed there (paper Eqs. 8-9; NaN for an elastic solid or a Prony series).
+    its edge speed there (paper Eqs. 8-9; NaN for an elastic solid or a Prony series, and
+    where the pull-off comes within the retardation time tau / k of the retraction's start:
+    Persson and Brener's crack runs into a relaxed far field, which a solid retracted
+    faster than it creeps does not have).
 
     Ours inverts the JKR relation at the pull-off's (abar, Lbar) (:func:`~hpcgfmd.model.
     theory.effective_work_ratio`); the edge speed is the contact half-width's rate between
@@ -131,6 +134,8 @@ def persson_brener_ratio(result):
     lbar, abar, time = result["lbar"], result["abar"], result["time"]
     i = int(np.argmin(lbar))
     if k >= 1.0 or case.relaxation_moduli or not 0 < i < lbar.size - 1:
+        return math.nan
+    if time[i] - time[0] < 1.0 / k:
         return math.nan
     beta = case.adhesion ** (1.0 / 3.0)
     rate = -(abar[i + 1] - abar[i - 1]) * beta / (time[i + 1] - time[i - 1])
