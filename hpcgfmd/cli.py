@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import logging
+import math
 import os
 import signal
 import sys
@@ -162,18 +163,34 @@ def cmd_info(comm, args):
             f"compliant drive: k_s / E0 = {a['drive_stiffness']:.6g}"
             + (" (load control)" if a["drive_stiffness"] == 0 else "")
         )
-    print(f"numerics: nx = {a['nx']}, dt = {a['dt']:.6g}, tolerance = {a['tolerance']:g}")
+    sphere = s.sphere
+    grid = " x ".join(str(n) for n in a["shape"]) if sphere else a["nx"]
+    print(
+        f"numerics: {'n' if sphere else 'nx'} = {grid}, dt = {a['dt']:.6g},"
+        f" tolerance = {a['tolerance']:g}"
+    )
     print(f"scales: beta = {a['beta']:.6g}, load scale = {a['load_scale']:.6g}")
     if s.load.size and not s.load.min() < 0.0:
         print("pull-off: none, no tensile load recorded")
     elif s.load.size:
         p = result.pull_off()
         so_far = "" if result.finished else " (the most tensile load so far)"
-        print(
-            f"pull-off{so_far}: load = {p.load:.6g} (Lbar = {p.lbar:.6g}) at contact half-width"
-            f" {p.contact_half_width:.6g} (abar = {p.abar:.6g}), indenter {p.indenter:.6g},"
-            f" time {p.time:.6g}"
+        names = (
+            ("Pbar", "contact radius", "Abar") if sphere else ("Lbar", "contact half-width", "abar")
         )
+        print(
+            f"pull-off{so_far}: load = {p.load:.6g} ({names[0]} = {p.lbar:.6g}) at {names[1]}"
+            f" {p.contact_half_width:.6g} ({names[2]} = {p.abar:.6g}), indenter"
+            f" {p.indenter:.6g}, time {p.time:.6g}"
+        )
+        work = s.work_of_separation()
+        if not math.isnan(work):
+            # the sphere's scale pi dgamma0 R delta_s = load scale x beta^2 / R (M47)
+            scaled = work * a["length_unit"] / (a["load_scale"] * a["beta"] ** 2)
+            print(
+                f"work of separation{so_far and ' so far'}: {work:.6g}"
+                + (f" (in pi dgamma0 R delta_s: {scaled:.6g})" if sphere else "")
+            )
     if "protocol_kinds" in a and s.load.size:
         _print_cycles(s, a)
     if result.finished:

@@ -98,6 +98,20 @@ class Series:
         references = sphere_theory if self.sphere else theory
         return references.effective_work_ratio(x, y)
 
+    def work_of_separation(self) -> float:
+        """The work the drive did against the tensile load while retracting (docs/model.md,
+        "Observables"): -sum (min(L_i, 0) + min(L_i-1, 0))/2 (Z_i - Z_i-1) over the steps
+        with Z_i > Z_i-1 (Z the drive, or the indenter without one). File units: load x
+        length (per unit length on a line, an energy on a surface). NaN under load control,
+        whose indenter the load lets fly off."""
+        if self.applied_load is not None:
+            return math.nan
+        position = self.drive if self.drive is not None else self.indenter
+        tensile = np.minimum(self.load, 0.0)
+        advance = np.diff(position)
+        work = -0.5 * (tensile[1:] + tensile[:-1]) * advance
+        return float(math.fsum(work[advance > 0.0]))
+
     def cycles(self) -> list[Cycle]:
         """Per cycle of the protocol (a cycle ends with its retraction; the paper's protocol
         is one): its steps, pull-off and the work the drive did, -sum (L_i + L_i-1)/2 (Z_i -

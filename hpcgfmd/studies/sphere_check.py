@@ -38,6 +38,9 @@ class MaugisDugdaleCheck(NamedTuple):
     reference: float  # the Maugis-Dugdale curve's least Pbar in the cell
     curve: float  # the largest distance of the run's (depth, load) points to the curve
     jkr: float  # JKR's least Pbar in the same cell (lambda0 -> infinity)
+    work: float  # the run's work of separation, in pi dgamma0 R delta_s
+    work_reference: float  # the curve's, from the run's preload depth to its least depth
+    jumps: bool  # the curve's least depth is a jump (not its end at Abar -> 0)
 
 
 def elastic_sphere(maugis, cell, n, depth, accuracy=5e-3) -> Case:
@@ -69,7 +72,33 @@ def maugis_dugdale_check(case, series) -> MaugisDugdaleCheck:
     points = np.c_[depth[attached], load[attached]] / scale
     curve = polyline_distances(points, np.c_[ref_depth, ref_load] / scale).max()
     jkr = sphere_theory.periodic_cell(radii, cell)[0].min()
-    return MaugisDugdaleCheck(float(load.min()), float(ref_load.min()), float(curve), float(jkr))
+    work = series.work_of_separation() / (case.load_scale * case.depth_scale)
+    reference, jumps = curve_work(ref_load, ref_depth, depth[0])
+    return MaugisDugdaleCheck(
+        float(load.min()), float(ref_load.min()), float(curve), float(jkr), work, reference, jumps
+    )
+
+
+def curve_work(load, depth, start):
+    """The work of separation along an elastic curve under displacement control, -integral
+    of min(Pbar, 0) d(-Dbar), from the stable point at the depth ``start`` (the largest
+    radius there) to the least depth: where the contact jumps off, or, below lambda0 of
+    about 1, the curve's end at its smallest radius (Abar -> 0, whose cohesive zone still
+    holds: the run's work goes on past it). docs/model.md, "Observables", (M56).
+
+    ``load`` and ``depth`` are the curve's Pbar and Dbar on increasing contact radii.
+    Returns the work (pi dgamma0 R delta_s) and whether the least depth is a jump.
+    """
+    jump = int(np.argmin(depth))
+    first = int(np.flatnonzero(depth <= start).max())
+    receding = slice(first, jump - 1 if jump else None, -1)  # the radius shrinking
+    depths, loads = depth[receding], load[receding]
+    if first + 1 < depth.size:  # from ``start`` itself, between the curve's points
+        share = (start - depth[first]) / (depth[first + 1] - depth[first])
+        depths = np.r_[start, depths]
+        loads = np.r_[load[first] + share * (load[first + 1] - load[first]), loads]
+    work = -np.trapezoid(np.minimum(loads, 0.0), -depths)
+    return float(work), jump > 0
 
 
 # The collapse's common groups: k = 0.2 (a pull-off up to 5 times the relaxed one), h0/R =
