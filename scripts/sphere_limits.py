@@ -43,9 +43,9 @@ PERSSON_BRENER = [
 def retraction(maugis, k, velocity, depth, cell, n):
     """One run: (its SphereCurve, steps, CPU s)."""
     import hpcgfmd
-    from hpcgfmd.studies import sphere_limits
+    from hpcgfmd.studies import sphere_check, sphere_limits
 
-    case = sphere_limits.viscoelastic_sphere(maugis, k, velocity, depth, cell, n)
+    case = sphere_check.sphere_case(maugis, k, velocity, depth, cell, n)
     started = time.process_time()
     series = hpcgfmd.run(case, planner_effort="FFTW_ESTIMATE").series
     cpu = time.process_time() - started

@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 from mpi4py import MPI
+from test_cli import hpcgfmd as hpcgfmd_cli
 
 from hpcgfmd.case import Case
 from hpcgfmd.model.geometry import Sphere
@@ -169,18 +170,9 @@ snapshot_times = [0.0, 0.5]
 
 
 def test_a_sphere_case_file_runs_and_opens_in_xarray_with_x_and_y(tmp_path):
-    import subprocess
-    import sys
-
     xarray = pytest.importorskip("xarray")
     (tmp_path / "sphere.toml").write_text(SPHERE_CASE)
-    done = subprocess.run(
-        [sys.executable, "-m", "hpcgfmd", "run", "sphere.toml", "-o", "sphere.h5"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    done = hpcgfmd_cli("run", "sphere.toml", "-o", "sphere.h5", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     series = xarray.open_dataset(tmp_path / "sphere.h5", group="series", engine="h5netcdf")
     assert series["load"].attrs["units"] == "E0 R^2"  # a force
@@ -199,21 +191,9 @@ def test_a_sphere_case_file_runs_and_opens_in_xarray_with_x_and_y(tmp_path):
     np.testing.assert_allclose(inner, inner.T, atol=1e-12)
     series.close()
     snaps.close()
-    drawn = subprocess.run(
-        [sys.executable, "-m", "hpcgfmd", "plot", "sphere.h5", "-o", "sphere.png"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    drawn = hpcgfmd_cli("plot", "sphere.h5", "-o", "sphere.png", cwd=tmp_path)
     assert drawn.returncode == 0, drawn.stderr
-    info = subprocess.run(
-        [sys.executable, "-m", "hpcgfmd", "info", "sphere.h5"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    info = hpcgfmd_cli("info", "sphere.h5", cwd=tmp_path)
     assert "n = 64 x 64" in info.stdout and "(Pbar = " in info.stdout, info.stdout
     assert "work of separation: " in info.stdout
     assert (tmp_path / "sphere.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from hpcgfmd.model import sphere_theory
-from hpcgfmd.studies import sphere_limits
+from hpcgfmd.studies import sphere_check, sphere_limits
 from hpcgfmd.studies.distance import polyline_distances
 
 # lambda0 = 2, k = 0.5, h0 = 0.03 R, L = 1.5 R (L / a_s = 11.3): the preload's contact
@@ -27,7 +27,7 @@ def curve(velocity, maugis=2.0, k=0.5, depth=0.03, cell=1.5, n=128):
     """One retraction's SphereCurve (runs shared by the tests)."""
     import hpcgfmd
 
-    case = sphere_limits.viscoelastic_sphere(maugis, k, velocity, depth, cell, n)
+    case = sphere_check.sphere_case(maugis, k, velocity, depth, cell, n)
     return sphere_limits.sphere_curve(
         case, hpcgfmd.run(case, planner_effort="FFTW_ESTIMATE").series
     )

@@ -43,19 +43,24 @@ class MaugisDugdaleCheck(NamedTuple):
     jumps: bool  # the curve's least depth is a jump (not its end at Abar -> 0)
 
 
-def elastic_sphere(maugis, cell, n, depth, accuracy=5e-3) -> Case:
-    """The elastic sphere (k = 1, V_z = 1, alpha = 1e-3) of Maugis's ``maugis`` on an n x n
-    cell of side ``cell`` (R), preloaded to ``depth`` (R)."""
+def sphere_case(maugis, k, velocity, depth, cell, n, accuracy=5e-3) -> Case:
+    """The SLS sphere (alpha = 1e-3) of Maugis's ``maugis``, k and V_z on an n x n cell of
+    side ``cell`` (R), preloaded (relaxed) to ``depth`` (R); ``accuracy`` sets the steps."""
     return Case(
         maugis=maugis,
-        modulus_ratio=1.0,
-        velocity=1.0,
+        modulus_ratio=k,
+        velocity=velocity,
         depth=depth,
         cell=cell,
         adhesion=1e-3,
         numerics={"n": n, "accuracy": accuracy},
         geometry="sphere",
     )
+
+
+def elastic_sphere(maugis, cell, n, depth, accuracy=5e-3) -> Case:
+    """The elastic sphere (k = 1, V_z = 1) of :func:`sphere_case`."""
+    return sphere_case(maugis, 1.0, 1.0, depth, cell, n, accuracy)
 
 
 def maugis_dugdale_check(case, series) -> MaugisDugdaleCheck:

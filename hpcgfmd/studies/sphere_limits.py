@@ -20,7 +20,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..case import Case
 from ..model import sphere_theory, theory
 from .distance import load_area_distances, polyline_distances
 
@@ -40,21 +39,6 @@ class SphereCurve(NamedTuple):
     maugis: float  # lambda0 (M48)
     k: float  # E0 / Einf
     dx: float  # grid spacing / a_s
-
-
-def viscoelastic_sphere(maugis, k, velocity, depth, cell, n, accuracy=5e-3) -> Case:
-    """The SLS sphere of Maugis's ``maugis``, k, V_z on an n x n cell of side ``cell`` (R),
-    preloaded (relaxed) to ``depth`` (R), alpha = 1e-3; ``accuracy`` sets the steps."""
-    return Case(
-        maugis=maugis,
-        modulus_ratio=k,
-        velocity=velocity,
-        depth=depth,
-        cell=cell,
-        adhesion=1e-3,
-        numerics={"n": n, "accuracy": accuracy},
-        geometry="sphere",
-    )
 
 
 def sphere_curve(case, series) -> SphereCurve:
