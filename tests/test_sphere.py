@@ -206,7 +206,7 @@ def test_elastic_adhesive_sphere_on_the_maugis_dugdale_curve(maugis):
     # The pull-off against the Maugis-Dugdale sphere's least load in the periodic cell
     # (M56), (M59), and the load against the indenter's depth against its curve: within the
     # accuracy (hpcgfmd/studies/sphere_check.py). Measured: pull-off 1.1e-3, 6.3e-4,
-    # 9.0e-4 off; curve 1.8e-3, 2.6e-3, 4.8e-3.
+    # 9.0e-4 off; curve 1.9e-3, 2.0e-3, 1.6e-3.
     import hpcgfmd
 
     case = elastic_sphere(maugis, *MAUGIS_RUNS[maugis])
