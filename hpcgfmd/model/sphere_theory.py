@@ -580,15 +580,43 @@ def periodic_cell(abar, cell, lam=np.inf, work_ratio=1.0):
         if np.ndim(abar) == 0:
             return float(pbar), float(dbar)
         return pbar, dbar
-    points = [_md_in_cell(a, cell, lam, work_ratio) for a in np.atleast_1d(abar)]
+    points = [_md_in_cell(a, cell, lam, work_ratio)[:2] for a in np.atleast_1d(abar)]
     pbar, dbar = np.array(points, dtype=float).reshape(-1, 2).T
     if np.ndim(abar) == 0:
         return float(pbar[0]), float(dbar[0])
     return pbar, dbar
 
 
+def preload_in_cell(depth, cell, lam):
+    """The elastic Maugis-Dugdale sphere pressed to ``depth`` (Dbar) in its cell (M56), (M59):
+    its contact radius Abar and its cohesive zone's outer radius c / a_s, on the branch of
+    the curve above its least depth (the largest root of Dbar_cell(Abar) = depth).
+
+    Parameters
+    ----------
+    depth : float
+        h0 / delta_s, above the curve's least depth.
+    cell : float
+        L / a_s.
+    lam : float
+        Maugis's parameter with dgamma0 (M48), finite.
+    """
+    radii = np.linspace(0.05, math.sqrt(abs(depth)) + 2.0, 60)
+    depths = np.array([_md_in_cell(a, cell, lam, 1.0)[1] for a in radii])
+    below = np.nonzero(depths <= depth)[0]  # the root's bracket: the last of them and the next
+    if not below.size or below[-1] == radii.size - 1:
+        raise ValueError(f"no contact at depth {depth} in the cell {cell} (lam = {lam})")
+    abar = _optimize().brentq(
+        lambda a: _md_in_cell(a, cell, lam, 1.0)[1] - depth,
+        radii[below[-1]],
+        radii[below[-1] + 1],
+        xtol=1e-12,
+    )
+    return abar, abar * _md_in_cell(abar, cell, lam, 1.0)[2]
+
+
 def _md_in_cell(abar, cell, lam, work_ratio):
-    """(Pbar, Dbar) of one contact radius of Maugis's curve in the cell (M59): the fixed point
+    """(Pbar, Dbar, m) of one contact radius of Maugis's curve in the cell (M59): the fixed point
     of Pbar = rho Pbar_MD(Abar rho^(-2/3), lam rho^(1/3)), rho = R'/R; it contracts by about
     IMAGE_CURVATURE (a / L)^3."""
     curvature = IMAGE_CURVATURE / cell**3
@@ -607,7 +635,7 @@ def _md_in_cell(abar, cell, lam, work_ratio):
     else:
         raise ArithmeticError(f"no fixed point at abar = {abar}, cell = {cell}")
     lift = IMAGE_OFFSET * pbar / cell + IMAGE_SPREAD * traction_moment(abar, pbar, lam, m) / cell**3
-    return pbar, rho ** (1.0 / 3.0) * dbar + lift
+    return pbar, rho ** (1.0 / 3.0) * dbar + lift, m
 
 
 def traction_moment(abar, pbar, lam, m):

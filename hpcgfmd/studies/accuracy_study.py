@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import functools
 import hashlib
 import math
 import os
@@ -48,6 +49,7 @@ ACCURACIES = (1e-2, 5e-3, 1e-3)
 REFERENCE_ACCURACY = 2e-4
 CELL_PER_CONTACT = 8.0  # L = 8 sqrt(2 R h0): the periodic images change the load by < 3 %
 ALPHA = {"cylinder": 5e-5, "sphere": 1e-3}  # the default adhesion alpha of each geometry
+ZONE_PER_CELL = 0.23  # a sphere's preload zone within 0.23 L (a run refuses more than 0.25)
 COLUMNS = (
     "lambda0",
     "k",
@@ -74,23 +76,46 @@ def case_text(spec, accuracy, cell, alpha, sphere=False):
     return _text(spec, {"accuracy": accuracy}, cell, alpha, sphere)
 
 
-def default_cell(depth, sphere=False):
-    """L/R of a study's case at h0/R = ``depth``: the cylinder's CELL_PER_CONTACT
-    sqrt(2 h0/R); the sphere's the least cell a case accepts,
-    :data:`~hpcgfmd.case.groups.MIN_CELL_PER_CONTACT` sqrt(2 h0/R) = 8.49 sqrt(h0/R)
-    (rounded up to 1e-3), 4.3-5.0 starting contact radii at H0 = h0 / delta_s = 0.565
-    (measured a0 = 1.32-1.52 a_s from lambda0 = 1 to 7). The grid a zone sets grows as L,
-    its nodes as L^2; the runs and their references share the cell, and the exact elastic
-    curve carries its images to the traction's spread (docs/model.md, (M59))."""
-    if sphere:
-        return math.ceil(1e3 * MIN_CELL_PER_CONTACT * math.sqrt(2.0 * depth)) / 1e3
-    return round(CELL_PER_CONTACT * math.sqrt(2.0 * depth), 3)
+def default_cell(spec, alpha, sphere=False):
+    """L/R of a study's case ``spec`` = (lambda0, k, V_z, h0/R): the cylinder's
+    CELL_PER_CONTACT sqrt(2 h0/R); the sphere's the least cell a case accepts,
+    :data:`~hpcgfmd.case.groups.MIN_CELL_PER_CONTACT` sqrt(2 h0/R), or, where that is
+    larger, the cell whose relaxed preload's cohesive zone (its outer radius, the elastic
+    Maugis-Dugdale sphere's in its cell: :func:`~hpcgfmd.model.sphere_theory.preload_in_cell`)
+    reaches ZONE_PER_CELL L, rounded up to 1e-3 R.
+
+    The sphere's grid, set by its zone or its contact, grows as L, its nodes as L^2: its
+    cells are the least a run accepts (:data:`~hpcgfmd.runs.single_case.MAX_ZONE_PER_CELL`,
+    with a margin). At H0 = h0 / delta_s = 0.565: 4.4-5.6 starting contact radii from
+    lambda0 = 7 to 1 (the zone reaches 1.53-1.71 a_s). Runs and references share the cell;
+    the exact elastic curve carries its images to the traction's spread (docs/model.md,
+    (M59)).
+    """
+    lambda0, _, _, depth = spec
+    if not sphere:
+        return round(CELL_PER_CONTACT * math.sqrt(2.0 * depth), 3)
+    return _sphere_cell(lambda0, depth, alpha)
+
+
+@functools.lru_cache(maxsize=256)
+def _sphere_cell(lambda0, depth, alpha):
+    from ..model import sphere_theory
+
+    scales = sphere_theory.SphereGroups(lambda0, 1.0, 1.0, depth, 1.0, alpha)
+    least = MIN_CELL_PER_CONTACT * math.sqrt(2.0 * depth)
+    cell = least
+    for _ in range(4):  # the zone widens as the cell's images lift it: a fixed point
+        _, zone = sphere_theory.preload_in_cell(
+            depth / scales.depth_scale, cell / scales.beta, lambda0
+        )
+        cell = max(least, zone * scales.beta / ZONE_PER_CELL)
+    return math.ceil(1e3 * cell) / 1e3
 
 
 def _text(spec, numerics, cell, alpha, sphere):
     lambda0, k, vz, depth = spec
     if cell is None:
-        cell = default_cell(depth, sphere)
+        cell = default_cell(spec, alpha, sphere)
     geometry = {"modulus_ratio": k, "depth": depth, "cell": cell, "adhesion": alpha}
     if sphere:
         geometry = {"geometry": "sphere", **geometry}
@@ -269,7 +294,8 @@ def _parser():
         type=float,
         help=(
             f"L/R (default {CELL_PER_CONTACT:g} sqrt(2 h0/R), the contact's width 8 times; a"
-            f" sphere's {MIN_CELL_PER_CONTACT:g} sqrt(2 h0/R), the least a case accepts)"
+            f" sphere's the least a run accepts: {MIN_CELL_PER_CONTACT:g} sqrt(2 h0/R), or"
+            f" its preload's cohesive zone within {ZONE_PER_CELL:g} L)"
         ),
     )
     parser.add_argument(
