@@ -79,7 +79,7 @@ SPHERE_PULL_OFF_HEIGHT, SPHERE_PULL_OFF_SCALE, SPHERE_A0 = 0.77, 1.56, 1.9
 # steps, all the load's, were 2.6-4 times N_load) and its iterations per step (module
 # docstring; fitted to its runs' iterations, rms 25 %, each within 1.6x)
 SPHERE_LOAD_STEPS = 5.0
-SPHERE_ITERATIONS_AT_REST, SPHERE_NODE_ITERATIONS = 1.0, 0.72
+SPHERE_ITERATIONS_AT_REST, SPHERE_NODE_ITERATIONS = 2.0, 1.88
 GLASSY_SHARE = 0.83  # enhancement's glassy limit: 1 + GLASSY_SHARE (k^(-2/3) - 1)
 ENHANCEMENT_RATE = 18.4  # chi_ve / k at which half of it is reached ...
 ENHANCEMENT_ORDER = 0.68  # ... and the power of chi_ve / k it rises with
@@ -356,8 +356,8 @@ def _estimate(case, kind, start, end, duration, width, end_width, load_change, d
         steps = math.log2(max(num.dt_max / num.dt, 1.0)) + norm ** (1.0 / NORM_ORDER)
         edge_weight = bounds[1] ** NORM_ORDER / norm if norm > 0.0 else 0.0
     crossed = travel / case.dx / steps if steps else 0.0
-    if case.sphere:  # the nodes the contact line crosses: its mean length pi (a + a_end) / dx
-        crossed *= math.pi * (width + end_width) / case.dx
+    if case.sphere:  # the contact line's nodes, pi (a + a_end) / dx, times its advance in w
+        crossed *= math.pi * (width + end_width) / case.zone_width
     iterations = steps * _iterations_per_step(case, crossed)
     per_node = SECONDS_PER_NODE_ITERATION * iterations + SECONDS_PER_NODE_STEP * steps
     nodes = math.prod(num.shape)  # nx on a line, n^2 on a sphere's surface
