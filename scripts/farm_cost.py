@@ -3,7 +3,7 @@
     mpirun -n 2 python scripts/farm_cost.py --run paper    # python -m hpcgfmd paper -o paper,
                                                            # each run's CPU seconds recorded
     python scripts/farm_cost.py paper                      # the table
-    python scripts/farm_cost.py --study docs/figures/accuracy-sphere   # an accuracy study's runs
+    python scripts/farm_cost.py --study docs/figures/accuracy-sphere   # accuracy studies' runs
 
 Reads the runs of ``python -m hpcgfmd paper`` (its shipped sweep files, or ``--accuracy``)
 from DIR/runs/<name>.h5: their attributes ``steps``, ``iterations``, ``wall_time`` and
@@ -17,8 +17,8 @@ more than one rank, or unfinished, are listed and not judged. FFTW's planning is
 first run of each grid size on a machine (the wisdom cache, hpcgfmd/parallel/wisdom.py): the
 model is of runs with the wisdom cached, so measure a second time after a first ``--run``.
 
-``--study PREFIX`` judges the saved runs of ``python -m hpcgfmd bench accuracy --out PREFIX``
-instead (PREFIX-runs/*.npz, references included; the sphere's are its cost model's
+``--study PREFIX ...`` judges the saved runs of ``python -m hpcgfmd bench accuracy --out
+PREFIX`` instead (PREFIX-runs/*.npz, references included; the sphere's are its cost model's
 calibration): per run the predicted and measured steps, iterations and the retraction's CPU
 seconds (set-up, FFTW planning and preload left out: :func:`hpcgfmd.runs.cost.plan`'s
 segments against them), their ratios, and the ratios' geometric mean and range.
@@ -126,8 +126,8 @@ def table(directory, accuracy, limit):
     return off
 
 
-def study_table(prefix, limit):
-    """Print the table of an accuracy study's saved runs; returns the number of runs whose
+def study_table(prefixes, limit):
+    """Print the table of accuracy studies' saved runs; returns the number of runs whose
     retraction seconds are off by more than ``limit``."""
     import glob
     import math
@@ -143,7 +143,8 @@ def study_table(prefix, limit):
     )
     ratios, off = {"steps": [], "iterations": [], "seconds": []}, 0
     rows = []
-    for path in sorted(glob.glob(os.path.join(f"{prefix}-runs", "*.npz"))):
+    paths = [glob.glob(os.path.join(f"{prefix}-runs", "*.npz")) for prefix in prefixes]
+    for path in sorted(p for found in paths for p in found):
         with np.load(path, allow_pickle=False) as saved:
             case = parse_case(str(saved["text"]))
             measured = [
@@ -180,6 +181,7 @@ def main():
     parser.add_argument("directory", nargs="?", help="the paper command's -o directory")
     parser.add_argument(
         "--study",
+        nargs="+",
         metavar="PREFIX",
         help="judge the saved runs of python -m hpcgfmd bench accuracy --out PREFIX instead",
     )
