@@ -70,11 +70,11 @@ PRELOAD_LOAD = 0.5  # preload load / (E0 h0) (0.45-0.52 at L/R = 10, h0/R = 0.05
 PULL_OFF_HEIGHT = 5.19  # elastic pull-off height of the relaxed-equivalent drive, beta^2 R
 # A sphere's (the enhancement the cylinder's), measured on the runs of its accuracy study
 # (docs/results.md, "The knob on the sphere": lambda0 = 1-7, H0 = h0 / delta_s = 0.565, cells
-# of 4.3-5 a0; scripts/farm_cost.py --study): the relaxed-equivalent drive at complete
-# detachment, 0.735-0.835 delta_s on the elastic runs (JKR's isolated jump 3 (1/6)^(2/3) =
-# 0.908, (M55), less the cell's lift); the elastic pull-off, 1.52-1.62 pi dgamma0 R; the
-# preload contact radius, 1.76-2.02 sqrt(R h0) (adhesion widens a shallow preload's), whose
-# JKR force (M55) is the preload's load (measured -1.10 to -1.18 pi dgamma0 R, JKR's -1.26)
+# of 4.4-5.6 a0; scripts/farm_cost.py --study): the relaxed-equivalent drive at complete
+# detachment, 0.740-0.850 delta_s on the elastic runs (JKR's isolated jump 3 (1/6)^(2/3) =
+# 0.908, (M55), less the cell's lift); the elastic pull-off, 1.52-1.61 pi dgamma0 R; the
+# preload contact radius, 1.79-2.03 sqrt(R h0) (adhesion widens a shallow preload's), whose
+# JKR force (M55) is the preload's load (measured -1.07 to -1.11 pi dgamma0 R, JKR's -1.26)
 SPHERE_PULL_OFF_HEIGHT, SPHERE_PULL_OFF_SCALE, SPHERE_A0 = 0.77, 1.56, 1.9
 # ... its load criterion's steps over the cylinder's N_load (fitted: its fast retractions'
 # steps, all the load's, were 2.6-4 times N_load) and its iterations per step (module
