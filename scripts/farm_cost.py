@@ -3,6 +3,7 @@
     mpirun -n 2 python scripts/farm_cost.py --run paper    # python -m hpcgfmd paper -o paper,
                                                            # each run's CPU seconds recorded
     python scripts/farm_cost.py paper                      # the table
+    python scripts/farm_cost.py --study docs/figures/accuracy-sphere   # accuracy studies' runs
 
 Reads the runs of ``python -m hpcgfmd paper`` (its shipped sweep files, or ``--accuracy``)
 from DIR/runs/<name>.h5: their attributes ``steps``, ``iterations``, ``wall_time`` and
@@ -15,6 +16,12 @@ exit status is 1 when a run's seconds are off by more than ``--limit`` (2) eithe
 more than one rank, or unfinished, are listed and not judged. FFTW's planning is paid by the
 first run of each grid size on a machine (the wisdom cache, hpcgfmd/parallel/wisdom.py): the
 model is of runs with the wisdom cached, so measure a second time after a first ``--run``.
+
+``--study PREFIX ...`` judges the saved runs of ``python -m hpcgfmd bench accuracy --out
+PREFIX`` instead (PREFIX-runs/*.npz, references included; the sphere's are its cost model's
+calibration): per run the predicted and measured steps, iterations and the retraction's CPU
+seconds (set-up, FFTW planning and preload left out: :func:`hpcgfmd.runs.cost.plan`'s
+segments against them), their ratios, and the ratios' geometric mean and range.
 """
 
 import argparse
@@ -119,9 +126,65 @@ def table(directory, accuracy, limit):
     return off
 
 
+def study_table(prefixes, limit):
+    """Print the table of accuracy studies' saved runs; returns the number of runs whose
+    retraction seconds are off by more than ``limit``."""
+    import glob
+    import math
+
+    import numpy as np
+
+    from hpcgfmd.case import parse_case
+    from hpcgfmd.runs.cost import plan
+
+    print(
+        f"{'lambda0:k:V_z:h0/R':<22} {'accuracy':>8} {'n':>5} {'steps':>11} {'ratio':>5}"
+        f" {'iterations':>13} {'ratio':>5} {'CPU s':>13} {'ratio':>5}"
+    )
+    ratios, off = {"steps": [], "iterations": [], "seconds": []}, 0
+    rows = []
+    paths = [glob.glob(os.path.join(f"{prefix}-runs", "*.npz")) for prefix in prefixes]
+    for path in sorted(p for found in paths for p in found):
+        with np.load(path, allow_pickle=False) as saved:
+            case = parse_case(str(saved["text"]))
+            measured = [
+                float(saved[key]) if key in saved.files else math.nan
+                for key in ("steps", "iterations", "retraction_cpu_s")
+            ]
+        segments = plan(case)
+        predicted = [sum(getattr(s, key) for s in segments) for key in ratios]
+        label = f"{case.maugis:g}:{case.modulus_ratio:g}:{case.velocity:g}:{case.depth:g}"
+        rows.append((label, case.numerics.accuracy, case.numerics.nx, predicted, measured))
+    for label, accuracy, n, predicted, measured in sorted(rows):
+        line = f"{label:<22} {accuracy:>8g} {n:>5}"
+        for key, p, m in zip(ratios, predicted, measured):
+            ratios[key].append(p / m)
+            line += f" {p:>5.0f}/{m:<5.0f} {p / m:>5.2f}" if key != "seconds" else ""
+        p, m = predicted[2], measured[2]
+        line += f" {p:>6.1f}/{m:<6.1f} {p / m:>5.2f}"
+        bad = not 1.0 / limit <= p / m <= limit
+        off += bad
+        print(line + ("  OFF" if bad else ""))
+    for key, values in ratios.items():
+        if values:
+            mean = math.exp(sum(math.log(v) for v in values) / len(values))
+            print(
+                f"{key}: predicted / measured geometric mean {mean:.2f},"
+                f" from {min(values):.2f} to {max(values):.2f} ({len(values)} runs)"
+            )
+    print(f"{off} of {len(rows)} runs' seconds off by more than {limit:g}x")
+    return off
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("directory", help="the paper command's -o directory")
+    parser.add_argument("directory", nargs="?", help="the paper command's -o directory")
+    parser.add_argument(
+        "--study",
+        nargs="+",
+        metavar="PREFIX",
+        help="judge the saved runs of python -m hpcgfmd bench accuracy --out PREFIX instead",
+    )
     parser.add_argument(
         "--run",
         action="store_true",
@@ -140,6 +203,10 @@ def main():
         help="the largest factor between predicted and measured (default 2)",
     )
     args = parser.parse_args()
+    if args.study:
+        return 1 if study_table(args.study, args.limit) else 0
+    if args.directory is None:
+        parser.error("the paper command's -o directory, or --study PREFIX, is needed")
     if args.run:
         status = run(args.directory, args.accuracy)
         from mpi4py import MPI

@@ -337,6 +337,80 @@ def test_a_study_keys_its_runs_by_the_code_it_started_with(tmp_path, monkeypatch
     assert len(made) == 2  # the reference and the run at 1e-2
 
 
+@pytest.mark.parametrize("maugis", [1.0, 7.0])
+def test_the_sphere_study_s_cell_holds_its_preload_s_zone(maugis):
+    # a sphere's cell: the least whose relaxed preload's cohesive zone (Maugis-Dugdale in the
+    # cell, (M56), (M59)) reaches 0.23 L, rounded up to 1e-3 R, at least the least a case
+    # accepts (6 sqrt(2 h0/R) = 0.8485 at h0/R = 0.01); a run of the case (n = 256 at 1e-2,
+    # lambda0 = 1, the widest zone) is not refused (its zone beyond 0.25 L: a CaseError)
+    from hpcgfmd.model import sphere_theory
+    from hpcgfmd.studies import accuracy_study
+
+    spec = (maugis, 1.0, 1.0, 0.01)
+    case = parse_case(accuracy_study.case_text(spec, 1e-2, None, 1e-3, sphere=True))
+    assert case.cell >= 6 * math.sqrt(0.02)
+
+    def zone_share(cell):
+        H0, L = case.depth / case.depth_scale, cell / case.beta
+        return sphere_theory.preload_in_cell(H0, L, maugis)[1] * case.beta / cell
+
+    assert zone_share(case.cell) <= 0.23
+    assert zone_share(case.cell - 1e-3) > 0.23 or case.cell - 1e-3 < 6 * math.sqrt(0.02)
+    if maugis == 1.0:
+        import hpcgfmd
+
+        hpcgfmd.run(case, planner_effort="FFTW_ESTIMATE")
+
+
+def test_the_sphere_study_s_case_texts():
+    # --geometry sphere: the case carries the sphere and its cell; the knob picks n; a
+    # reference names its unwidened grid n (a fast lambda0 = 7 at 1e-3: 4096, twice the
+    # widened knob's)
+    from hpcgfmd.case.numerics import automatic_nx
+    from hpcgfmd.studies import accuracy_study
+
+    spec = (7.0, 0.1, 10.0, 0.01)
+    text = accuracy_study.case_text(spec, 1e-3, None, 1e-3, sphere=True)
+    case = parse_case(text)
+    cell = accuracy_study.default_cell(spec, 1e-3, sphere=True)
+    assert 'geometry = "sphere"' in text and case.sphere and case.cell == cell
+    n = case.numerics.nx
+    assert case.numerics.nx_automatic and case.numerics.shape == (n, n)
+    assert n * math.sqrt(case.depth) / case.cell >= accuracy.sphere_contact_points(1e-3)
+    reference = accuracy_study.reference_text(spec, 1e-3, None, 1e-3, sphere=True)
+    unwidened = automatic_nx(case, 1e-3, widen=False)
+    assert f"n = {unwidened}" in reference and unwidened == 2 * n == 4096
+    assert parse_case(reference).numerics.shape == (unwidened, unwidened)
+    # the cylinder's texts are as before: no geometry key, L = 8 sqrt(2 h0/R)
+    cylinder = accuracy_study.case_text(spec, 1e-3, None, 5e-5)
+    assert "geometry" not in cylinder and parse_case(cylinder).cell == 1.131
+
+
+def test_the_sphere_study_judges_an_elastic_run_against_maugis_dugdale_in_its_cell(tmp_path):
+    # The elastic sphere at lambda0 = 1 (n = 256 at 1e-2) against the Maugis-Dugdale sphere in
+    # its cell (M56), (M59): the pull-off of the table is the run's against the curve's least
+    # force, computed here from the theory apart, and both errors are within the accuracy
+    # (measured: pull-off 8.6e-5, load-depth curve 4.6e-4 off; the table's curve, drawn at 1201
+    # radii, has its least force within 1e-6 of this one's)
+    from mpi4py import MPI
+
+    from hpcgfmd.model import sphere_theory
+    from hpcgfmd.studies import accuracy_study
+
+    out = tmp_path / "sphere"
+    argv = ["--geometry", "sphere", "--out", str(out), "--cases", "1:1:1:0.01"]
+    assert accuracy_study.main(MPI.COMM_SELF, [*argv, "--accuracies", "1e-2"]) == 0
+    (row,) = accuracy_study.read_rows(f"{out}.csv")
+    assert row["reference"] == "Maugis-Dugdale in the cell" and row["nx"] == 256
+    case = parse_case(accuracy_study.case_text((1.0, 1.0, 1.0, 0.01), 1e-2, None, 1e-3, True))
+    radii = np.linspace(0.3, 1.5, 2401)  # the load minimum near 1.1 a_s, to 1e-7
+    least = sphere_theory.periodic_cell(radii, case.cell / case.beta, 1.0)[0].min()
+    assert row["pulloff_error"] == pytest.approx(abs(row["pulloff_Lbar"] / least - 1), abs=1e-6)
+    assert row["pulloff_error"] <= 1e-2 and row["curve_error"] <= 1e-2 and row["within"]
+    table = (tmp_path / "sphere.md").read_text()
+    assert "| n |" in table and "pull-off Pbar" in table
+
+
 def test_the_relaxed_floor_grows_with_lambda0_over_its_measurements():
     # the widened grids' load-area curve errors at lambda0 <= 14 without the floor
     # (docs/results.md, git history: (lambda0, w/dx, curve error)), whole errors, so upper

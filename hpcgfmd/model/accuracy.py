@@ -155,7 +155,8 @@ def sphere_contact_points(accuracy):
     pull-off's error on the triangle-law grid falls as dx^2 (docs/results.md, "The sphere":
     2.6e-3, 6.3e-4 and 1.2e-4 at 16, 31 and 62 points across the starting contact radius of
     an elastic sphere at lambda0 = 1), so SPHERE_CONTACT / sqrt(accuracy) points: 30 at 5e-3.
-    The knob's tables are the cylinder's; this rule is the sphere's measured start.
+    With the zone rule it holds 19 sphere runs within their accuracy (lambda0 = 1-7, k = 0.1
+    and 1, V_z = 0.01-10; docs/results.md, "The knob on the sphere").
     """
     return SPHERE_CONTACT / math.sqrt(accuracy)
 

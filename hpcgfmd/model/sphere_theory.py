@@ -33,6 +33,8 @@ LATTICE_SUM_3 = 9.033621683100948
 IMAGE_CURVATURE = 2.0 * LATTICE_SUM_3 / (3.0 * math.pi)
 #: The images' depth offset per unit load, 4 MADELUNG_SQUARE / (3 pi) (M59).
 IMAGE_OFFSET = 4.0 * MADELUNG_SQUARE / (3.0 * math.pi)
+#: ... and per unit second moment of the traction (its spread), LATTICE_SUM_3 / (3 pi) (M59).
+IMAGE_SPREAD = LATTICE_SUM_3 / (3.0 * math.pi)
 
 # scipy's optimize is imported where a theory needs it (as in theory.py): a run needs none.
 
@@ -544,9 +546,11 @@ def periodic_cell(abar, cell, lam=np.inf, work_ratio=1.0):
 
     The images add a uniform lift and a curvature: the isolated curve with the radius R' of
     R / R' = 1 + IMAGE_CURVATURE Pbar / Lbar^3 and the depth offset IMAGE_OFFSET Pbar / Lbar
-    (Lbar = L / a_s). For Hertz and JKR (lam = inf) that is closed; for Maugis-Dugdale the
-    isolated curve at R' (Abar R^(2/3) / R'^(2/3), lam R'^(1/3) / R^(1/3)) is iterated to
-    the fixed point in Pbar. The next terms are smaller by O((a / L)^2).
+    + IMAGE_SPREAD Mbar / Lbar^3 (Lbar = L / a_s; Mbar the traction's second moment,
+    :func:`traction_moment`: the images' lift of a spread load rather than a point force).
+    For Hertz and JKR (lam = inf) that is closed; for Maugis-Dugdale the isolated curve at
+    R' (Abar R^(2/3) / R'^(2/3), lam R'^(1/3) / R^(1/3)) is iterated to the fixed point in
+    Pbar. The next terms are smaller by O((a / L)^2) than the last ones kept.
 
     Parameters
     ----------
@@ -570,27 +574,57 @@ def periodic_cell(abar, cell, lam=np.inf, work_ratio=1.0):
         adhesion = np.sqrt(6.0 * work_ratio * abar**3)
         pbar = (abar**3 - adhesion) / (1.0 - curvature * abar**3)
         dbar = abar**2 * (1.0 + curvature * pbar) - np.sqrt(8.0 * work_ratio * abar / 3.0)
-        dbar = dbar + IMAGE_OFFSET * pbar / cell
+        # Hertz's share pbar + adhesion at (2/5) a^2, JKR's singular one at (2/3) a^2
+        moment = abar**2 * (0.4 * (pbar + adhesion) - 2.0 / 3.0 * adhesion)
+        dbar = dbar + IMAGE_OFFSET * pbar / cell + IMAGE_SPREAD * moment / cell**3
         if np.ndim(abar) == 0:
             return float(pbar), float(dbar)
         return pbar, dbar
-    points = [_md_in_cell(a, cell, lam, work_ratio) for a in np.atleast_1d(abar)]
+    points = [_md_in_cell(a, cell, lam, work_ratio)[:2] for a in np.atleast_1d(abar)]
     pbar, dbar = np.array(points, dtype=float).reshape(-1, 2).T
     if np.ndim(abar) == 0:
         return float(pbar[0]), float(dbar[0])
     return pbar, dbar
 
 
+def preload_in_cell(depth, cell, lam):
+    """The elastic Maugis-Dugdale sphere pressed to ``depth`` (Dbar) in its cell (M56), (M59):
+    its contact radius Abar and its cohesive zone's outer radius c / a_s, on the branch of
+    the curve above its least depth (the largest root of Dbar_cell(Abar) = depth).
+
+    Parameters
+    ----------
+    depth : float
+        h0 / delta_s, above the curve's least depth.
+    cell : float
+        L / a_s.
+    lam : float
+        Maugis's parameter with dgamma0 (M48), finite.
+    """
+    radii = np.linspace(0.05, math.sqrt(abs(depth)) + 2.0, 60)
+    depths = np.array([_md_in_cell(a, cell, lam, 1.0)[1] for a in radii])
+    below = np.nonzero(depths <= depth)[0]  # the root's bracket: the last of them and the next
+    if not below.size or below[-1] == radii.size - 1:
+        raise ValueError(f"no contact at depth {depth} in the cell {cell} (lam = {lam})")
+    abar = _optimize().brentq(
+        lambda a: _md_in_cell(a, cell, lam, 1.0)[1] - depth,
+        radii[below[-1]],
+        radii[below[-1] + 1],
+        xtol=1e-12,
+    )
+    return abar, abar * _md_in_cell(abar, cell, lam, 1.0)[2]
+
+
 def _md_in_cell(abar, cell, lam, work_ratio):
-    """(Pbar, Dbar) of one contact radius of Maugis's curve in the cell (M59): the fixed point
+    """(Pbar, Dbar, m) of one contact radius of Maugis's curve in the cell (M59): the fixed point
     of Pbar = rho Pbar_MD(Abar rho^(-2/3), lam rho^(1/3)), rho = R'/R; it contracts by about
     IMAGE_CURVATURE (a / L)^3."""
     curvature = IMAGE_CURVATURE / cell**3
-    pbar, dbar, _ = maugis_dugdale(abar, lam, work_ratio)
+    pbar, dbar, m = maugis_dugdale(abar, lam, work_ratio)
     rho = 1.0
     for _ in range(100):
         rho = 1.0 / (1.0 + curvature * pbar)
-        new, dbar, _ = maugis_dugdale(
+        new, dbar, m = maugis_dugdale(
             abar * rho ** (-2.0 / 3.0), lam * rho ** (1.0 / 3.0), work_ratio
         )
         new *= rho
@@ -601,4 +635,51 @@ def _md_in_cell(abar, cell, lam, work_ratio):
         pbar = new
     else:
         raise ArithmeticError(f"no fixed point at abar = {abar}, cell = {cell}")
-    return pbar, rho ** (1.0 / 3.0) * dbar + IMAGE_OFFSET * pbar / cell
+    lift = IMAGE_OFFSET * pbar / cell + IMAGE_SPREAD * traction_moment(abar, pbar, lam, m) / cell**3
+    return pbar, rho ** (1.0 / 3.0) * dbar + lift, m
+
+
+def traction_moment(abar, pbar, lam, m):
+    """The second moment of a Maugis-Dugdale sphere's traction, the integral of p r^2 over the
+    surface, in pi dgamma0 R a_s^2 (the images' spread term of (M59)).
+
+    Maugis's traction is Hertz's of the contact radius a, whose force Pbar - Pbar_D is
+    spread as (2/5) a^2, plus Dugdale's adhesive one, -sigma_a on a < r < c and
+    -(2 sigma_a / pi) arctan(sqrt((c^2 - a^2) / (a^2 - r^2))) inside (Maugis 1992; its force
+    is (M56)'s Pbar_D = -lam A^2 (s + m^2 arctan s)); its moment, in closed form,
+    -(lam / 2) A^4 ((pi / 2)(m^4 - 1) + 4 I(s)), I(s) the integral over t in (0, 1) of
+    (1 - t^2) t arctan(s / t) (:func:`_dugdale_moment`). As m -> 1 (JKR) the adhesive share
+    tends to (2/3) a^2 Pbar_D.
+
+    Parameters
+    ----------
+    abar : float
+        a / a_s.
+    pbar : float
+        The force (M47).
+    lam : float
+        Maugis's parameter with dgamma0 (M48) (the sigma_a of the adhesive traction).
+    m : float
+        c / a, >= 1.
+    """
+    s = math.sqrt(max(m * m - 1.0, 0.0))
+    adhesive = -lam * abar * abar * (s + m * m * math.atan(s))
+    dugdale = -0.5 * lam * abar**4 * (0.5 * math.pi * (m**4 - 1.0) + 4.0 * _dugdale_moment(s))
+    return 0.4 * abar * abar * (pbar - adhesive) + dugdale
+
+
+def _dugdale_moment(s):
+    """I(s), the integral over t in (0, 1) of (1 - t^2) t arctan(s / t) (:func:`traction_moment`):
+    arctan(s) / 4 + s B, B = 5/12 + s^2 / 4 - (2 + s^2) g / 4 with g = s arctan(1/s); for
+    s > 10, where B's terms cancel, its series in u = 1/s, B = sum over n >= 1 of
+    (-1)^(n+1) (2 / (2n + 1) - 1 / (2n + 3)) u^(2n) / 4 (to 1e-17 with 8 terms)."""
+    if s > 10.0:
+        u2 = 1.0 / (s * s)
+        b = sum(
+            (-1) ** (n + 1) * (2.0 / (2 * n + 1) - 1.0 / (2 * n + 3)) * u2**n / 4.0
+            for n in range(1, 9)
+        )
+    else:
+        g = s * (0.5 * math.pi - math.atan(s)) if s > 0.0 else 0.0
+        b = 5.0 / 12.0 + 0.25 * s * s - 0.25 * (2.0 + s * s) * g
+    return 0.25 * math.atan(s) + s * b

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import functools
 import hashlib
 import math
 import os
@@ -37,14 +38,18 @@ import numpy as np
 
 from .. import atomic
 from ..case import parse_case
+from ..case.groups import MIN_CELL_PER_CONTACT
 from ..case.numerics import automatic_nx
 from ..errors import CaseError
 from ..model.grid import grid_label
 from . import benchmark, report
+from .distance import load_depth_distances
 
 ACCURACIES = (1e-2, 5e-3, 1e-3)
 REFERENCE_ACCURACY = 2e-4
 CELL_PER_CONTACT = 8.0  # L = 8 sqrt(2 R h0): the periodic images change the load by < 3 %
+ALPHA = {"cylinder": 5e-5, "sphere": 1e-3}  # the default adhesion alpha of each geometry
+ZONE_PER_CELL = 0.23  # a sphere's preload zone within 0.23 L (a run refuses more than 0.25)
 COLUMNS = (
     "lambda0",
     "k",
@@ -65,29 +70,69 @@ COLUMNS = (
 )
 
 
-def case_text(spec, accuracy, cell, alpha):
-    """The case file of ``spec`` = (lambda0, k, V_z, h0/R) run at ``accuracy``; ``cell``
-    None: L/R = CELL_PER_CONTACT sqrt(2 h0/R)."""
+def case_text(spec, accuracy, cell, alpha, sphere=False):
+    """The case file of ``spec`` = (lambda0, k, V_z, h0/R) run at ``accuracy``, a cylinder's
+    or (``sphere``) a sphere's; ``cell`` None: :func:`default_cell`."""
+    return _text(spec, {"accuracy": accuracy}, cell, alpha, sphere)
+
+
+def default_cell(spec, alpha, sphere=False):
+    """L/R of a study's case ``spec`` = (lambda0, k, V_z, h0/R): the cylinder's
+    CELL_PER_CONTACT sqrt(2 h0/R); the sphere's the least cell a case accepts,
+    :data:`~hpcgfmd.case.groups.MIN_CELL_PER_CONTACT` sqrt(2 h0/R), or, where that is
+    larger, the cell whose relaxed preload's cohesive zone (its outer radius, the elastic
+    Maugis-Dugdale sphere's in its cell: :func:`~hpcgfmd.model.sphere_theory.preload_in_cell`)
+    reaches ZONE_PER_CELL L, rounded up to 1e-3 R.
+
+    The sphere's grid, set by its zone or its contact, grows as L, its nodes as L^2: its
+    cells are the least a run accepts (:data:`~hpcgfmd.runs.single_case.MAX_ZONE_PER_CELL`,
+    with a margin). At H0 = h0 / delta_s = 0.565: 4.4-5.6 starting contact radii from
+    lambda0 = 7 to 1 (the zone reaches 1.53-1.71 a_s). Runs and references share the cell;
+    the exact elastic curve carries its images to the traction's spread (docs/model.md,
+    (M59)).
+    """
+    lambda0, _, _, depth = spec
+    if not sphere:
+        return round(CELL_PER_CONTACT * math.sqrt(2.0 * depth), 3)
+    return _sphere_cell(lambda0, depth, alpha)
+
+
+@functools.lru_cache(maxsize=256)
+def _sphere_cell(lambda0, depth, alpha):
+    from ..model import sphere_theory
+
+    scales = sphere_theory.SphereGroups(lambda0, 1.0, 1.0, depth, 1.0, alpha)
+    least = MIN_CELL_PER_CONTACT * math.sqrt(2.0 * depth)
+    cell = least
+    for _ in range(4):  # the zone widens as the cell's images lift it: a fixed point
+        _, zone = sphere_theory.preload_in_cell(
+            depth / scales.depth_scale, cell / scales.beta, lambda0
+        )
+        cell = max(least, zone * scales.beta / ZONE_PER_CELL)
+    return math.ceil(1e3 * cell) / 1e3
+
+
+def _text(spec, numerics, cell, alpha, sphere):
     lambda0, k, vz, depth = spec
     if cell is None:
-        cell = round(CELL_PER_CONTACT * math.sqrt(2.0 * depth), 3)
+        cell = default_cell(spec, alpha, sphere)
     geometry = {"modulus_ratio": k, "depth": depth, "cell": cell, "adhesion": alpha}
-    return benchmark.case_text(lambda0, vz, {"accuracy": accuracy}, geometry)
+    if sphere:
+        geometry = {"geometry": "sphere", **geometry}
+    return benchmark.case_text(lambda0, vz, numerics, geometry)
 
 
-def reference_text(spec, accuracy, cell, alpha, widened=False):
+def reference_text(spec, accuracy, cell, alpha, widened=False, sphere=False):
     """:func:`case_text` of the converged reference: the grid of ``accuracy`` without the
     fast retraction's widening (:func:`~hpcgfmd.model.accuracy.fast_widening`), so that a
     reference never shares that rule, which it validates (``widened``: it does); it has the
-    contact points (:func:`~hpcgfmd.model.accuracy.contact_points`) of its own, finer
-    accuracy."""
-    case = parse_case(case_text(spec, accuracy, cell, alpha))
+    contact points (:func:`~hpcgfmd.model.accuracy.contact_points`, a sphere's
+    :func:`~hpcgfmd.model.accuracy.sphere_contact_points`) of its own, finer accuracy."""
+    text = case_text(spec, accuracy, cell, alpha, sphere)
     if widened:
-        return case_text(spec, accuracy, cell, alpha)
-    nx = automatic_nx(case, accuracy, widen=False)
-    lambda0, k, vz, depth = spec
-    geometry = {"modulus_ratio": k, "depth": depth, "cell": case.cell, "adhesion": alpha}
-    return benchmark.case_text(lambda0, vz, {"accuracy": accuracy, "nx": nx}, geometry)
+        return text
+    nx = automatic_nx(parse_case(text), accuracy, widen=False)
+    return _text(spec, {"accuracy": accuracy, "n" if sphere else "nx": nx}, cell, alpha, sphere)
 
 
 def theory_reference(spec, cell, alpha, widest):
@@ -103,6 +148,19 @@ def theory_reference(spec, cell, alpha, widest):
     lbar = np.array([theory.maugis_dugdale(a, lambda0)[0] for a in abar])
     lbar *= theory.periodic_load_factor(abar * beta, cell)
     return {"abar": abar, "lbar": lbar}
+
+
+def sphere_reference(result):
+    """The exact load-depth curve of an elastic sphere's run ``result`` (k = 1): the
+    Maugis-Dugdale sphere of its lambda0 in its cell (docs/model.md (M56), (M59);
+    :func:`~hpcgfmd.studies.sphere_check.maugis_dugdale_curve`) from 1.05 times its widest
+    contact radius down, at 1201 radii: its chords within 3e-6 of the curve in the curve
+    error's scales, its least force within 1e-6 of the curve's."""
+    from .sphere_check import maugis_dugdale_curve
+
+    case = result["case"]
+    widest = 1.05 * float(result["abar"].max())
+    return maugis_dugdale_curve(widest, case.cell / case.beta, case.maugis, points=1201)
 
 
 def _elastic(spec):
@@ -127,7 +185,7 @@ def persson_brener_ratio(result):
     theory.effective_work_ratio`); the edge speed is the contact half-width's rate between
     the steps beside the pull-off (:func:`~hpcgfmd.model.theory.peel_velocity`, tau = 1).
     """
-    from ..model import theory
+    from ..model import sphere_theory, theory
 
     case = result["case"]
     k = case.modulus_ratio
@@ -137,11 +195,33 @@ def persson_brener_ratio(result):
         return math.nan
     if time[i] - time[0] < 1.0 / k:
         return math.nan
-    beta = case.adhesion ** (1.0 / 3.0)
+    beta = case.beta if case.sphere else case.adhesion ** (1.0 / 3.0)  # the sphere's a_s
     rate = -(abar[i + 1] - abar[i - 1]) * beta / (time[i + 1] - time[i - 1])
-    expected = theory.persson_brener(theory.peel_velocity(rate, 1.0, k, case.maugis, beta), k)
-    ours = theory.effective_work_ratio(lbar[i] / np.sqrt(abar[i]), np.pi / 4 * abar[i] ** 1.5)
-    return float(ours / expected)
+    if case.sphere:  # (M55)'s inversion and (M58)'s edge speed
+        speed = sphere_theory.peel_velocity(rate, 1.0, k, case.maugis, beta)
+        ours = sphere_theory.effective_work_ratio(*sphere_theory.scaled_curve(abar[i], lbar[i]))
+    else:
+        speed = theory.peel_velocity(rate, 1.0, k, case.maugis, beta)
+        ours = theory.effective_work_ratio(lbar[i] / np.sqrt(abar[i]), np.pi / 4 * abar[i] ** 1.5)
+    return float(ours / theory.persson_brener(speed, k))
+
+
+def curve_error(reference, result):
+    """The run's curve error against ``reference``: a cylinder's load-area distance
+    (:func:`~hpcgfmd.studies.benchmark.curve_error`), a sphere's load-depth distance
+    (:func:`~hpcgfmd.studies.distance.load_depth_distances`), of its points up to its
+    pull-off, the largest."""
+    if not result["case"].sphere:
+        return benchmark.curve_error(reference, result)
+    end = int(np.argmin(result["lbar"])) + 1
+    distances = load_depth_distances(
+        result["dbar"][:end],
+        result["lbar"][:end],
+        reference["dbar"],
+        reference["lbar"],
+        reference["abar"],
+    )
+    return float(distances.max()) if len(distances) else math.nan
 
 
 def _row(spec, accuracy, result, reference):
@@ -149,7 +229,7 @@ def _row(spec, accuracy, result, reference):
     pull_off = float(result["lbar"].min())
     converged = float(reference["lbar"].min())
     error = abs(pull_off - converged) / abs(converged)
-    curve = benchmark.curve_error(reference, result)
+    curve = curve_error(reference, result)
     return {
         "lambda0": lambda0,
         "k": k,
@@ -169,12 +249,14 @@ def _row(spec, accuracy, result, reference):
     }
 
 
-def markdown(rows):
-    """The table of docs/results.md ("The accuracy knob")."""
+def markdown(rows, sphere=False):
+    """The table of docs/results.md ("The accuracy knob"; a sphere's: its grid n, its
+    pull-off Pbar)."""
+    grid, load = ("n", "Pbar") if sphere else ("nx", "Lbar")
     lines = [
         (
-            "| lambda0 | k | V_z | h0/R | accuracy | nx | steps | it/step | CPU s |"
-            " pull-off Lbar | pull-off error | curve error | within | work / PB | reference |"
+            f"| lambda0 | k | V_z | h0/R | accuracy | {grid} | steps | it/step | CPU s |"
+            f" pull-off {load} | pull-off error | curve error | within | work / PB | reference |"
         ),
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
@@ -215,9 +297,24 @@ def _parser():
     parser.add_argument(
         "--cell",
         type=float,
-        help=(f"L/R (default {CELL_PER_CONTACT:g} sqrt(2 h0/R), the contact's width 8 times)"),
+        help=(
+            f"L/R (default {CELL_PER_CONTACT:g} sqrt(2 h0/R), the contact's width 8 times; a"
+            f" sphere's the least a run accepts: {MIN_CELL_PER_CONTACT:g} sqrt(2 h0/R), or"
+            f" its preload's cohesive zone within {ZONE_PER_CELL:g} L)"
+        ),
     )
-    parser.add_argument("--alpha", type=float, default=5e-5, help="alpha (default 5e-5)")
+    parser.add_argument(
+        "--alpha",
+        type=float,
+        help=f"alpha (default {ALPHA['cylinder']:g}; a sphere's {ALPHA['sphere']:g})",
+    )
+    parser.add_argument(
+        "--geometry",
+        choices=("cylinder", "sphere"),
+        default="cylinder",
+        help="the indenter (default cylinder): a sphere's elastic cases are judged against"
+        " the Maugis-Dugdale sphere in its cell, its curves in load against depth",
+    )
     parser.add_argument(
         "--reference-widened",
         action="store_true",
@@ -243,7 +340,7 @@ def _specs(args):
             return None, f"--cases {key}: expected lambda0:k:V_z:h0/R, e.g. 3.5:0.2:0.01:0.1"
         for accuracy in (*args.accuracies, args.reference_accuracy):
             try:
-                parse_case(case_text(spec, accuracy, args.cell, args.alpha))
+                parse_case(_run_text(spec, accuracy, args))
             except CaseError as err:
                 return None, f"--cases {key} (accuracy {accuracy:g}): {err}"
         specs.append(spec)
@@ -263,6 +360,8 @@ def main(comm, argv=None):
         args = _parser().parse_args(argv)
     except SystemExit as exit_:
         return int(exit_.code or 0)
+    if args.alpha is None:
+        args.alpha = ALPHA[args.geometry]
     specs, error = _specs(args)
     if error:
         if comm.Get_rank() == 0:
@@ -281,7 +380,7 @@ def main(comm, argv=None):
     # started with, even if the sources change while it runs
     identity = comm.bcast(benchmark.code_identity() if comm.Get_rank() == 0 else None, root=0)
     texts = [_reference(spec, args)[0] for spec in specs if not _elastic(spec)]
-    texts += [case_text(s, a, args.cell, args.alpha) for s in specs for a in args.accuracies]
+    texts += [_run_text(s, a, args) for s in specs for a in args.accuracies]
     # references first, so that the ranks share them out too; each run on one rank
     for text in texts[comm.Get_rank() :: comm.Get_size()]:
         _cached(text, MPI.COMM_SELF, folder, identity)
@@ -290,32 +389,47 @@ def main(comm, argv=None):
     if comm.Get_rank() == 0:
         for spec in specs:
             for accuracy in args.accuracies:
-                result = _cached(
-                    case_text(spec, accuracy, args.cell, args.alpha),
-                    MPI.COMM_SELF,
-                    folder,
-                    identity,
-                )
-                if _elastic(spec):
-                    cell = result["case"].cell
-                    widest = 1.05 * float(result["abar"].max())
-                    reference = theory_reference(spec, cell, args.alpha, widest)
-                    source = "Baney-Hui"
-                else:
-                    reference = _cached(_reference(spec, args)[0], MPI.COMM_SELF, folder, identity)
-                    source = _reference(spec, args)[1]
-                rows.append(dict(_row(spec, accuracy, result, reference), reference=source))
+                rows.append(_judged(spec, accuracy, args, folder, identity))
         benchmark.write_csv(rows, f"{args.out}.csv", COLUMNS)
-        table = markdown(rows) + "\n".join(verdicts(rows)) + "\n"
+        table = markdown(rows, args.geometry == "sphere") + "\n".join(verdicts(rows)) + "\n"
         atomic.write_text(f"{args.out}.md", f"{head}\n{table}")
         print(table, end="")
     return 0
 
 
+def _run_text(spec, accuracy, args):
+    return case_text(spec, accuracy, args.cell, args.alpha, args.geometry == "sphere")
+
+
+def _judged(spec, accuracy, args, folder, identity):
+    """The row of ``spec``'s run at ``accuracy`` against its reference (saved runs): an
+    elastic case's exact curve (Baney-Hui's, a sphere's Maugis-Dugdale in its cell), else
+    the reference run."""
+    from mpi4py import MPI
+
+    result = _cached(_run_text(spec, accuracy, args), MPI.COMM_SELF, folder, identity)
+    if _elastic(spec) and args.geometry == "sphere":
+        reference, source = sphere_reference(result), "Maugis-Dugdale in the cell"
+    elif _elastic(spec):
+        cell = result["case"].cell
+        widest = 1.05 * float(result["abar"].max())
+        reference = theory_reference(spec, cell, args.alpha, widest)
+        source = "Baney-Hui"
+    else:
+        text, source = _reference(spec, args)
+        reference = _cached(text, MPI.COMM_SELF, folder, identity)
+    return dict(_row(spec, accuracy, result, reference), reference=source)
+
+
 def _reference(spec, args):
     """The reference run's case text and its name in the table."""
     text = reference_text(
-        spec, args.reference_accuracy, args.cell, args.alpha, args.reference_widened
+        spec,
+        args.reference_accuracy,
+        args.cell,
+        args.alpha,
+        args.reference_widened,
+        args.geometry == "sphere",
     )
     grid = "knob's grid" if args.reference_widened else "relaxed zone's grid"
     return text, f"run at {args.reference_accuracy:g}, {grid}"

@@ -164,6 +164,8 @@ def run(text, comm, max_steps=None, progress=None):
         "time": np.array([r.time for r in records]),
         "lbar": np.array([r.load for r in records]) / case.load_scale,
         "abar": np.array([r.contact_half_width for r in records]) / case.beta,
+        # the indenter's depth below the surface's level (the sphere's curve error, Dbar)
+        "dbar": -np.array([r.indenter for r in records]) / case.depth_scale,
         "dt": np.array([r.dt for r in records]),
     }
     sim.close()
@@ -329,7 +331,7 @@ def cached_run(text, comm, path):
     if path and os.path.exists(path):
         with np.load(path, allow_pickle=False) as saved:
             if str(saved["text"]) == text:
-                result = {key: saved[key] for key in ("time", "lbar", "abar", "dt")}
+                result = {key: saved[key] for key in SERIES if key in saved}
                 result.update(
                     {key: float(saved[key]) if key in saved else math.nan for key in SCALARS}
                 )
@@ -342,17 +344,19 @@ def cached_run(text, comm, path):
             np.savez(
                 temporary,
                 text=text,
-                **{key: result[key] for key in ("time", "lbar", "abar", "dt")},
+                **{key: result[key] for key in SERIES if key in result},
                 **{key: result[key] for key in SCALARS},
             )
     return result
 
 
+SERIES = ("time", "lbar", "abar", "dbar", "dt")  # a run's saved series
 SCALARS = (
     "wall_s",
     "cpu_s",
     "setup_s",
     "retraction_s",
+    "retraction_cpu_s",
     "retraction_iterations",
     "steps",
     "iterations",

@@ -68,3 +68,39 @@ def load_area_distances(abar, lbar, reference_abar, reference_lbar) -> np.ndarra
     if len(line) < 2 or not len(points):
         return np.full(len(points), np.nan)
     return polyline_distances(points, line)
+
+
+def load_depth_distances(dbar, lbar, reference_dbar, reference_lbar, reference_abar):
+    """Distance of the points (Dbar, Pbar) to a reference's attached load-depth curve: a
+    sphere's curve error, both exact observables (the indenter's depth and the force; its
+    contact radius is a node count's, a staircase on the lattice).
+
+    The reference curve is its polyline from the start to its pull-off and on along its
+    attached branch (reference_abar > 0), as in :func:`load_area_distances`. Both
+    coordinates are divided by the reference's: its largest |Dbar| on that polyline (its
+    preload's depth, or its least, where the contact jumps off) and its |Pbar| at pull-off.
+
+    Parameters
+    ----------
+    dbar, lbar : ndarray, shape (m,)
+        The points' depths (delta / delta_s) and forces (Pbar, docs/model.md (M47)).
+    reference_dbar, reference_lbar, reference_abar : ndarray, shape (k,)
+        The reference's depths, forces and contact radii, from t = 0 (or its widest
+        contact).
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        NaN when the reference has fewer than two points up to its pull-off.
+    """
+    pull_off = int(np.argmin(reference_lbar))
+    end = pull_off + 1
+    while end < len(reference_abar) and reference_abar[end] > 0.0:  # the attached branch
+        end += 1
+    d_scale = np.abs(reference_dbar[:end]).max()
+    l_scale = abs(reference_lbar[pull_off])
+    line = np.stack([reference_dbar[:end] / d_scale, reference_lbar[:end] / l_scale], 1)
+    points = np.stack([np.asarray(dbar) / d_scale, np.asarray(lbar) / l_scale], 1)
+    if len(line) < 2 or not len(points):
+        return np.full(len(points), np.nan)
+    return polyline_distances(points, line)
