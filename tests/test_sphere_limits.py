@@ -38,7 +38,7 @@ def test_an_infinitely_fast_retraction_is_on_the_instantaneous_curve():
     # preload, and once the instantaneous zone lies inside the preload's contact the force
     # against the contact radius is the instantaneous curve's exactly (M57). Measured on
     # n = 128, 256, 384: pull-off 2.6e-3, 8.1e-4, 1.1e-4 off (the grid's, falling with dx);
-    # the (depth, force) points 4.8e-3 from the glassy curve on n = 128 (in Dbar0 and the
+    # the (depth, force) points 4.7e-3 from the glassy curve on n = 128 (in Dbar0 and the
     # least force), within a node of the contact line (dD/dA ~ 1.5, dx = 0.09 a_s)
     c = curve(1000.0)
     check = sphere_limits.glassy_check(c)
