@@ -12,7 +12,7 @@ Maugis-Dugdale curve of docs/model.md (M56) in the periodic cell (M59). The curv
 the largest distance of the run's (depth, load) points to the reference curve, in the
 reference's largest depth and its |pull-off|. ``--grids`` refines lambda0 = 1's grid: the
 order of the triangle law's error (docs/model.md, (M60)). ``--collapse``: for each pair of
-hpcgfmd/studies/sphere_check.py's COLLAPSE_PAIRS, lambda0 and 2 lambda0 each retracted at
+hpcgfmd/paper/sphere_collapse.py's COLLAPSE_PAIRS, lambda0 and 2 lambda0 each retracted at
 chi_ve = 0.1 and 0.4 (k = 0.2; V_z = 3 chi_ve / (pi lambda0^2), (M53)), the largest distance
 between the two curves of equal chi_ve, the smallest between the curves of chi_ve 0.1 and
 0.4, and their ratio (the paper's Fig. 9 check, hpcgfmd/paper/checks.py). Prints the date,
@@ -54,7 +54,7 @@ def measure(maugis, cell, n, depth):
 def collapse():
     """The table of --collapse: one row per pair of lambda0 (both chi_ve)."""
     import hpcgfmd
-    from hpcgfmd.studies.sphere_check import (
+    from hpcgfmd.paper.sphere_collapse import (
         COLLAPSE_CHI,
         COLLAPSE_PAIRS,
         collapse_check,

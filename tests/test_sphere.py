@@ -348,7 +348,7 @@ def test_equal_chi_ve_collapses_the_scaled_curves():
     # grid's share twice. Unequal chi_ve: 0.32 here, 0.33 on the finer grids. A chi_ve that
     # did not set the response (V_z alone, say) would put the pair at the control's distance.
     import hpcgfmd
-    from hpcgfmd.studies.sphere_check import collapse_check, collapse_sphere
+    from hpcgfmd.paper.sphere_collapse import collapse_check, collapse_sphere
 
     runs = ((3.0, 0.4, 192), (6.0, 0.4, 384), (3.0, 0.1, 192))
     check = collapse_check(
