@@ -58,16 +58,23 @@ def load_area_distances(abar, lbar, reference_abar, reference_lbar) -> np.ndarra
     ndarray, shape (m,)
         NaN when the reference has fewer than two points up to its pull-off.
     """
-    pull_off = int(np.argmin(reference_lbar))
-    end = pull_off + 1
-    while end < len(reference_abar) and reference_abar[end] > 0.0:  # the attached branch
-        end += 1
+    pull_off, end = _attached_branch(reference_lbar, reference_abar)
     a_scale, l_scale = reference_abar[0], abs(reference_lbar[pull_off])
     line = np.stack([reference_abar[:end] / a_scale, reference_lbar[:end] / l_scale], 1)
     points = np.stack([np.asarray(abar) / a_scale, np.asarray(lbar) / l_scale], 1)
     if len(line) < 2 or not len(points):
         return np.full(len(points), np.nan)
     return polyline_distances(points, line)
+
+
+def _attached_branch(reference_lbar, reference_abar):
+    """The reference's pull-off index and the end (exclusive) of its polyline: the pull-off
+    and on along its attached branch while it keeps a contact (abar > 0)."""
+    pull_off = int(np.argmin(reference_lbar))
+    end = pull_off + 1
+    while end < len(reference_abar) and reference_abar[end] > 0.0:
+        end += 1
+    return pull_off, end
 
 
 def load_depth_distances(dbar, lbar, reference_dbar, reference_lbar, reference_abar):
@@ -93,10 +100,7 @@ def load_depth_distances(dbar, lbar, reference_dbar, reference_lbar, reference_a
     ndarray, shape (m,)
         NaN when the reference has fewer than two points up to its pull-off.
     """
-    pull_off = int(np.argmin(reference_lbar))
-    end = pull_off + 1
-    while end < len(reference_abar) and reference_abar[end] > 0.0:  # the attached branch
-        end += 1
+    pull_off, end = _attached_branch(reference_lbar, reference_abar)
     d_scale = np.abs(reference_dbar[:end]).max()
     l_scale = abs(reference_lbar[pull_off])
     line = np.stack([reference_dbar[:end] / d_scale, reference_lbar[:end] / l_scale], 1)
