@@ -20,10 +20,9 @@ class ContactEdges:
     compliant drive solves a step several times).
     """
 
-    def __init__(self, watched=True):
+    def __init__(self):
         self.current = (math.nan, math.nan)
         self.previous = None
-        self.watched = watched  # give the solver a watch (a line's contact)
 
     def advance(self, edges):
         """The step just solved had contact edges ``edges`` (left, right)."""
@@ -44,11 +43,10 @@ class ContactEdges:
 
     def watch(self, limit):
         """The solver's watch on a solve's edges (at most ``limit`` from the current ones),
-        or None (no contact, no finite limit, or not watched: a surface's contact line)."""
+        or None (no contact or no finite limit). A surface's edges are -a and a, a the
+        equivalent radius of its contact (:meth:`Sphere.measure`)."""
         left, right = self.current
-        if not self.watched or not (
-            math.isfinite(limit) and math.isfinite(left) and math.isfinite(right)
-        ):
+        if not (math.isfinite(limit) and math.isfinite(left) and math.isfinite(right)):
             return None
         return EdgeWatch(left, right, limit)
 

@@ -106,8 +106,7 @@ class Retraction:
         self.surface = Surface(self.domain.local_n, -case.depth)
         self.schedule = Schedule(case.segments, case.load_control)
         self.spring = CompliantDrive(case) if case.compliant else None
-        # a solve's edges are watched on a line, where the iterate's contact has two ends
-        self.edges = ContactEdges(watched=not self.surface_grid)
+        self.edges = ContactEdges()
         self.equilibrium = Equilibrium(self)
         self._k_u = aligned_empty(self.domain.local_n)  # K u_n under a step's stiffness
         self.state = _run_state(self)

@@ -35,6 +35,7 @@ class ActiveSet:
         self._pressed_before = np.zeros(n, dtype=bool)  # the active set of the last iteration
         self._before = (0, 0)
         self._contact = (0, -1)  # first and last node on the wall (multiplier)
+        self._on_wall_total = 0.0  # nodes on the wall on every rank (multiplier)
         self.held_steps = 0  # iterations whose direction held on-wall nodes
 
     def begin(self):
@@ -48,16 +49,20 @@ class ActiveSet:
         A node on the wall (gap <= tolerance) is pressed when r - mu > 0 pushes it into the
         wall; mu = mean of r over the free nodes. The sum over the free nodes is the total
         (``total``, this rank's sum of r) minus the pressed ones (2-3 passes over the span).
-        Returns (mu, count, n_free, on_s, pressed_s): this rank's pressed count, the global
-        number of free nodes and the masks on the near span.
+        The nodes on the wall are counted over all ranks in the same reduction
+        (:meth:`contact_edges` of a surface). Returns (mu, count, n_free, on_s, pressed_s):
+        this rank's pressed count, the global number of free nodes and the masks on the near
+        span.
         """
         n = self._n
         on_s = self.on_wall[: hi - lo]
-        _, *self._contact = kernels.on_wall(gap, lo, hi, on_wall_tolerance, on_s)
+        on_count, *self._contact = kernels.on_wall(gap, lo, hi, on_wall_tolerance, on_s)
         pressed_s = self.pressed[: hi - lo]
         for _ in range(10):
             pressed_sum, count = kernels.press(r, lo, hi, on_s, mu, pressed_s)
-            r_free, n_free = self.domain.sums(total - pressed_sum if count else total, n - count)
+            r_free, n_free, self._on_wall_total = self.domain.sums(
+                total - pressed_sum if count else total, n - count, on_count
+            )
             mu_new = r_free / n_free
             if mu_new == mu:
                 break
@@ -117,19 +122,32 @@ class ActiveSet:
             rd = dom.dot(d, d)
         return rd
 
-    def contact_nodes(self):
-        """Local: positions of this rank's first and last node on the wall at the last
-        :meth:`multiplier` (+inf, -inf if none)."""
+    def contact_edges(self):
+        """The iterate's contact edges at the last :meth:`multiplier` (length; +inf, -inf
+        without contact), for the solve's edge watch.
+
+        On a line, local: the positions of this rank's first and last node on the wall (the
+        caller reduces them). On a surface, the same on every rank: -a and a, a = sqrt(A /
+        pi) the equivalent radius of the contact area A (the nodes on the wall, each with
+        its cell), as the sphere's contact is measured (:meth:`Sphere.measure`).
+        """
+        dom = self.domain
+        if dom.dimensions == 2:
+            if not self._on_wall_total:
+                return math.inf, -math.inf
+            radius = math.sqrt(self._on_wall_total * dom.node_area / math.pi)
+            return -radius, radius
         first, last = self._contact
         if first > last:
             return math.inf, -math.inf
-        x = self.domain.x
+        x = dom.x
         return float(x[first]), float(x[last])
 
     def strayed(self, watch, left, right):
         """True when an edge of the iterate's contact is farther than ``watch.limit`` away.
 
-        The iterate's edges are nodes, the watched ones interpolated between nodes: two node
+        On a line the iterate's edges are nodes, the watched ones interpolated between nodes;
+        on a surface both are radii of node counts, a ring of nodes apart at most: two node
         spacings are allowed for the difference. An iterate without contact is no verdict: the
         start of a step (the wall has risen) and the iterates between a projection and the
         next contact have none.

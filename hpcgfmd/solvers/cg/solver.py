@@ -205,7 +205,7 @@ class ConstrainedCG(EquilibriumSolver):
                     local_max, 1.0 if joined else 0.0, interacting, watch.flag()
                 )
             else:  # the iterate's contact edges in the same reduction
-                left, right = self._active.contact_nodes()
+                left, right = self._active.contact_edges()
                 r_max, joined_any, interacting, stop, minus_left, right = self.domain.maxes(
                     local_max, 1.0 if joined else 0.0, interacting, watch.flag(), -left, right
                 )
