@@ -12,6 +12,7 @@ from mpi4py import MPI
 
 from cases import case_text, pull_off_run
 from hpcgfmd.case import parse_case
+from hpcgfmd.case.case import Case
 from hpcgfmd.model.material import GeneralizedMaxwell
 from hpcgfmd.runs.protocol import Retraction
 from hpcgfmd.solvers.stepping import KEPT_SHARE, AdaptiveSteps, StepOutcome
@@ -394,6 +395,41 @@ def test_abandoned_solves_change_nothing_but_the_cost(monkeypatch):
 
     def run():
         sim = Retraction(parse_case(text), MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
+        records = [sim.preload()]
+        while not sim.detached():
+            records.append(sim.step())
+        sim.close()
+        return [(r.time, r.load) for r in records], sim
+
+    watched, sim = run()
+    monkeypatch.setattr(AdaptiveSteps, "edge_limit", lambda self, dt: math.inf)
+    unwatched, plain = run()
+    assert watched == unwatched
+    assert sim.rejected_steps == plain.rejected_steps > 0
+    assert sim.solver.count["abandoned_solves"] > 0 == plain.solver.count["abandoned_solves"]
+    assert sim.equilibrium.iterations < plain.equilibrium.iterations
+
+
+def test_a_spheres_abandoned_solves_change_nothing_but_the_cost(monkeypatch):
+    # On a surface the watch reads the iterate's contact as its equivalent radius sqrt(A /
+    # pi), as the sphere's contact is measured (ActiveSet.contact_edges, Sphere.measure): a
+    # solve abandoned past twice the allowance is a step that the finished solve would have
+    # seen rejected with dt / 4 too, so the run is the same bit for bit, in fewer iterations.
+    # A fast retraction (lambda0 = 5, k = 0.1, V_z = 9) on 128 x 128 with the load and
+    # history criteria held loose: 4 of its 4 rejected steps are abandoned (measured).
+    case = Case(
+        maugis=5.0,
+        modulus_ratio=0.1,
+        velocity=9.0,
+        depth=0.01,
+        cell=0.894,
+        adhesion=1e-3,
+        geometry="sphere",
+        numerics={"n": 128, "accuracy": 1e-2, "load_tolerance": 0.1, "time_tolerance": 1.0},
+    )
+
+    def run():
+        sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
         records = [sim.preload()]
         while not sim.detached():
             records.append(sim.step())
