@@ -13,11 +13,7 @@ ends on the branch the previous step was on:
 - the linear extrapolation with the gap profile around each contact edge translated by the
   edge's last displacement (a peeling edge moves with its shape), which frees the nodes the
   edge will pass instead of leaving the solver to unzip them one by one (a quadratic base
-  here lets more guesses lose to the first, measured in docs/results.md). The translated
-  profile holds over the inner half of the window; over the outer half it blends into the
-  extrapolation with the weight (1 + cos(pi (2 |x - a| / half - 1))) / 2, so that the guess
-  has no step at the window's ends: a step there was the start's largest residual (0.1-0.3
-  sigma_a, at 4 w / k from the edge, on the paper's fast cases).
+  here lets more guesses lose to the first, measured in docs/results.md).
 
 After the preload, u_{n-1} is taken as u_n with the contact lowered by the rise (not a
 state: the quadratic guess waits for three accepted ones).
@@ -171,8 +167,7 @@ class Predictor:
             a = max(int(np.floor((edge - half) / dx)) + n // 2 - 1 - dom.x_start, 0)
             b = min(int(np.ceil((edge + half) / dx)) + n // 2 + 2 - dom.x_start, x.size)
             block = slice(a, max(a, b))
-            distance = np.abs(x[block] - edge) / half
-            near = distance < 1.0
+            near = np.abs(x[block] - edge) < half
             # the shifted positions x - shift of the window's nodes lie in this segment
             reach = self.window + 2.0 * abs(shift)
             first = int(np.floor((edge - reach) / dx)) + n // 2 - 1
@@ -180,10 +175,9 @@ class Predictor:
             length = min(last - first + 1, n)
             values = dom.segment(gap_before, first, length)
             window = gap[block]
-            moved = np.interp(
+            window[near] = np.interp(
                 x[block][near] - shift, dom.position(first + np.arange(length)), values
             )
-            window[near] += _blend(distance[near]) * (moved - window[near])
         np.maximum(gap, 0.0, out=gap)
         return np.subtract(wall, gap, out=self._moved)
 
@@ -233,12 +227,6 @@ class Predictor:
             int(counters["extrapolated_predictions"]),
             int(counters["moving_edge_predictions"]),
         ]
-
-
-def _blend(distance):
-    """Weight of the translated gap at ``distance`` (|x - a| / half-width, < 1): 1 over the
-    inner half, then a cosine down to 0 at the window's end (continuous, with its slope)."""
-    return np.where(distance <= 0.5, 1.0, 0.5 * (1.0 + np.cos(np.pi * (2.0 * distance - 1.0))))
 
 
 def _kept(buffer, values):
