@@ -412,6 +412,20 @@ def test_modes_refuse_bad_arguments_in_one_line(tmp_path, args, error):
     assert len(done.stderr.splitlines()) == 1 and list(tmp_path.iterdir()) == []
 
 
+def test_a_study_refuses_the_cell_that_a_run_refuses(tmp_path):
+    # lambda0 = 0.5's relaxed preload on the least cell 6 sqrt(2 R h0) (0.85 R at h0 = 0.01 R):
+    # its cohesive zone reaches 0.265 R, beyond a quarter of the cell, which `hpcgfmd run`
+    # refuses (runs/single_case.py, MAX_ZONE_PER_CELL); the studies' runner refuses it alike.
+    args = ("accuracy", "--geometry", "sphere", "--cases", "0.5:1:1:0.01", "--cell", "0.85")
+    done = hpcgfmd_bench(*args, "--accuracies", "1e-2", "--out", "x", cwd=tmp_path)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.startswith("bench accuracy: [case] cell = 0.85: too small for the contact")
+    assert "need L >= 1.06" in done.stderr
+    # one line, and no file written (the study's run store x-runs/ is made empty beforehand)
+    assert len(done.stderr.splitlines()) == 1
+    assert not [path for path in tmp_path.rglob("*") if path.is_file()]
+
+
 def test_small_modes_print_their_tables(tmp_path):
     done = hpcgfmd_bench("collectives", "--nx", "2048", "--steps", "3", cwd=tmp_path)
     assert done.returncode == 0, done.stderr

@@ -258,15 +258,7 @@ def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
             f"-o {path}: {free} bytes free on its file system, at least {2 * room} needed to start"
         )
     record = sim.preload()
-    if record.cohesive_half_width > MAX_ZONE_PER_CELL * case.cell:
-        need = record.cohesive_half_width / MAX_ZONE_PER_CELL
-        raise CaseError(
-            f"{case.cell_key()} = {case.cell * case.units.length:g}: too small"
-            f" for the contact; after the preload the cohesive zone reaches"
-            f" a_a = {record.cohesive_half_width * case.units.length:.4g}, more"
-            f" than {MAX_ZONE_PER_CELL:g} L; need L >="
-            f" {need * case.units.length:.4g}"
-        )
+    check_zone_in_cell(case, record)
     if dom.max(float(stop.received is not None)):
         raise Interrupted(
             "stopped by a signal before the first step; nothing was written", _status(stop, comm)
@@ -277,6 +269,22 @@ def _open_output(sim, case, path, comm, overwrite, resume, stop, schedule):
     out.add_snapshot(record.time, sim.surface.u, sim.surface.traction, sim.equilibrium.gap())
     schedule.due(record)
     return out, 1, 0.0
+
+
+def check_zone_in_cell(case, record):
+    """Raise CaseError when the preload's cohesive zone reaches beyond MAX_ZONE_PER_CELL of
+    the cell (beyond it the periodic images change the load by more than about 10 %, docs/
+    model.md (M29)). ``record``: the preload's, whose a_a is the same on every rank, so every
+    rank raises alike."""
+    if record.cohesive_half_width > MAX_ZONE_PER_CELL * case.cell:
+        need = record.cohesive_half_width / MAX_ZONE_PER_CELL
+        raise CaseError(
+            f"{case.cell_key()} = {case.cell * case.units.length:g}: too small"
+            f" for the contact; after the preload the cohesive zone reaches"
+            f" a_a = {record.cohesive_half_width * case.units.length:.4g}, more"
+            f" than {MAX_ZONE_PER_CELL:g} L; need L >="
+            f" {need * case.units.length:.4g}"
+        )
 
 
 def _resume_from(newest, resume, comm):

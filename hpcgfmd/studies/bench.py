@@ -9,6 +9,10 @@ the communicator it is given (``mpirun -n 2 python -m hpcgfmd bench fft``).
 
 from __future__ import annotations
 
+import sys
+
+from ..errors import CaseError
+
 
 def _speed(comm, argv):
     from .benchmark import main
@@ -110,11 +114,20 @@ def modes_help() -> str:
 
 
 def main(comm, argv=None):
-    """Collective: ``python -m hpcgfmd bench [MODE] ...``; the exit status."""
+    """Collective: ``python -m hpcgfmd bench [MODE] ...``; the exit status (2, with one line,
+    for a case that a run refuses, e.g. a cell too small for its contact: every rank raises
+    it alike)."""
     argv = list(argv or [])
+    mode = "bench"
     if argv and argv[0] in MODES:
+        mode = f"bench {argv[0]}"
         function = MODES[argv[0]][0]
         argv = argv[1:]
     else:
         function = _speed
-    return function(comm, argv)
+    try:
+        return function(comm, argv)
+    except CaseError as err:
+        if comm.Get_rank() == 0:
+            print(f"{mode}: {err}", file=sys.stderr)
+        return 2

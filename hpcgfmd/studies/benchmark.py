@@ -54,6 +54,7 @@ from ..case import case_file_text, parse_case
 from ..errors import CaseError
 from ..model.grid import grid_label
 from ..runs.protocol import Retraction
+from ..runs.single_case import check_zone_in_cell
 from . import report
 from .distance import load_area_distances
 from .report import code_identity  # the studies' saved runs are keyed by it
@@ -133,6 +134,7 @@ def run(text, comm, max_steps=None, progress=None):
     sim = Retraction(case, comm)
     setup = time.perf_counter() - start
     records = [sim.preload()]
+    check_zone_in_cell(case, records[0])  # the cells `hpcgfmd run` accepts
     preloaded = last = time.perf_counter()
     preloaded_cpu = time.process_time()
     while not sim.finished() and (max_steps is None or sim.surface.step_index < max_steps):
