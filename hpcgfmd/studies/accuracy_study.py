@@ -381,10 +381,18 @@ def main(comm, argv=None):
     identity = comm.bcast(benchmark.code_identity() if comm.Get_rank() == 0 else None, root=0)
     texts = [_reference(spec, args)[0] for spec in specs if not _elastic(spec)]
     texts += [_run_text(s, a, args) for s in specs for a in args.accuracies]
-    # references first, so that the ranks share them out too; each run on one rank
+    # references first, so that the ranks share them out too; each run on one rank. A run
+    # refused by one rank (a cell too small for its contact) is raised on every rank alike.
+    refused = None
     for text in texts[comm.Get_rank() :: comm.Get_size()]:
-        _cached(text, MPI.COMM_SELF, folder, identity)
-    comm.Barrier()
+        try:
+            _cached(text, MPI.COMM_SELF, folder, identity)
+        except CaseError as err:
+            refused = str(err)
+            break
+    refusals = [r for r in comm.allgather(refused) if r]
+    if refusals:
+        raise CaseError(refusals[0])
     rows = []
     if comm.Get_rank() == 0:
         for spec in specs:

@@ -134,7 +134,11 @@ def run(text, comm, max_steps=None, progress=None):
     sim = Retraction(case, comm)
     setup = time.perf_counter() - start
     records = [sim.preload()]
-    check_zone_in_cell(case, records[0])  # the cells `hpcgfmd run` accepts
+    try:
+        check_zone_in_cell(case, records[0])  # the cells `hpcgfmd run` accepts
+    except CaseError:
+        sim.close()  # the transform's shared window, before the error ends the study
+        raise
     preloaded = last = time.perf_counter()
     preloaded_cpu = time.process_time()
     while not sim.finished() and (max_steps is None or sim.surface.step_index < max_steps):
