@@ -232,6 +232,14 @@ def load_tolerance(accuracy):
     return SAMPLING * 0.25 * STEP_SHARE * accuracy * PULL_OFF_SCALE
 
 
+def snap_off_share(load_tolerance):
+    """The work of separation's relative share the snap-off's placement takes
+    (:mod:`hpcgfmd.solvers.snap_off`): the load tolerance's own share of the accuracy, a
+    quarter of the steps' share (``load_tolerance`` in load scales, as :func:`load_tolerance`
+    gives it)."""
+    return load_tolerance / (SAMPLING * PULL_OFF_SCALE)
+
+
 def time_tolerance(accuracy):
     """Load error of the SLS history allowed by the estimate, load scales: a step's own,
     and the one kept in the history accumulated over the retardation time

@@ -150,7 +150,7 @@ class Retraction:
             surface.drive = record.drive = self.spring.hold(surface.indenter, record.load)
         self.schedule.begin(surface.drive)
         self.preload_iterations = record.iterations
-        self.steps.accept(record.time, record.load)
+        self.steps.accept(record.time, record.load, drive=surface.drive)
         return record
 
     def step(self) -> StepRecord:
@@ -208,7 +208,7 @@ class Retraction:
 
     def _accept(self, record, dt, cut_from):
         """The attempt is the new state: the controllers and the history window move on."""
-        self.steps.accept(record.time, record.load, cut_from)
+        self.steps.accept(record.time, record.load, cut_from, self.surface.drive)
         before = self.state.saved("surface")
         if self.window is not None:  # the corrected history; u_n becomes u_{n-1}
             self.window.accept(

@@ -31,7 +31,10 @@ dt * clip(0.9 / max(e_edge, e_lag, sqrt(e_load), sqrt(e_history)), 1/4, 2), roun
 the grid dt_min 2^(j/4) within [dt_min, dt_max]. A step with e_edge > 2, e_load > 4,
 e_history > 4 or e_lag > 4 is rejected and repeated with that shorter step (the state is
 restored), unless it already is dt_min: a genuine jump of the contact (the snap-off at high
-speed) is then taken at dt_min, which places it in time to dt_min.
+speed) is then taken at dt_min, which places it in time to dt_min. Past a retraction's
+pull-off a step whose contact vanishes is taken up to a longer length, the snap-off's bound
+(:mod:`.snap_off`: the jump then moves the work of separation by at most its share and
+nothing up to the pull-off), instead of being halved toward the fold in slow solves.
 
 Abandoned solves. Once the contact edges of a solve's iterate have moved more than
 ABANDON_EDGE = REJECT_EDGE edge allowances, the solver stops (:meth:`AdaptiveSteps.edge_limit`)
@@ -49,8 +52,9 @@ import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
-from ..model.accuracy import PULL_OFF_SCALE
+from ..model.accuracy import PULL_OFF_SCALE, snap_off_share
 from ..state import State
+from .snap_off import SnapOff
 from .tip_lag import LAG_PER_LOAD, LAG_PER_LOAD_SPECTRUM, tip_lag_error
 
 GROWTH_LIMIT = 2.0  # largest factor between consecutive steps
@@ -134,10 +138,10 @@ class StepControl(ABC):
         inf: never)."""
         return math.inf
 
-    def accept(self, time, load, cut_from=None):
-        """An accepted step ended at ``time`` with ``load``. ``cut_from``: the length proposed
-        before the step was cut to a segment's end (the next one is that, unless the cut
-        step's errors asked for less)."""
+    def accept(self, time, load, cut_from=None, drive=math.nan):
+        """An accepted step ended at ``time`` with ``load`` and the drive at ``drive``.
+        ``cut_from``: the length proposed before the step was cut to a segment's end (the
+        next one is that, unless the cut step's errors asked for less)."""
         if cut_from is not None:
             self.dt = max(self.dt, cut_from)
 
@@ -160,7 +164,7 @@ class FixedSteps(StepControl):
     def judge(self, outcome: StepOutcome) -> StepDecision:
         return StepDecision(True, self.dt)
 
-    def accept(self, time, load, cut_from=None):
+    def accept(self, time, load, cut_from=None, drive=math.nan):
         pass
 
 
@@ -193,6 +197,9 @@ class AdaptiveSteps(StepControl):
     branches : (tuple, tuple), optional
         A Prony series' E_i / E0 and tau_i (internal units), for its tip lag
         (:func:`tip_lag_error`); None: the SLS of ``modulus_ratio`` with tau = 1.
+    snap_off_share : float
+        The work of separation's share the snap-off's placement may take (:mod:`.snap_off`;
+        0: every jump of the contact is placed to dt_min).
     """
 
     adaptive = True
@@ -210,6 +217,7 @@ class AdaptiveSteps(StepControl):
         zone_width=1.0,
         modulus_ratio=1.0,
         branches=None,
+        snap_off_share=0.0,
     ):
         self.dt_min, self.dt_max = dt_min, dt_max
         self.branches = branches
@@ -224,6 +232,7 @@ class AdaptiveSteps(StepControl):
         self.kept_history = 0.0  # signed sum of the accepted steps' kept errors, decayed
         self._kept_pending = 0.0  # ... with the step just judged
         self._judged_dt = math.inf  # the length of the step just judged
+        self.snap_off = SnapOff(snap_off_share, load_allowance)
 
     def _on_grid(self, dt):
         """Round down to dt_min 2^(j/4), within [dt_min, dt_max].
@@ -261,12 +270,15 @@ class AdaptiveSteps(StepControl):
         factor = SAFETY / worst if worst > 0.0 else GROWTH_LIMIT
         factor = min(max(factor, SHRINK_LIMIT), GROWTH_LIMIT)
         next_dt = self._on_grid(dt * factor)
+        # a contact that vanished (or appeared) in a solved step is a jump, taken when the
+        # step is short enough to place it (:meth:`jump_dt`)
+        jumped = outcome.load is not None and math.isinf(outcome.edge_motion)
         rejected = (
             edge_error > REJECT_EDGE
             or load_error > REJECT_LOAD
             or history_ratio > REJECT_HISTORY
             or lag_error > REJECT_LAG
-        ) and dt > self.dt_min
+        ) and dt > (self.jump_dt() if jumped else self.dt_min)
         self.dt = next_dt
         return StepDecision(not rejected, next_dt, edge_error, load_error, history_ratio, lag_error)
 
@@ -319,15 +331,23 @@ class AdaptiveSteps(StepControl):
         own = abs(error) / self.history_allowance
         return max(own, spent), max(own, abs(kept) / room)
 
+    def jump_dt(self) -> float:
+        """The longest step in which the contact may vanish (or appear): dt_min, or past a
+        retraction's pull-off the snap-off's bound (:mod:`.snap_off`) rounded down to the
+        grid of steps."""
+        if self.snap_off.bound <= self.dt_min:
+            return self.dt_min
+        return self._on_grid(self.snap_off.bound)
+
     def edge_limit(self, dt) -> float:
         """Edge motion at which a solve of a step of length dt is abandoned, the step
-        rejected and repeated with dt / 4 (length; inf at dt_min, where every step is
-        accepted): see the module docstring."""
-        if dt <= self.dt_min:
+        rejected and repeated with dt / 4 (length; inf up to :meth:`jump_dt`, where a solve
+        may descend to a jump of the contact): see the module docstring."""
+        if dt <= self.jump_dt():
             return math.inf
         return ABANDON_EDGE * self.edge_allowance
 
-    def accept(self, time, load, cut_from=None):
+    def accept(self, time, load, cut_from=None, drive=math.nan):
         """Record an accepted step's load for the next extrapolation (a repeated preload
         at t = 0 replaces the point before); a step cut short by a segment's end
         (``cut_from``: the length proposed before the cut) is followed by that length
@@ -337,11 +357,14 @@ class AdaptiveSteps(StepControl):
         points = [p for p in self.points if p[0] < time]
         self.points = (points + [(time, load)])[-2:]
         self.kept_history, self._kept_pending = self._kept_pending, 0.0
+        self.snap_off.accept(time, load, drive)
 
     def new_segment(self):
         """The drive's rate changed (a protocol's segment began): the load's extrapolation
-        restarts from the last point, not across the kink."""
+        restarts from the last point, not across the kink; the snap-off's pull-off and
+        work start afresh."""
         self.points = self.points[-1:]
+        self.snap_off.new_segment()
 
     def state(self) -> State:
         flat = [v for point in self.points for v in point]
@@ -350,6 +373,7 @@ class AdaptiveSteps(StepControl):
                 "dt": self.dt,
                 "points": flat + [math.nan] * (4 - len(flat)),
                 "kept_history": self.kept_history,
+                "snap_off": self.snap_off.state(),
             }
         )
 
@@ -360,6 +384,8 @@ class AdaptiveSteps(StepControl):
         self._kept_pending = 0.0
         flat = [float(v) for v in s["points"]]
         self.points = [(flat[i], flat[i + 1]) for i in (0, 2) if not math.isnan(flat[i])]
+        if "snap_off" in s:  # (checkpoints of earlier versions: placed to dt_min until a step)
+            self.snap_off.restore(s["snap_off"])
 
 
 def make_step_control(case) -> StepControl:
@@ -390,4 +416,5 @@ def make_step_control(case) -> StepControl:
         case.zone_width,
         case.modulus_ratio,
         (material.branch_moduli, material.branch_times) if material.branches > 1 else None,
+        0.0 if case.compliant else snap_off_share(numerics.load_tolerance),
     )
