@@ -15,6 +15,7 @@ from hpcgfmd.case import parse_case
 from hpcgfmd.case.case import Case
 from hpcgfmd.model.material import GeneralizedMaxwell
 from hpcgfmd.runs.protocol import Retraction
+from hpcgfmd.solvers import stepping
 from hpcgfmd.solvers.stepping import KEPT_SHARE, AdaptiveSteps, StepOutcome
 from hpcgfmd.solvers.tip_lag import tip_lag_error
 
@@ -386,7 +387,10 @@ def test_creeping_retraction_time_error_within_the_steps_share():
 def assert_watch_changes_nothing_but_the_cost(case, monkeypatch):
     """A run of ``case`` with the solves' edge watch and one without (no solve abandoned):
     the same steps and loads bit for bit, the same rejected steps, some of them abandoned,
-    and fewer iterations."""
+    and fewer iterations. The snap-off is placed to dt_min in both (its share 0): the cases'
+    rejected steps are the halving toward the fold past the pull-off, which the snap-off's
+    bound takes in one step otherwise (tests/test_snap_off.py)."""
+    monkeypatch.setattr(stepping, "snap_off_share", lambda tolerance: 0.0)
 
     def run():
         sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
