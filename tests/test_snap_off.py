@@ -9,12 +9,14 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
+from cases import case_text
+from hpcgfmd.case import parse_case
 from hpcgfmd.case.case import Case
 from hpcgfmd.model.accuracy import load_tolerance, snap_off_share
 from hpcgfmd.runs.protocol import Retraction
 from hpcgfmd.solvers import stepping
 from hpcgfmd.solvers.snap_off import SnapOff
-from hpcgfmd.solvers.stepping import AdaptiveSteps, StepOutcome
+from hpcgfmd.solvers.stepping import AdaptiveSteps, StepOutcome, make_step_control
 
 SHARE, ALLOWANCE, RATE = 1e-3, 1e-3, 0.5
 
@@ -59,6 +61,14 @@ def test_no_bound_on_a_falling_drive_a_compressive_load_or_a_zero_share():
         for t, load in zip((1.0, 2.0), loads):
             snap.accept(t, load, rate * t)
         assert snap.bound == 0.0
+
+
+def test_a_displacement_controlled_case_has_the_share_and_a_spring_none():
+    rigid = make_step_control(parse_case(case_text("accuracy = 5e-3")))
+    assert rigid.snap_off.share == pytest.approx(5e-3 / 8)
+    # a spring's jumps are its own (load control is the spring of stiffness 0: the same test)
+    text = case_text("accuracy = 5e-3", drive_stiffness=1e-2)
+    assert make_step_control(parse_case(text)).snap_off.share == 0.0
 
 
 def test_a_vanished_contact_is_taken_up_to_the_bound_and_repeated_beyond():
