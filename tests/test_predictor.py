@@ -3,16 +3,18 @@ exact for quadratics, the quadratic guess from three accepted states, and its st
 a checkpoint and a rejected attempt."""
 
 import dataclasses
+import shutil
 
 import numpy as np
 import pytest
 from mpi4py import MPI
+from test_fft import mpi_check
 
 from cases import case_text
 from hpcgfmd.case import parse_case
 from hpcgfmd.parallel.domain import Domain
 from hpcgfmd.runs.protocol import Retraction
-from hpcgfmd.solvers.predictor import Predictor, lagrange_weights
+from hpcgfmd.solvers.predictor import Predictor, bilinear, lagrange_weights
 from hpcgfmd.solvers.projection import project_feasible
 from hpcgfmd.solvers.step_kernels import quadratic_guess
 from hpcgfmd.state import State
@@ -186,3 +188,50 @@ def test_the_first_step_starts_with_the_preloads_contact_on_the_new_wall(monkeyp
     contact, gaps = starts[0]
     assert contact.sum() > 10
     np.testing.assert_array_equal(gaps, 0.0)
+
+
+def test_bilinear_is_exact_on_linear_fields_and_wraps_along_x():
+    rows, nx = 6, 8
+    i, j = np.meshgrid(np.arange(rows), np.arange(nx), indexing="ij")
+    values = 0.5 + 2.0 * i - 0.25 * j
+    rng = np.random.default_rng(3)
+    row, column = rng.uniform(0.0, rows - 1.0, 50), rng.uniform(0.0, nx - 1.0, 50)
+    np.testing.assert_allclose(
+        bilinear(values, row, column), 0.5 + 2.0 * row - 0.25 * column, rtol=1e-14
+    )
+    # between the last column and the first (periodic): their mean at half way
+    half = bilinear(values, np.array([2.0]), np.array([nx - 0.5]))
+    assert half[0] == pytest.approx(0.5 * (values[2, -1] + values[2, 0]))
+
+
+def test_a_spheres_gap_moves_radially_with_its_contact():
+    # u_n's gap max(0, r - a_n)^2 around a contact of radius a_n = 0.22 that grew from 0.2:
+    # the guess takes the gap of r - 0.02 within the radial window (0.05 + 0.02 of a_n),
+    # max(0, r - 0.24)^2 to the bilinear error (dx^2 / 8) |g''| per axis, dx^2 / 2 here,
+    # and the linear guess's gap beyond it.
+    n, cell = 64, 1.0
+    domain = Domain(MPI.COMM_SELF, (n, n), cell, [(0, n * n)])
+    predictor = Predictor(domain, window=1.0, radial_window=0.05)
+    r = np.hypot(domain.x, domain.y)
+    gap_before = np.maximum(0.0, r - 0.22) ** 2
+    wall = 1.0 + 0.0 * r
+    linear = wall - 0.5  # the linear guess's gap: 0.5 everywhere
+    guess = predictor._moving_radius(linear, wall, gap_before, 1.0, (-0.22, 0.22), (-0.2, 0.2))
+    gap = wall - guess
+    near = np.abs(r - 0.22) < 0.07
+    dx = cell / n
+    assert np.abs(gap[near] - np.maximum(0.0, r[near] - 0.24) ** 2).max() <= dx**2 / 2
+    assert np.abs(gap[near] - gap_before[near]).max() > 8 * dx**2 / 2  # (it moved)
+    np.testing.assert_array_equal(gap[~near], 0.5)
+    # no motion, no guess
+    assert predictor._moving_radius(linear, wall, gap_before, 1.0, (-0.2, 0.2), (-0.2, 0.2)) is None
+
+
+@pytest.mark.mpi
+@pytest.mark.skipif(shutil.which("mpirun") is None, reason="mpirun not found")
+@pytest.mark.parametrize("ranks", [1, 2, 3])
+def test_rows_around_a_block_under_mpirun(ranks):
+    # the rows a sphere's radial guess reads across blocks (tests/mpi/check_rows.py)
+    result = mpi_check("check_rows.py", ranks)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert f"on {ranks} ranks" in result.stdout

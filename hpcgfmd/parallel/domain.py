@@ -215,6 +215,65 @@ class Domain:
         self.messages += 1
         return extended
 
+    def rows_around(self, local_values, depth: int):
+        """Collective (a surface): this block's rows with ``depth`` rows of the grid before
+        and after them (periodic along y), shape (local rows + 2 depth, nx).
+
+        Every rank passes the same ``depth`` (at most ny minus its block's rows, so that no
+        row is needed twice); a rank that owns nothing gets an empty array. One
+        ``Alltoallv`` carries only the rows a rank needs from each other one: its
+        neighbours' edge rows, however thin the blocks (the owners follow from
+        ``x_blocks``, known everywhere).
+        """
+        ny, nx = self.shape
+        first, stop = self.first_axis_block
+        own = np.asarray(local_values).reshape(stop - first, nx)
+        wanted = (
+            np.concatenate((np.arange(first - depth, first), np.arange(stop, stop + depth))) % ny
+        )
+        if stop == first:  # (it still takes part in the exchange, with nothing)
+            wanted = wanted[:0]
+        out = np.empty((stop - first + 2 * depth, nx))
+        out[depth : depth + stop - first] = own
+        slots = np.concatenate((np.arange(depth), depth + stop - first + np.arange(depth)))
+        slots = slots[: wanted.size]
+        if self.serial:
+            out[slots] = own[wanted - first]
+            return out
+        starts = np.array([a // nx for a, _ in self.x_blocks])
+        stops = np.array([b // nx for _, b in self.x_blocks])
+
+        def owner(rows):
+            # the rank whose block holds each row (empty blocks hold none)
+            held = (rows[:, None] >= starts[None]) & (rows[:, None] < stops[None])
+            return held.argmax(axis=1)
+
+        sent, send_counts = [], np.zeros(self.size, dtype=np.int64)
+        for rank in range(self.size):
+            a, b = starts[rank], stops[rank]
+            if rank == self.rank or b == a:
+                continue
+            theirs = np.concatenate((np.arange(a - depth, a), np.arange(b, b + depth))) % ny
+            mine = theirs[(theirs >= first) & (theirs < stop)]
+            sent.append(own[mine - first])
+            send_counts[rank] = mine.size * nx
+        sources = owner(wanted)
+        from_self = sources == self.rank
+        out[slots[from_self]] = own[wanted[from_self] - first]
+        receive_counts = np.bincount(sources[~from_self], minlength=self.size) * nx
+        order = np.argsort(sources[~from_self], kind="stable")  # grouped by source rank
+        received = np.empty((int(receive_counts.sum()) // nx, nx))
+        send = np.concatenate(sent) if sent else np.empty((0, nx))
+        started = time.perf_counter()
+        self.comm.Alltoallv(
+            (np.ascontiguousarray(send), (send_counts, _offsets(send_counts)), MPI.DOUBLE),
+            (received, (receive_counts, _offsets(receive_counts)), MPI.DOUBLE),
+        )
+        self.communication_time += time.perf_counter() - started
+        self.messages += 1
+        out[slots[~from_self][order]] = received
+        return out if stop > first else np.empty((0, nx))
+
     def segment(self, local_values, start: int, length: int):
         """Collective: values at the global nodes start, start+1, ..., start+length-1 (mod n).
 
@@ -281,3 +340,8 @@ class Domain:
             nx = self.shape[-1]
             return (index % nx - nx // 2) * self.dx
         return (index - self.n // 2) * self.dx
+
+
+def _offsets(counts):
+    """Displacements of consecutive blocks of ``counts`` (an Alltoallv's)."""
+    return np.concatenate(([0], np.cumsum(counts)[:-1])).astype(np.int64)

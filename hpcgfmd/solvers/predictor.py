@@ -13,7 +13,11 @@ ends on the branch the previous step was on:
 - the linear extrapolation with the gap profile around each contact edge translated by the
   edge's last displacement (a peeling edge moves with its shape), which frees the nodes the
   edge will pass instead of leaving the solver to unzip them one by one (a quadratic base
-  here lets more guesses lose to the first, measured in docs/results.md).
+  here lets more guesses lose to the first, measured in docs/results.md). A sphere's
+  contact is a disc: its gap profile within ``radial_window`` of the contact's radius a is
+  translated radially by a's last change s, g(r) <- g_n(r - s) along each node's ray,
+  bilinear between the nodes of u_n's gap (rows a ray crosses on other ranks come with one
+  exchange, :meth:`~hpcgfmd.parallel.domain.Domain.rows_around`).
 
 After the preload, u_{n-1} is taken as u_n with the contact lowered by the rise (not a
 state: the quadratic guess waits for three accepted ones).
@@ -38,6 +42,9 @@ class Predictor:
     window : float
         Half-width around a contact edge whose gap profile moves with the edge (length): the
         widest cohesive zone, 4 w / k.
+    radial_window : float, optional
+        A sphere's: the half-width around the contact's radius whose gap moves radially
+        (length); None: no such guess on a surface (a contact that is no disc).
 
     Attributes
     ----------
@@ -53,9 +60,14 @@ class Predictor:
         Steps started from u_n itself (no guess had a lower energy).
     """
 
-    def __init__(self, domain, window):
+    def __init__(self, domain, window, radial_window=None):
         self.domain = domain
         self.window = window
+        self.radial_window = radial_window
+        # a sphere's nodes' distances from its axis (length), for the radial guess
+        self._radius = (
+            None if radial_window is None or domain.y is None else np.hypot(domain.x, domain.y)
+        )
         self.u_previous = None
         self.u_before_previous = None
         self.ratio_previous = np.nan
@@ -149,11 +161,13 @@ class Predictor:
 
     def _moving_edges(self, linear, wall, gap_before, ratio, edges, edges_previous):
         """Guess with the gap near each contact edge translated by the edge's last motion (a
-        line's contact; None on a surface)."""
-        if self.domain.dimensions == 2:
-            return None
+        line's contact; a sphere's radius, :meth:`_moving_radius`; None on another surface)."""
         if edges_previous is None or not np.all(np.isfinite(edges)):
             return None
+        if self.domain.dimensions == 2:
+            if self._radius is None:
+                return None
+            return self._moving_radius(linear, wall, gap_before, ratio, edges, edges_previous)
         dom = self.domain
         n, dx, x = dom.n, dom.dx, dom.x
         gap = np.subtract(wall, linear, out=self._gap)
@@ -178,6 +192,32 @@ class Predictor:
             window[near] = np.interp(
                 x[block][near] - shift, dom.position(first + np.arange(length)), values
             )
+        np.maximum(gap, 0.0, out=gap)
+        return np.subtract(wall, gap, out=self._moved)
+
+    def _moving_radius(self, linear, wall, gap_before, ratio, edges, edges_previous):
+        """Collective: a sphere's guess, the gap within the radial window of the contact's
+        radius a taken from u_n's at r - s along each node's ray, s = ratio (a_n - a_{n-1})
+        (module docstring); None without a motion, or for one beyond a quarter of the rows."""
+        dom = self.domain
+        radius = edges[1]
+        shift = ratio * (radius - edges_previous[1])
+        ny, nx = dom.shape
+        if not np.isfinite(shift) or shift == 0.0:
+            return None
+        depth = int(np.ceil(abs(shift) / dom.dy)) + 2  # the rows a ray may cross, and one
+        if depth > ny // 4:  # (the same verdict on every rank: edges are reduced values)
+            return None
+        rows = dom.rows_around(gap_before, depth)
+        gap = np.subtract(wall, linear, out=self._gap)
+        r = self._radius
+        near = np.abs(r - radius) < self.radial_window + abs(shift)
+        near &= r > abs(shift) + 2.0 * dom.dx  # (the ray's start point beyond the axis)
+        scale = (r[near] - shift) / r[near]
+        # the start points in index units of ``rows`` (its row 0: this block's first - depth)
+        column = dom.x[near] * scale / dom.dx + nx // 2
+        row = dom.y[near] * scale / dom.dy + ny // 2 - (dom.first_axis_block[0] - depth)
+        gap[near] = bilinear(rows, row, column)
         np.maximum(gap, 0.0, out=gap)
         return np.subtract(wall, gap, out=self._moved)
 
@@ -235,6 +275,19 @@ def _kept(buffer, values):
         return values.copy()
     buffer[:] = values
     return buffer
+
+
+def bilinear(values, row, column):
+    """``values`` (rows x nx, periodic along its columns) at fractional (row, column)
+    positions, bilinear between the four nodes around each; rows within the array."""
+    nx = values.shape[1]
+    i0, j0 = np.floor(row).astype(np.int64), np.floor(column).astype(np.int64)
+    fi, fj = row - i0, column - j0
+    j0 %= nx
+    j1 = (j0 + 1) % nx
+    below = values[i0, j0] * (1.0 - fj) + values[i0, j1] * fj
+    above = values[i0 + 1, j0] * (1.0 - fj) + values[i0 + 1, j1] * fj
+    return below * (1.0 - fi) + above * fi
 
 
 def lagrange_weights(ratio, ratio_previous):
