@@ -17,7 +17,10 @@ ends on the branch the previous step was on:
   contact is a disc: its gap profile within ``radial_window`` of the contact's radius a is
   translated radially by a's last change s, g(r) <- g_n(r - s) along each node's ray,
   bilinear between the nodes of u_n's gap (rows a ray crosses on other ranks come with one
-  exchange, :meth:`~hpcgfmd.parallel.domain.Domain.rows_around`).
+  exchange, :meth:`~hpcgfmd.parallel.domain.Domain.rows_around`). Its energy costs a
+  transform pair a step, and on a viscoelastic sphere it loses to the extrapolation at every
+  step (measured, docs/results.md): after RADIAL_TRIES losses in a row it rests RADIAL_REST
+  steps between tries, until it wins again.
 
 After the preload, u_{n-1} is taken as u_n with the contact lowered by the rise (not a
 state: the quadratic guess waits for three accepted ones).
@@ -31,6 +34,9 @@ from ..parallel.fft import aligned_empty
 from ..state import State
 from .projection import project_feasible
 from .step_kernels import linear_guess, quadratic_guess
+
+RADIAL_TRIES = 4  # losses in a row after which a sphere's radial guess rests ...
+RADIAL_REST = 8  # ... this many steps before each next try (module docstring)
 
 
 class Predictor:
@@ -73,6 +79,8 @@ class Predictor:
         self.ratio_previous = np.nan
         self.choices = [0, 0]
         self.rejected = 0
+        self.radial_losses = 0  # the radial guess's losses in a row, and the steps it rests
+        self.radial_rest = 0
         n = domain.local_n
         # the guesses, their feasible projections (aligned: the energy transforms them in
         # place) and the moving edges' gap: nothing of the block's size is allocated per step
@@ -145,11 +153,16 @@ class Predictor:
         self._shift(u, ratio, keep_previous=not stand_in)
         energies = {kind: energy(c) for kind, c in candidates.items()}
         best = min(energies, key=energies.get) if energies else None
-        if best is not None and energies[best] <= energy(u, stiffness_u):
+        won = best is not None and energies[best] <= energy(u, stiffness_u)
+        if won:
             u[:] = candidates[best]
             self.choices[best] += 1
         else:
             self.rejected += 1
+        if self._radius is not None and 1 in candidates:  # the radial guess was tried
+            self.radial_losses = 0 if won and best == 1 else self.radial_losses + 1
+            if self.radial_losses >= RADIAL_TRIES:
+                self.radial_rest = RADIAL_REST
 
     def _shift(self, u, ratio, keep_previous):
         """u_n becomes u_{n-1}, and u_{n-1} u_{n-2} when it is a state (``keep_previous``);
@@ -166,6 +179,9 @@ class Predictor:
             return None
         if self.domain.dimensions == 2:
             if self._radius is None:
+                return None
+            if self.radial_rest:  # (the same on every rank: a state of reduced values)
+                self.radial_rest -= 1
                 return None
             return self._moving_radius(linear, wall, gap_before, ratio, edges, edges_previous)
         dom = self.domain
@@ -237,6 +253,8 @@ class Predictor:
                 "has_previous": self.u_previous is not None,
                 "has_before_previous": self.u_before_previous is not None,
                 "ratio_previous": self.ratio_previous,
+                "radial_losses": self.radial_losses,
+                "radial_rest": self.radial_rest,
             },
         )
 
@@ -252,6 +270,9 @@ class Predictor:
             else None
         )
         self.ratio_previous = float(s["ratio_previous"])
+        # (checkpoints of earlier versions: the radial guess tried at once)
+        self.radial_losses = int(s.get("radial_losses", 0))
+        self.radial_rest = int(s.get("radial_rest", 0))
 
     def counters(self) -> dict:
         """Steps started from each guess and from u_n itself."""
