@@ -226,14 +226,22 @@ class Predictor:
             return None
         rows = dom.rows_around(gap_before, depth)
         gap = np.subtract(wall, linear, out=self._gap)
-        r = self._radius
+        reach = radius + self.radial_window + abs(shift)
+        # this block's rows within the window's reach of the axis, as a flat slice
+        first = dom.first_axis_block[0]
+        low = max(int(np.floor(-reach / dom.dy)) + ny // 2 - first, 0) * nx
+        high = min(int(np.ceil(reach / dom.dy)) + ny // 2 + 1 - first, dom.local_n // nx) * nx
+        if high <= low:
+            return np.subtract(wall, np.maximum(gap, 0.0, out=gap), out=self._moved)
+        r = self._radius[low:high]
         near = np.abs(r - radius) < self.radial_window + abs(shift)
         near &= r > abs(shift) + 2.0 * dom.dx  # (the ray's start point beyond the axis)
+        nodes = low + np.flatnonzero(near)
         scale = (r[near] - shift) / r[near]
         # the start points in index units of ``rows`` (its row 0: this block's first - depth)
-        column = dom.x[near] * scale / dom.dx + nx // 2
-        row = dom.y[near] * scale / dom.dy + ny // 2 - (dom.first_axis_block[0] - depth)
-        gap[near] = bilinear(rows, row, column)
+        column = dom.x[nodes] * scale / dom.dx + nx // 2
+        row = dom.y[nodes] * scale / dom.dy + ny // 2 - (first - depth)
+        gap[nodes] = bilinear(rows, row, column)
         np.maximum(gap, 0.0, out=gap)
         return np.subtract(wall, gap, out=self._moved)
 
