@@ -10,7 +10,7 @@ import pytest
 from mpi4py import MPI
 from test_fft import mpi_check
 
-from cases import case_text
+from cases import case_text, whole_run
 from hpcgfmd.case import parse_case
 from hpcgfmd.case.case import Case
 from hpcgfmd.parallel.domain import Domain
@@ -268,11 +268,7 @@ def tried_radial_guesses(case, monkeypatch):
         return original(self, *args)
 
     monkeypatch.setattr(Predictor, "_moving_radius", counted)
-    sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
-    sim.preload()
-    while not sim.detached():
-        sim.step()
-    sim.close()
+    _, sim = whole_run(case.text)
     return sim.surface.step_index, len(made), sim.predictor.choices[1]
 
 

@@ -7,13 +7,11 @@ import math
 
 import numpy as np
 import pytest
-from mpi4py import MPI
 
-from cases import case_text
+from cases import case_text, whole_run
 from hpcgfmd.case import parse_case
 from hpcgfmd.case.case import Case
 from hpcgfmd.model.accuracy import load_tolerance, snap_off_share
-from hpcgfmd.runs.protocol import Retraction
 from hpcgfmd.solvers import stepping
 from hpcgfmd.solvers.snap_off import SnapOff
 from hpcgfmd.solvers.stepping import AdaptiveSteps, StepOutcome, make_step_control
@@ -109,15 +107,6 @@ def elastic_sphere():
     )
 
 
-def run(case):
-    sim = Retraction(case, MPI.COMM_SELF, planner_effort="FFTW_ESTIMATE")
-    records = [sim.preload()]
-    while not sim.detached():
-        records.append(sim.step())
-    sim.close()
-    return records, sim
-
-
 def tensile_work(records):
     """(M45)'s work of the tensile loads, trapezoids over the indenter's rise."""
     loads = np.array([r.load for r in records])
@@ -127,9 +116,9 @@ def tensile_work(records):
 
 def test_a_jump_placed_to_its_share_changes_nothing_to_the_pull_off(monkeypatch):
     case = elastic_sphere()
-    placed, sim = run(case)
+    placed, sim = whole_run(case.text)
     monkeypatch.setattr(stepping, "snap_off_share", lambda tolerance: 0.0)
-    fine, plain = run(case)
+    fine, plain = whole_run(case.text)
     # the same run, bit for bit, up to the pull-off (and beyond it while no step vanished)
     pull_off = int(np.argmin([r.load for r in fine]))
     same = [(r.time, r.load) for r in placed[: pull_off + 1]]
