@@ -149,6 +149,26 @@ def physical_text(numerics="", output="", **values):
 PHYSICAL = physical_text()
 
 
+def sphere_case(n, numerics=None, **groups):
+    """A sphere's :class:`~hpcgfmd.case.case.Case` on n x n at accuracy 2e-2: lambda0 = 3,
+    elastic, V_z = 1, h0/R = 0.01 on L/R = 0.894 (alpha = 1e-3; the knob's cell, 4.4 a0),
+    changed by ``groups`` and the ``numerics`` keys."""
+    from hpcgfmd.case.case import Case
+
+    values = {
+        "maugis": 3.0,
+        "modulus_ratio": 1.0,
+        "velocity": 1.0,
+        "depth": 0.01,
+        "cell": 0.894,
+        "adhesion": 1e-3,
+        **groups,
+    }
+    return Case(
+        geometry="sphere", numerics={"n": n, "accuracy": 2e-2, **(numerics or {})}, **values
+    )
+
+
 def whole_run(text):
     """A whole serial retraction of the case file ``text``: (its step records, preload
     first, and the finished run, closed)."""

@@ -10,9 +10,8 @@ import pytest
 from mpi4py import MPI
 from test_fft import mpi_check
 
-from cases import case_text, whole_run
+from cases import case_text, sphere_case, whole_run
 from hpcgfmd.case import parse_case
-from hpcgfmd.case.case import Case
 from hpcgfmd.parallel.domain import Domain
 from hpcgfmd.runs.protocol import Retraction
 from hpcgfmd.solvers.predictor import (
@@ -244,20 +243,6 @@ def test_rows_around_a_block_under_mpirun(ranks):
     assert f"on {ranks} ranks" in result.stdout
 
 
-def sphere_case(modulus_ratio, n):
-    """lambda0 = 3, V_z = 1 on n x n at accuracy 2e-2."""
-    return Case(
-        maugis=3.0,
-        modulus_ratio=modulus_ratio,
-        velocity=1.0,
-        depth=0.01,
-        cell=0.894,
-        adhesion=1e-3,
-        geometry="sphere",
-        numerics={"n": n, "accuracy": 2e-2},
-    )
-
-
 def tried_radial_guesses(case, monkeypatch):
     """(steps, the radial guesses made, the steps started from one) of a run of ``case``."""
     made = []
@@ -277,8 +262,8 @@ def test_a_spheres_radial_guess_rests_where_it_keeps_losing(monkeypatch):
     # (measured on 192^2: 14 of 118, 30 guesses made). Viscoelastic (k = 0.1) the
     # extrapolation in time wins every step (96^2: 62 steps, 9 guesses made): after
     # RADIAL_TRIES losses in a row the guess is made once every RADIAL_REST + 1 steps.
-    steps, made, won = tried_radial_guesses(sphere_case(1.0, 192), monkeypatch)
+    steps, made, won = tried_radial_guesses(sphere_case(192), monkeypatch)
     assert won >= 8
-    steps, made, won = tried_radial_guesses(sphere_case(0.1, 96), monkeypatch)
+    steps, made, won = tried_radial_guesses(sphere_case(96, modulus_ratio=0.1), monkeypatch)
     assert won == 0
     assert made <= RADIAL_TRIES + steps / (RADIAL_REST + 1) + 2

@@ -8,9 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from cases import case_text, whole_run
+from cases import case_text, sphere_case, whole_run
 from hpcgfmd.case import parse_case
-from hpcgfmd.case.case import Case
 from hpcgfmd.model.accuracy import load_tolerance, snap_off_share
 from hpcgfmd.solvers import stepping
 from hpcgfmd.solvers.snap_off import SnapOff
@@ -95,16 +94,7 @@ def elastic_sphere():
     """An elastic sphere (lambda0 = 3) on 96 x 96 at accuracy 2e-2: its contact shrinks past
     the pull-off to the fold of the attached branch (measured: with the jump placed to dt_min
     6 steps past the pull-off repeated, 619 iterations; placed to its share none, 515)."""
-    return Case(
-        maugis=3.0,
-        modulus_ratio=1.0,
-        velocity=1.0,
-        depth=0.01,
-        cell=0.894,
-        adhesion=1e-3,
-        geometry="sphere",
-        numerics={"n": 96, "accuracy": 2e-2},
-    )
+    return sphere_case(96)
 
 
 def tensile_work(records):

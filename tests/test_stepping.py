@@ -10,9 +10,8 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from cases import case_text, pull_off_run
+from cases import case_text, pull_off_run, sphere_case
 from hpcgfmd.case import parse_case
-from hpcgfmd.case.case import Case
 from hpcgfmd.model.material import GeneralizedMaxwell
 from hpcgfmd.runs.protocol import Retraction
 from hpcgfmd.solvers import stepping
@@ -428,16 +427,8 @@ def test_a_spheres_abandoned_solves_change_nothing_but_the_cost(monkeypatch):
     # seen rejected with dt / 4 too, so the run is the same bit for bit, in fewer iterations.
     # A fast retraction (lambda0 = 5, k = 0.1, V_z = 9) on 128 x 128 with the load and
     # history criteria held loose: 4 of its 4 rejected steps are abandoned (measured).
-    case = Case(
-        maugis=5.0,
-        modulus_ratio=0.1,
-        velocity=9.0,
-        depth=0.01,
-        cell=0.894,
-        adhesion=1e-3,
-        geometry="sphere",
-        numerics={"n": 128, "accuracy": 1e-2, "load_tolerance": 0.1, "time_tolerance": 1.0},
-    )
+    numerics = {"accuracy": 1e-2, "load_tolerance": 0.1, "time_tolerance": 1.0}
+    case = sphere_case(128, numerics, maugis=5.0, modulus_ratio=0.1, velocity=9.0)
     assert_watch_changes_nothing_but_the_cost(case, monkeypatch)
 
 
