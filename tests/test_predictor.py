@@ -14,13 +14,7 @@ from cases import case_text, sphere_case, whole_run
 from hpcgfmd.case import parse_case
 from hpcgfmd.parallel.domain import Domain
 from hpcgfmd.runs.protocol import Retraction
-from hpcgfmd.solvers.predictor import (
-    RADIAL_REST,
-    RADIAL_TRIES,
-    Predictor,
-    bilinear,
-    lagrange_weights,
-)
+from hpcgfmd.solvers.predictor import RADIAL_REST, RADIAL_TRIES, Predictor, lagrange_weights
 from hpcgfmd.solvers.projection import project_feasible
 from hpcgfmd.solvers.step_kernels import quadratic_guess
 from hpcgfmd.state import State
@@ -194,20 +188,6 @@ def test_the_first_step_starts_with_the_preloads_contact_on_the_new_wall(monkeyp
     contact, gaps = starts[0]
     assert contact.sum() > 10
     np.testing.assert_array_equal(gaps, 0.0)
-
-
-def test_bilinear_is_exact_on_linear_fields_and_wraps_along_x():
-    rows, nx = 6, 8
-    i, j = np.meshgrid(np.arange(rows), np.arange(nx), indexing="ij")
-    values = 0.5 + 2.0 * i - 0.25 * j
-    rng = np.random.default_rng(3)
-    row, column = rng.uniform(0.0, rows - 1.0, 50), rng.uniform(0.0, nx - 1.0, 50)
-    np.testing.assert_allclose(
-        bilinear(values, row, column), 0.5 + 2.0 * row - 0.25 * column, rtol=1e-14
-    )
-    # between the last column and the first (periodic): their mean at half way
-    half = bilinear(values, np.array([2.0]), np.array([nx - 0.5]))
-    assert half[0] == pytest.approx(0.5 * (values[2, -1] + values[2, 0]))
 
 
 def test_a_spheres_gap_moves_radially_with_its_contact():

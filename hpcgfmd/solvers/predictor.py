@@ -29,6 +29,7 @@ state: the quadratic guess waits for three accepted ones).
 from __future__ import annotations
 
 import numpy as np
+from scipy.ndimage import map_coordinates
 
 from ..parallel.fft import aligned_empty
 from ..state import State
@@ -241,7 +242,8 @@ class Predictor:
         # the start points in index units of ``rows`` (its row 0: this block's first - depth)
         column = dom.x[nodes] * scale / dom.dx + nx // 2
         row = dom.y[nodes] * scale / dom.dy + ny // 2 - (first - depth)
-        gap[nodes] = bilinear(rows, row, column)
+        # bilinear between the four nodes around each start point (columns periodic)
+        gap[nodes] = map_coordinates(rows, (row, column), order=1, mode="grid-wrap")
         np.maximum(gap, 0.0, out=gap)
         return np.subtract(wall, gap, out=self._moved)
 
@@ -304,19 +306,6 @@ def _kept(buffer, values):
         return values.copy()
     buffer[:] = values
     return buffer
-
-
-def bilinear(values, row, column):
-    """``values`` (rows x nx, periodic along its columns) at fractional (row, column)
-    positions, bilinear between the four nodes around each; rows within the array."""
-    nx = values.shape[1]
-    i0, j0 = np.floor(row).astype(np.int64), np.floor(column).astype(np.int64)
-    fi, fj = row - i0, column - j0
-    j0 %= nx
-    j1 = (j0 + 1) % nx
-    below = values[i0, j0] * (1.0 - fj) + values[i0, j1] * fj
-    above = values[i0 + 1, j0] * (1.0 - fj) + values[i0 + 1, j1] * fj
-    return below * (1.0 - fi) + above * fi
 
 
 def lagrange_weights(ratio, ratio_previous):
