@@ -43,6 +43,7 @@ def test_the_bound_is_the_work_share_past_the_pull_off():
     assert snap.bound > 0.0  # (the curve's end is past its minimum)
     # a new segment forgets the pull-off and the work: no bound until it has its own
     snap.new_segment()
+    assert snap.bound == 0.0
     snap.accept(2.0, loads[-1], RATE * 2.0)
     assert snap.bound == 0.0 and snap.work == 0.0
 

@@ -52,11 +52,12 @@ class SnapOff:
     def __init__(self, share, load_allowance):
         self.share = share
         self.load_allowance = load_allowance
-        self.bound = 0.0
         self.new_segment()
 
     def new_segment(self):
-        """A protocol segment began: its pull-off and work start afresh."""
+        """A protocol segment began: its pull-off and work start afresh (no bound until it
+        has its own)."""
+        self.bound = 0.0
         self.most_tensile = math.inf
         self.work = 0.0
         self.last = None  # (time, load, drive) of the last accepted step
